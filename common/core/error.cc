@@ -1,0 +1,17 @@
+#include "core/error.h"
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace dome::core {
+
+InputError::InputError(std::string where, const std::string& what)
+    : std::runtime_error(where.empty() ? what : where + ": " + what), where_(std::move(where)) {}
+
+void CheckFailed(const char* file, int line, const char* expr, const std::string& msg) {
+  std::fprintf(stderr, "dome: internal error at %s:%d: check '%s' failed: %s\n", file, line, expr,
+               msg.c_str());
+  std::abort();
+}
+
+}  // namespace dome::core

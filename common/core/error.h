@@ -1,0 +1,40 @@
+// Error reporting for dome.
+//
+// Two kinds of failure, handled differently (STYLE.md, convention 4):
+//  * Bad input or bad configuration -- a file, a JSON field, a command-line flag, a
+//    network peer -- throws dome::core::InputError. Its message always names *where*
+//    (file path, "file: field", "peer tcp://...") and *what* was expected.
+//  * Programmer errors (broken invariants) abort via DOME_CHECK with file:line.
+//    DOME_CHECK is never used on data that comes from outside the process.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace dome::core {
+
+class InputError : public std::runtime_error {
+ public:
+  // `where`: the file, "file: field", flag or peer at fault. `what`: what was wrong
+  // and what was expected instead.
+  InputError(std::string where, const std::string& what);
+
+  const std::string& where() const { return where_; }
+
+ private:
+  std::string where_;
+};
+
+// Throws InputError(where, what) unless `condition` holds.
+inline void Require(bool condition, const std::string& where, const std::string& what) {
+  if (!condition) throw InputError(where, what);
+}
+
+[[noreturn]] void CheckFailed(const char* file, int line, const char* expr, const std::string& msg);
+
+}  // namespace dome::core
+
+#define DOME_CHECK(expr, msg)                                               \
+  do {                                                                      \
+    if (!(expr)) ::dome::core::CheckFailed(__FILE__, __LINE__, #expr, msg); \
+  } while (false)
