@@ -1,0 +1,164 @@
+#include "geometry/tsai_camera.h"
+
+#include <Eigen/LU>
+#include <cmath>
+
+#include "core/error.h"
+#include "geometry/parse_util.h"
+
+namespace dome::geometry {
+namespace {
+
+using internal::FormatDouble;
+
+std::string Field(const std::string& where, const std::string& field) {
+  return where.empty() ? field : where + ": " + field;
+}
+
+void RequireFinite(double value, const std::string& where, const std::string& field) {
+  core::Require(std::isfinite(value), Field(where, field),
+                "must be finite, got " + FormatDouble(value));
+}
+
+void RequirePositive(double value, const std::string& where, const std::string& field) {
+  core::Require(std::isfinite(value) && value > 0.0, Field(where, field),
+                "must be positive and finite, got " + FormatDouble(value));
+}
+
+}  // namespace
+
+void TsaiCamera::Check(const std::string& where) const {
+  core::Require(width_px > 0, Field(where, "width_px"),
+                "must be positive, got " + std::to_string(width_px));
+  core::Require(height_px > 0, Field(where, "height_px"),
+                "must be positive, got " + std::to_string(height_px));
+  RequirePositive(sensor.ncx, where, "sensor.ncx");
+  RequirePositive(sensor.nfx, where, "sensor.nfx");
+  RequirePositive(sensor.dx_mm, where, "sensor.dx_mm");
+  RequirePositive(sensor.dy_mm, where, "sensor.dy_mm");
+  RequirePositive(sensor.dpx_mm(), where, "sensor.dpx_mm (dx * ncx / nfx)");
+  RequirePositive(focal_mm, where, "focal_mm");
+  RequireFinite(kappa1_per_mm2, where, "kappa1_per_mm2");
+  RequireFinite(cx_px, where, "cx_px");
+  RequireFinite(cy_px, where, "cy_px");
+  RequirePositive(sx, where, "sx");
+  for (int i = 0; i < 3; ++i) {
+    RequireFinite(translation_mm[i], where, "translation_mm[" + std::to_string(i) + "]");
+    for (int j = 0; j < 3; ++j) {
+      RequireFinite(rotation(i, j), where,
+                    "rotation(" + std::to_string(i) + "," + std::to_string(j) + ")");
+    }
+  }
+  const double orthonormality =
+      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  core::Require(orthonormality <= 1e-6, Field(where, "rotation"),
+                "must be orthonormal to 1e-6, max |R R^T - I| = " + FormatDouble(orthonormality));
+  const double det = rotation.determinant();
+  core::Require(
+      std::abs(det - 1.0) <= 1e-6, Field(where, "rotation"),
+      "must have determinant +1 (a rotation, not a reflection), got " + FormatDouble(det));
+}
+
+Eigen::Vector3d TsaiCamera::CentreWorld() const { return -(rotation.transpose() * translation_mm); }
+
+Eigen::Vector2d TsaiCamera::PixelToSensor(const Eigen::Vector2d& pixel) const {
+  return {(pixel.x() - cx_px) * sensor.dpx_mm() / sx, (pixel.y() - cy_px) * sensor.dpy_mm()};
+}
+
+Eigen::Vector2d TsaiCamera::SensorToPixel(const Eigen::Vector2d& sensor_mm) const {
+  return {sensor_mm.x() * sx / sensor.dpx_mm() + cx_px, sensor_mm.y() / sensor.dpy_mm() + cy_px};
+}
+
+Eigen::Vector2d TsaiCamera::UndistortPixel(const Eigen::Vector2d& distorted) const {
+  if (kappa1_per_mm2 == 0.0) {
+    return distorted;
+  }
+  const Eigen::Vector2d d = PixelToSensor(distorted);
+  return SensorToPixel(d * (1.0 + kappa1_per_mm2 * d.squaredNorm()));
+}
+
+bool TsaiCamera::DistortPixelIfInRange(const Eigen::Vector2d& undistorted,
+                                       Eigen::Vector2d* distorted) const {
+  if (kappa1_per_mm2 == 0.0) {
+    *distorted = undistorted;
+    return true;
+  }
+  const Eigen::Vector2d u = PixelToSensor(undistorted);
+  const double ru = u.norm();
+  if (ru == 0.0) {
+    *distorted = undistorted;
+    return true;
+  }
+  double rd;
+  if (!DistortedRadiusMm(ru, kappa1_per_mm2, &rd)) {
+    return false;
+  }
+  *distorted = SensorToPixel(u * (rd / ru));
+  return true;
+}
+
+Eigen::Vector2d TsaiCamera::DistortPixel(const Eigen::Vector2d& undistorted) const {
+  if (kappa1_per_mm2 == 0.0) {
+    return undistorted;
+  }
+  const Eigen::Vector2d u = PixelToSensor(undistorted);
+  const double ru = u.norm();
+  if (ru == 0.0) {
+    return undistorted;
+  }
+  double rd;
+  DistortedRadiusMm(ru, kappa1_per_mm2, &rd);  // clamps beyond Ru_max, as Willson does
+  return SensorToPixel(u * (rd / ru));
+}
+
+Eigen::Vector3d TsaiCamera::BackProject(const Eigen::Vector2d& pixel) const {
+  const Eigen::Vector2d d = PixelToSensor(pixel);
+  const Eigen::Vector2d u = d * (1.0 + kappa1_per_mm2 * d.squaredNorm());
+  const Eigen::Vector3d ray_camera(u.x(), u.y(), focal_mm);
+  return rotation.transpose() * ray_camera.normalized();
+}
+
+Eigen::Vector3d TsaiCamera::BackProjectAtDepth(const Eigen::Vector2d& pixel,
+                                               double depth_mm) const {
+  const Eigen::Vector2d d = PixelToSensor(pixel);
+  const Eigen::Vector2d u = d * (1.0 + kappa1_per_mm2 * d.squaredNorm());
+  const Eigen::Vector3d camera_mm(u.x() * depth_mm / focal_mm, u.y() * depth_mm / focal_mm,
+                                  depth_mm);
+  return rotation.transpose() * (camera_mm - translation_mm);
+}
+
+Eigen::Matrix3d TsaiCamera::K() const {
+  Eigen::Matrix3d k = Eigen::Matrix3d::Identity();
+  k(0, 0) = focal_mm * sx / sensor.dpx_mm();
+  k(1, 1) = focal_mm / sensor.dpy_mm();
+  k(0, 2) = cx_px;
+  k(1, 2) = cy_px;
+  return k;
+}
+
+Eigen::Matrix3d RotationFromTsaiAngles(double rx, double ry, double rz) {
+  // Willson's matrix (cal_main.c), a = rx, b = ry, g = rz; equal to Rz(g) Ry(b) Rx(a).
+  const double sa = std::sin(rx), ca = std::cos(rx);
+  const double sb = std::sin(ry), cb = std::cos(ry);
+  const double sg = std::sin(rz), cg = std::cos(rz);
+  Eigen::Matrix3d r;
+  r << cb * cg, cg * sa * sb - ca * sg, sa * sg + ca * cg * sb,  //
+      cb * sg, sa * sb * sg + ca * cg, ca * sb * sg - cg * sa,   //
+      -sb, cb * sa, ca * cb;
+  return r;
+}
+
+Eigen::Vector3d TsaiAnglesFromRotation(const Eigen::Matrix3d& r) {
+  // r7 = -sin(b), r8 = cos(b) sin(a), r9 = cos(a) cos(b), r1 = cos(b) cos(g),
+  // r4 = cos(b) sin(g). atan2 of both components keeps full precision everywhere,
+  // unlike asin(-r7) near b = +-pi/2.
+  const double cb = std::hypot(r(0, 0), r(1, 0));
+  const double ry = std::atan2(-r(2, 0), cb);
+  if (cb > 1e-12) {
+    return {std::atan2(r(2, 1), r(2, 2)), ry, std::atan2(r(1, 0), r(0, 0))};
+  }
+  // Gimbal lock, cos(b) = 0: with a = 0, r2 = -sin(g) and r5 = cos(g) for either sign of b.
+  return {0.0, ry, std::atan2(-r(0, 1), r(1, 1))};
+}
+
+}  // namespace dome::geometry

@@ -1,0 +1,318 @@
+#include "io/depth_tiff.h"
+
+#include <tiffio.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "core/error.h"
+#include "io/file_util.h"
+#include "io/image_io.h"
+
+namespace dome::io {
+namespace {
+
+constexpr char kDescription[] = "dome depth map: z along the optical axis in mm, 0 = invalid";
+// Guards against headers that claim absurd sizes (corrupt or hostile files).
+constexpr int64_t kMaxSide = 1 << 18;
+constexpr int64_t kMaxPixels = int64_t{1} << 30;
+
+std::string FormatValue(float v) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%g", static_cast<double>(v));
+  return buf;
+}
+
+// libtiff reports problems through callbacks; these collect the first error (the
+// most specific one) per file instead of printing, so it can go into the
+// InputError. Per-handle handlers (libtiff >= 4.5) keep this thread-safe.
+struct TiffMessages {
+  std::string error;
+};
+
+int OnTiffError(TIFF*, void* user_data, const char* module, const char* fmt, va_list ap) {
+  auto* messages = static_cast<TiffMessages*>(user_data);
+  if (messages->error.empty()) {
+    char buf[512];
+    std::vsnprintf(buf, sizeof(buf), fmt, ap);
+    messages->error = buf;
+  }
+  return 1;  // handled: do not call the global handler (which prints to stderr)
+}
+
+int OnTiffWarning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
+
+struct TiffCloser {
+  void operator()(TIFF* tif) const { TIFFClose(tif); }
+};
+using TiffHandle = std::unique_ptr<TIFF, TiffCloser>;
+
+TiffHandle OpenTiff(const std::filesystem::path& path, const char* mode, TiffMessages* messages) {
+  TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
+  TIFFOpenOptionsSetErrorHandlerExtR(opts, OnTiffError, messages);
+  TIFFOpenOptionsSetWarningHandlerExtR(opts, OnTiffWarning, messages);
+  TIFFOpenOptionsSetMaxSingleMemAlloc(opts, static_cast<tmsize_t>(kMaxPixels) * 4);
+  TiffHandle tif(TIFFOpenExt(path.c_str(), mode, opts));
+  TIFFOpenOptionsFree(opts);
+  return tif;
+}
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+const char* SampleFormatName(uint16_t f) {
+  switch (f) {
+    case SAMPLEFORMAT_UINT:
+      return "unsigned integer";
+    case SAMPLEFORMAT_INT:
+      return "signed integer";
+    case SAMPLEFORMAT_IEEEFP:
+      return "float";
+    default:
+      return "other";
+  }
+}
+
+}  // namespace
+
+void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where) {
+  core::Require(depth_mm.type() == CV_32FC1, where,
+                "depth map must be single-channel 32-bit float (CV_32FC1) in mm");
+  for (int y = 0; y < depth_mm.rows; ++y) {
+    const float* row = depth_mm.ptr<float>(y);
+    for (int x = 0; x < depth_mm.cols; ++x) {
+      const float v = row[x];
+      // One comparison for the common case; NaN fails it too.
+      if (!(v >= 0.0f && v <= std::numeric_limits<float>::max())) {
+        throw core::InputError(where, "depth at pixel (" + std::to_string(x) + ", " +
+                                          std::to_string(y) + ") is " + FormatValue(v) +
+                                          "; depths must be finite and >= 0 mm (0 = invalid)");
+      }
+    }
+  }
+}
+
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) {
+  const std::string where = path.string();
+  CheckDepthMap(depth_mm, where);
+  core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
+  RequireParentFolder(path);
+  const std::filesystem::path tmp = TempSiblingPath(path);
+  TiffMessages messages;
+  {
+    TiffHandle tif = OpenTiff(tmp, "w", &messages);
+    if (!tif) {
+      throw core::InputError(
+          where, "cannot write into folder " +
+                     (path.has_parent_path() ? path.parent_path().string() : std::string(".")) +
+                     ": " + messages.error);
+    }
+    TIFF* t = tif.get();
+    const bool deflate = TIFFIsCODECConfigured(COMPRESSION_ADOBE_DEFLATE) != 0;
+    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(depth_mm.cols));
+    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(depth_mm.rows));
+    TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, uint16_t{1});
+    TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, uint16_t{32});
+    TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, uint16_t{SAMPLEFORMAT_IEEEFP});
+    TIFFSetField(t, TIFFTAG_PHOTOMETRIC, uint16_t{PHOTOMETRIC_MINISBLACK});
+    TIFFSetField(t, TIFFTAG_PLANARCONFIG, uint16_t{PLANARCONFIG_CONTIG});
+    TIFFSetField(t, TIFFTAG_COMPRESSION,
+                 static_cast<uint16_t>(deflate ? COMPRESSION_ADOBE_DEFLATE : COMPRESSION_NONE));
+    // Floating-point predictor: byte-plane differencing, which makes smooth depth
+    // surfaces compress well under Deflate.
+    if (deflate) {
+      TIFFSetField(t, TIFFTAG_PREDICTOR, uint16_t{PREDICTOR_FLOATINGPOINT});
+    }
+    TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, TIFFDefaultStripSize(t, 0));
+    TIFFSetField(t, TIFFTAG_IMAGEDESCRIPTION, kDescription);
+    TIFFSetField(t, TIFFTAG_SOFTWARE, "dome");
+    std::vector<float> row(depth_mm.cols);
+    bool ok = true;
+    for (int y = 0; y < depth_mm.rows && ok; ++y) {
+      std::memcpy(row.data(), depth_mm.ptr<float>(y), row.size() * sizeof(float));
+      ok = TIFFWriteScanline(t, row.data(), static_cast<uint32_t>(y), 0) == 1;
+    }
+    ok = ok && TIFFFlush(t) == 1;
+    if (!ok) {
+      tif.reset();
+      std::remove(tmp.c_str());
+      throw core::InputError(where, "write failed: " + messages.error);
+    }
+  }
+  CommitTempFile(tmp, path);
+}
+
+cv::Mat ReadDepthTiff(const std::filesystem::path& path) {
+  const std::string where = path.string();
+  // Let ReadFileBytes-style checks give the plain "no such file" messages.
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  core::Require(std::filesystem::exists(status), where, "no such file");
+  core::Require(!std::filesystem::is_directory(status), where, "is a folder, expected a file");
+  TiffMessages messages;
+  TiffHandle tif = OpenTiff(path, "r", &messages);
+  core::Require(tif != nullptr, where,
+                "not a readable TIFF file (" +
+                    (messages.error.empty() ? std::string("cannot open") : messages.error) + ")");
+  TIFF* t = tif.get();
+  uint32_t width = 0, height = 0;
+  uint16_t spp = 1, bps = 1, sample_format = SAMPLEFORMAT_UINT;
+  core::Require(TIFFGetField(t, TIFFTAG_IMAGEWIDTH, &width) == 1 &&
+                    TIFFGetField(t, TIFFTAG_IMAGELENGTH, &height) == 1,
+                where, "TIFF without image width/length tags");
+  TIFFGetFieldDefaulted(t, TIFFTAG_SAMPLESPERPIXEL, &spp);
+  TIFFGetFieldDefaulted(t, TIFFTAG_BITSPERSAMPLE, &bps);
+  TIFFGetFieldDefaulted(t, TIFFTAG_SAMPLEFORMAT, &sample_format);
+  core::Require(spp == 1 && bps == 32 && sample_format == SAMPLEFORMAT_IEEEFP, where,
+                "is a " + std::to_string(spp) + "-channel " + std::to_string(bps) + "-bit " +
+                    SampleFormatName(sample_format) +
+                    " TIFF; a depth map must be single-channel 32-bit float (mm)");
+  core::Require(width > 0 && height > 0 && width <= kMaxSide && height <= kMaxSide &&
+                    int64_t{width} * height <= kMaxPixels,
+                where,
+                "implausible image size " + std::to_string(width) + "x" + std::to_string(height));
+  cv::Mat depth(static_cast<int>(height), static_cast<int>(width), CV_32FC1);
+  auto fail = [&](const std::string& what) {
+    throw core::InputError(where, "corrupt TIFF data (" + what + ")" +
+                                      (messages.error.empty() ? "" : ": " + messages.error));
+  };
+  if (TIFFIsTiled(t)) {
+    uint32_t tw = 0, th = 0;
+    TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
+    TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
+    if (tw == 0 || th == 0 || TIFFTileSize(t) != static_cast<tmsize_t>(tw) * th * 4) {
+      fail("bad tile geometry");
+    }
+    std::vector<float> tile(static_cast<size_t>(tw) * th);
+    for (uint32_t ty = 0; ty < height; ty += th) {
+      for (uint32_t tx = 0; tx < width; tx += tw) {
+        if (TIFFReadTile(t, tile.data(), tx, ty, 0, 0) < 0) {
+          fail("tile at (" + std::to_string(tx) + ", " + std::to_string(ty) + ")");
+        }
+        const uint32_t h = std::min(th, height - ty), w = std::min(tw, width - tx);
+        for (uint32_t r = 0; r < h; ++r) {
+          std::memcpy(depth.ptr<float>(ty + r) + tx, tile.data() + size_t{r} * tw, w * 4);
+        }
+      }
+    }
+  } else {
+    if (TIFFScanlineSize(t) != static_cast<tmsize_t>(width) * 4) {
+      fail("bad scanline size");
+    }
+    for (uint32_t y = 0; y < height; ++y) {
+      if (TIFFReadScanline(t, depth.ptr<float>(y), y, 0) != 1) {
+        fail("row " + std::to_string(y));
+      }
+    }
+  }
+  CheckDepthMap(depth, where);
+  return depth;
+}
+
+void WriteDepthPng16(const std::filesystem::path& path, const cv::Mat& depth_mm) {
+  const std::string where = path.string();
+  CheckDepthMap(depth_mm, where);
+  core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
+  cv::Mat mm16(depth_mm.size(), CV_16UC1);
+  for (int y = 0; y < depth_mm.rows; ++y) {
+    const float* in = depth_mm.ptr<float>(y);
+    uint16_t* out = mm16.ptr<uint16_t>(y);
+    for (int x = 0; x < depth_mm.cols; ++x) {
+      const float v = in[x];
+      // Valid stays valid (>= 1); beyond the 16-bit range clamps (header comment).
+      out[x] = v > 0.0f ? static_cast<uint16_t>(std::clamp(std::lround(v), 1L, 65535L)) : 0;
+    }
+  }
+  WriteImage(path, mm16);
+}
+
+cv::Mat ReadDepthPng16(const std::filesystem::path& path) {
+  const cv::Mat stored = ReadImage(path, ImageMode::kUnchanged);
+  core::Require(stored.type() == CV_16UC1, path.string(),
+                "a depth PNG must be single-channel 16-bit (millimetres), got " +
+                    std::to_string(stored.channels()) + "-channel " +
+                    (stored.depth() == CV_8U ? "8-bit" : "non-16-bit") + " data");
+  cv::Mat depth;
+  stored.convertTo(depth, CV_32F);
+  return depth;
+}
+
+cv::Mat ReadDepthMap(const std::filesystem::path& path) {
+  const std::string ext = Lower(path.extension().string());
+  if (ext == ".tif" || ext == ".tiff") {
+    return ReadDepthTiff(path);
+  }
+  if (ext == ".png") {
+    return ReadDepthPng16(path);
+  }
+  throw core::InputError(path.string(),
+                         "unknown depth map extension; expected .tif/.tiff (float mm) or "
+                         ".png (16-bit mm)");
+}
+
+void DepthPreviewOptions::Check() const {
+  core::Require(std::isfinite(near_mm) && std::isfinite(far_mm), "near_mm/far_mm",
+                "must be finite");
+  const bool automatic = near_mm <= 0.0 && far_mm <= 0.0;
+  core::Require(automatic || (near_mm > 0.0 && far_mm > near_mm), "near_mm/far_mm",
+                "both <= 0 (automatic) or 0 < near_mm < far_mm");
+  core::Require(colormap >= 0 && colormap <= cv::COLORMAP_DEEPGREEN, "colormap",
+                "must be an OpenCV ColormapTypes value");
+}
+
+cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options) {
+  options.Check();
+  CheckDepthMap(depth_mm, "depth preview input");
+  double near_mm = options.near_mm, far_mm = options.far_mm;
+  if (near_mm <= 0.0 && far_mm <= 0.0) {
+    std::vector<float> valid;
+    for (int y = 0; y < depth_mm.rows; ++y) {
+      const float* row = depth_mm.ptr<float>(y);
+      for (int x = 0; x < depth_mm.cols; ++x) {
+        if (row[x] > 0.0f) {
+          valid.push_back(row[x]);
+        }
+      }
+    }
+    if (!valid.empty()) {
+      auto at = [&](double q) {
+        auto it = valid.begin() + static_cast<int64_t>(q * (valid.size() - 1));
+        std::nth_element(valid.begin(), it, valid.end());
+        return static_cast<double>(*it);
+      };
+      near_mm = at(0.01);
+      far_mm = at(0.99);
+    }
+  }
+  const double span = far_mm - near_mm;
+  cv::Mat level(depth_mm.size(), CV_8UC1);
+  for (int y = 0; y < depth_mm.rows; ++y) {
+    const float* in = depth_mm.ptr<float>(y);
+    uint8_t* out = level.ptr<uint8_t>(y);
+    for (int x = 0; x < depth_mm.cols; ++x) {
+      const double t = span > 0.0 ? (far_mm - in[x]) / span : 1.0;  // near -> 1
+      out[x] = static_cast<uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0));
+    }
+  }
+  cv::Mat preview;
+  cv::applyColorMap(level, preview, options.colormap);
+  preview.setTo(cv::Scalar(0, 0, 0), depth_mm <= 0.0f);
+  return preview;
+}
+
+void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& depth_mm,
+                          const DepthPreviewOptions& options) {
+  CheckDepthMap(depth_mm, path.string());
+  WriteImage(path, DepthPreview(depth_mm, options));
+}
+
+}  // namespace dome::io

@@ -1,0 +1,69 @@
+// Depth-map files.
+//
+// A depth map is a cv::Mat of type CV_32FC1, one value per pixel of the reference
+// camera's image: z-depth along the camera's optical axis (camera frame +z, not the
+// Euclidean ray length) in millimetres; 0 means "no surface / invalid". Valid depths
+// are finite and > 0; NaN, infinities and negative values are never stored.
+//
+// Formats:
+//  * Float TIFF (the lossless working format): baseline TIFF, one sample per pixel,
+//    BitsPerSample 32, SampleFormat IEEEFP (3), Photometric MinIsBlack, Deflate
+//    compression with the floating-point predictor (3), strips, ImageDescription
+//    "dome depth map: z along the optical axis in mm, 0 = invalid". Written with
+//    libtiff directly so the sample format tag is always right; readable by libtiff,
+//    OpenCV (IMREAD_UNCHANGED -> CV_32FC1), GDAL, tifffile. On read any
+//    compression/tiling libtiff knows is accepted, but the file must be
+//    1-channel 32-bit float and every value finite and >= 0.
+//  * 16-bit PNG (for standard viewers, SPEC "Outputs open in standard tools"): one
+//    channel, unsigned 16-bit, value = depth rounded to the nearest millimetre, 0 =
+//    invalid. Lossy: sub-millimetre detail is lost; depths beyond 65535 mm are
+//    clamped to 65535 (a 5 m dome never gets there); valid depths below 0.5 mm are
+//    written as 1 so they stay valid.
+//  * Preview PNG (for eyes only): 8-bit BGR through an OpenCV colour map, near =
+//    the map's high end (red for TURBO), far = low end (blue), invalid = black.
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+namespace dome::io {
+
+// Throws core::InputError naming `where` unless `depth_mm` is CV_32FC1 with every
+// value finite and >= 0 (the message gives the first bad pixel as (x, y) and its value).
+void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where);
+
+// Float TIFF. The writer throws core::InputError naming the file when the map is
+// not a valid depth map (see CheckDepthMap) or the folder is missing / not writable.
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm);
+cv::Mat ReadDepthTiff(const std::filesystem::path& path);
+
+// 16-bit PNG in millimetres.
+void WriteDepthPng16(const std::filesystem::path& path, const cv::Mat& depth_mm);
+// Returns CV_32FC1 millimetres. The file must be a 1-channel 16-bit image.
+cv::Mat ReadDepthPng16(const std::filesystem::path& path);
+
+// Reads a depth map by extension: .tif/.tiff -> float TIFF, .png -> 16-bit PNG.
+cv::Mat ReadDepthMap(const std::filesystem::path& path);
+
+struct DepthPreviewOptions {
+  // Depth shown at the near end of the colour map, in mm; <= 0 with far_mm <= 0
+  // picks both from the valid pixels (1st and 99th percentile, so a few outliers do
+  // not wash the picture out).
+  double near_mm = 0.0;
+  // Depth shown at the far end of the colour map, in mm.
+  double far_mm = 0.0;
+  // An OpenCV cv::ColormapTypes value.
+  int colormap = cv::COLORMAP_TURBO;
+
+  // Throws core::InputError naming the first bad option.
+  void Check() const;
+};
+
+// CV_8UC3 (BGR) preview of a depth map.
+cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options = {});
+void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& depth_mm,
+                          const DepthPreviewOptions& options = {});
+
+}  // namespace dome::io

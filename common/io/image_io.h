@@ -1,0 +1,54 @@
+// Reading and writing 8-bit images (camera frames, textures, previews).
+//
+// Images are cv::Mat in OpenCV's channel order (BGR / BGRA). Pixels come back as
+// stored in the file: EXIF orientation is *not* applied, because calibration and
+// stereo need the sensor's own pixel grid.
+//
+// Errors are core::InputError naming the file: missing, unreadable, not a decodable
+// image (corrupt or truncated), or a bit depth / channel count that cannot give what
+// was asked. JPEG decoders fill a truncated JPEG with grey instead of failing, so
+// truncation is only detected for formats whose decoders report it (PNG, TIFF).
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <string>
+#include <string_view>
+
+namespace dome::io {
+
+enum class ImageMode {
+  // CV_8UC1. Accepts 8-bit gray, gray+alpha, BGR or BGRA files; colour is converted
+  // with the ITU-R 601 weights (exact when R = G = B, as in the Robovision frames),
+  // alpha is dropped.
+  kGray8,
+  // CV_8UC3 (BGR). Accepts 8-bit files with 1-4 channels; gray is replicated, alpha
+  // dropped.
+  kBgr8,
+  // CV_8UC4 (BGRA), alpha kept. The file must have an alpha channel (8-bit
+  // gray+alpha or RGBA): callers ask for alpha because it marks valid pixels, so a
+  // file without one is an error rather than silently opaque.
+  kBgra8,
+  // As stored: any depth (8/16-bit, float) and channel count. For 16-bit depth PNGs.
+  kUnchanged,
+};
+
+// "gray8", "bgr8", "bgra8", "unchanged": for messages.
+const char* ImageModeName(ImageMode mode);
+
+// Reads `path` (any format OpenCV decodes: PNG, JPEG, TIFF, BMP, PNM, ...).
+cv::Mat ReadImage(const std::filesystem::path& path, ImageMode mode);
+
+// Decodes an encoded image held in memory (e.g. a blob received from a peer);
+// `where` names its source in errors.
+cv::Mat DecodeImage(std::string_view bytes, ImageMode mode, const std::string& where);
+
+// PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
+// types are a programmer error (DOME_CHECK).
+std::string EncodePng(const cv::Mat& image);
+
+// Writes `image` as PNG to `path` (which must end in .png), atomically. Throws
+// core::InputError naming the file when the folder is missing or not writable.
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image);
+
+}  // namespace dome::io

@@ -1,0 +1,45 @@
+// The take folder: dome's input format.
+//
+//   TAKE/rig.json                          cameras (take/rig.h)
+//   TAKE/frames/<instant>/<camera>.png     one image per camera per instant: 8-bit
+//                                          gray, BGR, or BGRA whose alpha marks valid
+//                                          pixels (255) and pixels without data (0)
+//   TAKE/calib/...                         optional: calibration images and targets
+//   TAKE/truth/<instant>/mesh.ply          optional synthetic ground truth: scene mesh (mm)
+//   TAKE/truth/<instant>/depth/<camera>.tiff   z-depth along the optical axis,
+//                                          32-bit float, mm, 0 = no surface
+//
+// <instant> is the VITC timecode of the instant as HH-MM-SS-FF (take/timecode.h);
+// <camera> is a camera id from rig.json. Image sizes equal the rig's width_px x height_px.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "take/rig.h"
+
+namespace dome::take {
+
+struct Take {
+  std::filesystem::path dir;
+  Rig rig;
+  std::vector<std::string> instants;  // sorted, i.e. in time order
+
+  std::filesystem::path RigPath() const { return dir / "rig.json"; }
+  std::filesystem::path FramePath(const std::string& instant, const std::string& camera) const;
+  std::filesystem::path TruthMeshPath(const std::string& instant) const;
+  std::filesystem::path TruthDepthPath(const std::string& instant, const std::string& camera) const;
+};
+
+// Reads rig.json and lists the instants under frames/. Throws core::InputError when
+// the folder, the rig or frames/ is missing or malformed. It does not open images;
+// ValidateTake (take/validate.h) checks everything.
+Take OpenTake(const std::filesystem::path& dir);
+
+// Creates TAKE/ and TAKE/frames/ (an empty take to fill). Throws core::InputError
+// naming the folder when it cannot be created or already holds a rig.json and
+// `overwrite` is false.
+void CreateTakeDir(const std::filesystem::path& dir, bool overwrite);
+
+}  // namespace dome::take

@@ -1,0 +1,14 @@
+// Subcommands of `dome`. Each Add*Command registers one CLI11 subcommand whose
+// callback does the work through library calls and stores the process exit code in
+// *exit_code. Callbacks throw core::InputError for bad input; RunDome prints it.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace dome::cli {
+
+void AddInfoCommand(CLI::App* app, int* exit_code);
+void AddImportCommand(CLI::App* app, int* exit_code);
+void AddEvalCommand(CLI::App* app, int* exit_code);
+
+}  // namespace dome::cli

@@ -1,0 +1,150 @@
+#include "io/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.h"
+#include "io/file_util.h"
+#include "test_util.h"
+
+namespace dome::io {
+namespace {
+
+using ::dome::testing::ExpectInputError;
+using ::dome::testing::TempDir;
+
+const std::filesystem::path kRobovisionImage =
+    std::filesystem::path(DOME_SHARED_DIR) /
+    "data/robovision/2016_10_24__17_43_02/image_camera01.png";
+
+void WriteBytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+TEST(ReadImage, RobovisionRgbaInEveryMode) {
+  if (!std::filesystem::exists(kRobovisionImage)) {
+    GTEST_SKIP() << "no shared data";
+  }
+  const cv::Mat gray = ReadImage(kRobovisionImage, ImageMode::kGray8);
+  const cv::Mat bgr = ReadImage(kRobovisionImage, ImageMode::kBgr8);
+  const cv::Mat bgra = ReadImage(kRobovisionImage, ImageMode::kBgra8);
+  const cv::Mat raw = ReadImage(kRobovisionImage, ImageMode::kUnchanged);
+  EXPECT_EQ(gray.type(), CV_8UC1);
+  EXPECT_EQ(bgr.type(), CV_8UC3);
+  EXPECT_EQ(bgra.type(), CV_8UC4);
+  EXPECT_EQ(raw.type(), CV_8UC4);
+  EXPECT_EQ(gray.size(), cv::Size(1280, 1024));
+  // R = G = B in these frames, so gray is exactly the first channel.
+  cv::Mat b;
+  cv::extractChannel(bgra, b, 0);
+  EXPECT_EQ(cv::norm(gray, b, cv::NORM_INF), 0.0);
+  // Alpha is 255 or 0 (undistortion border).
+  cv::Mat alpha;
+  cv::extractChannel(bgra, alpha, 3);
+  EXPECT_EQ(cv::countNonZero(alpha == 255) + cv::countNonZero(alpha == 0), alpha.total());
+}
+
+TEST(ReadImage, MissingFileNamesIt) {
+  TempDir dir;
+  const auto path = dir / "absent.png";
+  ExpectInputError([&] { ReadImage(path, ImageMode::kGray8); }, {path.string(), "no such file"});
+  ExpectInputError([&] { ReadImage(dir.path(), ImageMode::kGray8); }, {"is a folder"});
+}
+
+TEST(ReadImage, UnreadableFileNamesIt) {
+  if (::dome::testing::RunningAsRoot()) {
+    GTEST_SKIP() << "root reads anything";
+  }
+  TempDir dir;
+  const auto path = dir / "locked.png";
+  WriteImage(path, cv::Mat(4, 4, CV_8UC1, cv::Scalar(7)));
+  std::filesystem::permissions(path, std::filesystem::perms::none);
+  ExpectInputError([&] { ReadImage(path, ImageMode::kGray8); },
+                   {path.string(), "cannot open for reading"});
+}
+
+TEST(ReadImage, CorruptAndTruncatedFilesNameThem) {
+  TempDir dir;
+  const auto garbage = dir / "garbage.png";
+  WriteBytes(garbage, "this is not an image at all, just text");
+  ExpectInputError([&] { ReadImage(garbage, ImageMode::kBgr8); },
+                   {garbage.string(), "not a decodable image"});
+
+  const auto empty = dir / "empty.png";
+  WriteBytes(empty, "");
+  ExpectInputError([&] { ReadImage(empty, ImageMode::kBgr8); }, {empty.string(), "empty"});
+
+  cv::Mat noise(64, 64, CV_8UC3);
+  cv::randu(noise, 0, 255);
+  const std::string png = EncodePng(noise);
+  const auto truncated = dir / "truncated.png";
+  WriteBytes(truncated, png.substr(0, png.size() / 2));
+  ExpectInputError([&] { ReadImage(truncated, ImageMode::kBgr8); },
+                   {truncated.string(), "not a decodable image"});
+}
+
+TEST(ReadImage, WrongDepthOrChannelsForTheMode) {
+  TempDir dir;
+  const auto deep = dir / "deep.png";
+  WriteImage(deep, cv::Mat(8, 8, CV_16UC1, cv::Scalar(1000)));
+  ExpectInputError([&] { ReadImage(deep, ImageMode::kGray8); }, {deep.string(), "16-bit", "8-bit"});
+  EXPECT_EQ(ReadImage(deep, ImageMode::kUnchanged).type(), CV_16UC1);
+
+  const auto rgb = dir / "rgb.png";
+  WriteImage(rgb, cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)));
+  ExpectInputError([&] { ReadImage(rgb, ImageMode::kBgra8); }, {rgb.string(), "alpha"});
+  const cv::Mat gray = ReadImage(rgb, ImageMode::kGray8);
+  EXPECT_EQ(gray.type(), CV_8UC1);
+
+  const auto gray_file = dir / "gray.png";
+  WriteImage(gray_file, cv::Mat(8, 8, CV_8UC1, cv::Scalar(9)));
+  const cv::Mat bgr = ReadImage(gray_file, ImageMode::kBgr8);
+  ASSERT_EQ(bgr.type(), CV_8UC3);
+  EXPECT_EQ(bgr.at<cv::Vec3b>(3, 3), cv::Vec3b(9, 9, 9));
+}
+
+TEST(WriteImage, RoundTripsExactly) {
+  TempDir dir;
+  for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1}) {
+    cv::Mat image(37, 53, type);
+    cv::randu(image, 0, type == CV_16UC1 ? 65535 : 255);
+    const auto path = dir / ("image_" + std::to_string(type) + ".png");
+    WriteImage(path, image);
+    const cv::Mat back = ReadImage(path, ImageMode::kUnchanged);
+    ASSERT_EQ(back.type(), type);
+    EXPECT_EQ(cv::norm(image, back, cv::NORM_INF), 0.0);
+  }
+  // No temporary files left behind.
+  int files = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    ++files;
+  }
+  EXPECT_EQ(files, 4);
+}
+
+TEST(WriteImage, BadDestinationsNameTheFile) {
+  TempDir dir;
+  const cv::Mat image(4, 4, CV_8UC1, cv::Scalar(1));
+  const auto missing = dir / "no/such/folder/out.png";
+  ExpectInputError([&] { WriteImage(missing, image); }, {missing.string(), "does not exist"});
+  std::ofstream(dir / "plain_file") << "x";
+  ExpectInputError([&] { WriteImage(dir / "plain_file/out.png", image); },
+                   {"plain_file/out.png", "is not a folder"});
+  const auto jpeg = dir / "out.jpg";
+  ExpectInputError([&] { WriteImage(jpeg, image); }, {jpeg.string(), ".png"});
+  if (!::dome::testing::RunningAsRoot()) {
+    const auto locked = dir / "locked";
+    std::filesystem::create_directory(locked);
+    std::filesystem::permissions(
+        locked, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+    ExpectInputError([&] { WriteImage(locked / "out.png", image); },
+                     {(locked / "out.png").string(), "cannot write"});
+    std::filesystem::permissions(locked, std::filesystem::perms::owner_all);
+  }
+}
+
+}  // namespace
+}  // namespace dome::io
