@@ -7,6 +7,7 @@
 
 #include "take_fixture.h"
 #include "testing/run_command.h"
+#include "testing/temp_dir.h"
 
 namespace dome {
 namespace {
@@ -39,10 +40,10 @@ TEST(Cli, BadLogLevelNamesTheFlag) {
 class InfoTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = take::testing::TempDir("cli_info");
+    dir_ = tmp_.path();
     take::testing::WriteTake(dir_, take::testing::MakeRingRig(2, 24, 16), 3);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  testing::TempDir tmp_;
   fs::path dir_;
 };
 

@@ -10,6 +10,8 @@
 #include <string>
 
 #include "core/error.h"
+#include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 #include "geometry/tsai_camera.h"
 
 namespace dome::geometry::testing {
@@ -23,43 +25,9 @@ inline std::string DataDir() { return std::string(DOME_SHARED_DIR) + "/data"; }
     if (!std::filesystem::is_directory(folder)) GTEST_SKIP() << "no data: " << (folder); \
   } while (false)
 
-// A fresh folder under the system temp folder, removed with everything in it.
-class ScratchDir {
- public:
-  ScratchDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = std::filesystem::temp_directory_path() /
-            ("dome_geometry_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" +
-             std::to_string(std::random_device{}()));
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-
-  std::string File(const std::string& name) const { return (path_ / name).string(); }
-  std::string path() const { return path_.string(); }
-
- private:
-  std::filesystem::path path_;
-};
-
-// Expects fn() to throw core::InputError whose message contains every fragment.
-template <typename Fn>
-void ExpectInputError(Fn&& fn, std::initializer_list<std::string> fragments) {
-  try {
-    fn();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const core::InputError& e) {
-    for (const std::string& fragment : fragments) {
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << fragment << "'";
-    }
-  }
-}
+// Scratch folders and the InputError check are shared by every test (tests/testing/).
+using ScratchDir = dome::testing::TempDir;
+using dome::testing::ExpectInputError;
 
 // A camera like the EPFL terrace ones (720x576, 23 um pitch, f = 20 mm), with sx != 1
 // and ncx != nfx so that the x scale factors are exercised, looking at the world origin

@@ -10,6 +10,7 @@
 #include "io/ply.h"
 #include "take/validate.h"
 #include "take_fixture.h"
+#include "testing/temp_dir.h"
 #include "testing/expect_error.h"
 
 namespace dome::take {
@@ -41,7 +42,8 @@ class HalconImportTest : public ::testing::TestWithParam<std::string> {};
 TEST_P(HalconImportTest, ReferenceCloudLandsOnTheObjectInEveryCamera) {
   const fs::path scene = kShared / "data/robovision" / GetParam();
   if (!fs::exists(scene)) GTEST_SKIP() << "no shared data at " << scene;
-  const fs::path out = testing::TempDir("halcon");
+  const dome::testing::TempDir tmp;
+  const fs::path out = tmp.path();
   const Take take = ImportHalconScene(scene, out);
   ASSERT_EQ(take.rig.cameras.size(), 12u);
   EXPECT_EQ(take.rig.source_unit, "m");
@@ -84,7 +86,6 @@ TEST_P(HalconImportTest, ReferenceCloudLandsOnTheObjectInEveryCamera) {
     EXPECT_GT(r, 0.35) << cam.model.id;
     EXPECT_GT(r, r_shifted + 0.15) << cam.model.id << " shifted " << r_shifted;
   }
-  fs::remove_all(out);
 }
 
 INSTANTIATE_TEST_SUITE_P(Robovision, HalconImportTest,
@@ -94,7 +95,8 @@ INSTANTIATE_TEST_SUITE_P(Robovision, HalconImportTest,
 TEST(MiddleburyImport, BoundingBoxProjectsIntoEveryView) {
   const fs::path par = kShared / "data/middlebury-mv/templeSparseRing/templeSR_par.txt";
   if (!fs::exists(par)) GTEST_SKIP() << "no shared data at " << par;
-  const fs::path out = testing::TempDir("middlebury");
+  const dome::testing::TempDir tmp;
+  const fs::path out = tmp.path();
   const Take take = ImportMiddlebury(par, out);
   ASSERT_EQ(take.rig.cameras.size(), 16u);
   EXPECT_EQ(take.rig.cameras[0].model.id, "templeSR0001");
@@ -120,11 +122,11 @@ TEST(MiddleburyImport, BoundingBoxProjectsIntoEveryView) {
     EXPECT_GT(distance_mm, 300);
     EXPECT_LT(distance_mm, 1000);
   }
-  fs::remove_all(out);
 }
 
 TEST(Import, ErrorsNameTheSource) {
-  const fs::path out = testing::TempDir("import_errors");
+  const dome::testing::TempDir tmp;
+  const fs::path out = tmp.path();
   ExpectInputError([&] { ImportHalconScene("/nonexistent/scene", out / "t"); },
                    {"/nonexistent/scene", "not a folder"});
   ExpectInputError([&] { ImportHalconScene(out, out / "t"); }, {"no HALCON cameras"});
@@ -133,19 +135,18 @@ TEST(Import, ErrorsNameTheSource) {
   ImportOptions bad;
   bad.instant = "tomorrow";
   ExpectInputError([&] { ImportHalconScene(out, out / "t", bad); }, {"--instant", "HH-MM-SS-FF"});
-  fs::remove_all(out);
 }
 
 TEST(Import, RefusesToOverwriteWithoutPermission) {
   const fs::path par = kShared / "data/middlebury-mv/templeSparseRing/templeSR_par.txt";
   if (!fs::exists(par)) GTEST_SKIP();
-  const fs::path out = testing::TempDir("overwrite");
+  const dome::testing::TempDir tmp;
+  const fs::path out = tmp.path();
   ImportMiddlebury(par, out);
   ExpectInputError([&] { ImportMiddlebury(par, out); }, {"rig.json", "--overwrite"});
   ImportOptions options;
   options.overwrite = true;
   EXPECT_NO_THROW(ImportMiddlebury(par, out, options));
-  fs::remove_all(out);
 }
 
 }  // namespace

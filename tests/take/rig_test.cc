@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "take_fixture.h"
+#include "testing/temp_dir.h"
 #include "testing/expect_error.h"
 
 namespace dome::take {
@@ -40,13 +41,15 @@ TEST(Rig, JsonRoundTripIsExact) {
 }
 
 TEST(Rig, FileRoundTrip) {
-  const auto dir = testing::TempDir("rig_file");
+  const dome::testing::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
   const Rig rig = MakeRingRig(2, 32, 24);
   WriteRig(rig, dir / "rig.json");
   const Rig back = ReadRig(dir / "rig.json");
   ASSERT_EQ(back.cameras.size(), 2u);
   EXPECT_EQ(back.cameras[1].model.translation_mm, rig.cameras[1].model.translation_mm);
-  EXPECT_FALSE(std::filesystem::exists(dir / "rig.json.tmp"));
+  // Written atomically: nothing but rig.json is left in the folder.
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator()), 1);
 }
 
 TEST(Rig, MissingFileNamesIt) {

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <random>
 
 #include "take/take.h"
 #include "take/timecode.h"
@@ -40,14 +39,6 @@ Rig MakeRingRig(int cameras, int width_px, int height_px) {
     rig.cameras.push_back(cam);
   }
   return rig;
-}
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("dome_test_" + name + "_" + std::to_string(std::random_device{}()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
 }
 
 fs::path WriteTake(const fs::path& dir, const Rig& rig, int instants) {

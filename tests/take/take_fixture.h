@@ -12,9 +12,6 @@ namespace dome::take::testing {
 // the origin at height 1000 mm, looking at the origin, images width x height.
 Rig MakeRingRig(int cameras, int width_px, int height_px);
 
-// A fresh temporary folder (removed by the caller or left in /tmp).
-std::filesystem::path TempDir(const std::string& name);
-
 // Writes rig.json and frames/<instant>/<camera>.png (gray noise) for instants
 // 00-00-01-00, 00-00-01-05, ... Returns the take folder.
 std::filesystem::path WriteTake(const std::filesystem::path& dir, const Rig& rig, int instants);

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "take_fixture.h"
+#include "testing/temp_dir.h"
 
 namespace dome::take {
 namespace {
@@ -15,10 +16,9 @@ namespace fs = std::filesystem;
 class ValidateTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = testing::TempDir("validate");
+    dir_ = tmp_.path();
     testing::WriteTake(dir_, testing::MakeRingRig(3, 40, 30), 2);
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   // The report must list exactly one problem, at a path ending in `where_suffix`,
   // whose text contains `what`.
@@ -32,6 +32,7 @@ class ValidateTest : public ::testing::Test {
     EXPECT_NE(p.what.find(what), std::string::npos) << p.what;
   }
 
+  dome::testing::TempDir tmp_;
   fs::path dir_;
 };
 
