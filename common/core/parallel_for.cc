@@ -14,8 +14,7 @@ void ParallelFor(int64_t begin, int64_t end, int num_threads,
                  const std::function<void(int64_t, int64_t)>& fn) {
   if (end <= begin) return;
   const int64_t n = end - begin;
-  const int64_t chunks =
-      std::min<int64_t>(n, num_threads > 0 ? num_threads : HardwareThreads());
+  const int64_t chunks = std::min<int64_t>(n, num_threads > 0 ? num_threads : HardwareThreads());
   if (chunks <= 1) {
     fn(begin, end);
     return;

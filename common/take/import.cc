@@ -1,10 +1,10 @@
 #include "take/import.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <fstream>
 #include <regex>
-
-#include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "geometry/colmap.h"
@@ -56,7 +56,8 @@ void ImportOptions::Check() const {
           "expected a timecode HH-MM-SS-FF, got '" + instant + "'");
 }
 
-Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out, const ImportOptions& options) {
+Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out,
+                       const ImportOptions& options) {
   options.Check();
   std::error_code ec;
   Require(fs::is_directory(scene_dir, ec), scene_dir.string(), "not a folder");
@@ -100,7 +101,8 @@ Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out, const Imp
 Take ImportMiddlebury(const fs::path& par_file, const fs::path& out, const ImportOptions& options) {
   options.Check();
   std::error_code ec;
-  Require(fs::is_regular_file(par_file, ec), par_file.string(), "missing Middlebury *_par.txt file");
+  Require(fs::is_regular_file(par_file, ec), par_file.string(),
+          "missing Middlebury *_par.txt file");
   // The par file does not store image sizes. The images of a Middlebury set share one
   // camera, so the size comes from the first image named (line 2, first token) and
   // every other image is checked against it.

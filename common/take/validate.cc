@@ -34,8 +34,8 @@ class Checker {
       return;
     }
     if (kind == Kind::kFrame) {
-      if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3 &&
-                                     image.channels() != 4)) {
+      if (image.depth() != CV_8U ||
+          (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
         Problem(path, "expected an 8-bit gray, BGR or BGRA image, got " +
                           std::to_string(image.channels()) + " channel(s) of depth code " +
                           std::to_string(image.depth()));
@@ -80,7 +80,9 @@ void CheckCameraFiles(const fs::path& dir, const std::string& ext, const TakeRep
   for (const auto& cam : report.rig.cameras) {
     const auto it = files.find(cam.model.id);
     if (it == files.end()) {
-      if (required) checker->Problem(dir / (cam.model.id + ext), "missing image of camera '" + cam.model.id + "'");
+      if (required)
+        checker->Problem(dir / (cam.model.id + ext),
+                         "missing image of camera '" + cam.model.id + "'");
       continue;
     }
     checker->CheckImage(it->second, &cam.model, kind, decode);
@@ -128,7 +130,8 @@ TakeReport ValidateTake(const fs::path& dir, const ValidateOptions& options) {
     checker.Problem(frames, "missing: a take needs frames/<instant>/<camera>.png");
   } else {
     report.instants = ListInstants(frames, &checker);
-    if (report.instants.empty()) checker.Problem(frames, "no instants: expected at least one folder");
+    if (report.instants.empty())
+      checker.Problem(frames, "no instants: expected at least one folder");
     for (const auto& instant : report.instants) {
       CheckCameraFiles(frames / instant, ".png", report, Checker::Kind::kFrame, true,
                        options.decode_images, &checker);
@@ -172,10 +175,11 @@ std::string TakeReport::Summary() const {
       const auto& m = cam.model;
       const Eigen::Vector3d c = m.CentreWorld();
       char line[256];
-      std::snprintf(line, sizeof line,
-                    "    %-14s %5dx%-5d f %8.2f px  kappa1 %+.3e /mm^2  centre (%.1f, %.1f, %.1f) mm",
-                    m.id.c_str(), m.width_px, m.height_px, m.focal_mm / m.sensor.dpy_mm(),
-                    m.kappa1_per_mm2, c.x(), c.y(), c.z());
+      std::snprintf(
+          line, sizeof line,
+          "    %-14s %5dx%-5d f %8.2f px  kappa1 %+.3e /mm^2  centre (%.1f, %.1f, %.1f) mm",
+          m.id.c_str(), m.width_px, m.height_px, m.focal_mm / m.sensor.dpy_mm(), m.kappa1_per_mm2,
+          c.x(), c.y(), c.z());
       out << line;
       if (!cam.neighbours.empty()) out << "  cluster " << cam.neighbours.size() + 1;
       out << "\n";

@@ -62,7 +62,8 @@ void AddEvalCommand(CLI::App* app, int* exit_code) {
   };
   auto d = std::make_shared<DepthArgs>();
   auto* depth = cmd->add_subcommand("depth", "A depth map against ground-truth depth (mm)");
-  depth->add_option("ESTIMATE", d->estimate, "depth map: 32-bit float TIFF or 16-bit PNG, mm")->required();
+  depth->add_option("ESTIMATE", d->estimate, "depth map: 32-bit float TIFF or 16-bit PNG, mm")
+      ->required();
   depth->add_option("TRUTH", d->truth, "ground-truth depth map, same encodings")->required();
   depth->add_option("--tolerances", d->options.tolerances_mm, "error tolerances, mm");
   depth->add_option("--mask", d->mask, "8-bit mask: evaluate where non-zero");

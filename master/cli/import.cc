@@ -1,11 +1,12 @@
 // `dome import halcon|middlebury|colmap ... --out TAKE`: make a take from another
 // tool's calibrated images (take/import.h).
+#include "take/import.h"
+
 #include <cstdio>
 #include <memory>
 #include <string>
 
 #include "cli/commands.h"
-#include "take/import.h"
 
 namespace dome::cli {
 namespace {
@@ -36,24 +37,29 @@ void AddImportCommand(CLI::App* app, int* exit_code) {
   cmd->require_subcommand(1);
   auto args = std::make_shared<ImportArgs>();
 
-  auto* halcon = cmd->add_subcommand("halcon", "A Robovision scene folder (HALCON 12 camera files)");
+  auto* halcon =
+      cmd->add_subcommand("halcon", "A Robovision scene folder (HALCON 12 camera files)");
   halcon->add_option("SCENE_DIR", args->source, "scene folder")->required();
   AddCommonOptions(halcon, args.get());
-  halcon->callback([=] { PrintImported(take::ImportHalconScene(args->source, args->out, args->options)); });
+  halcon->callback(
+      [=] { PrintImported(take::ImportHalconScene(args->source, args->out, args->options)); });
 
   auto* middlebury = cmd->add_subcommand("middlebury", "A Middlebury multi-view set (*_par.txt)");
-  middlebury->add_option("PAR_FILE", args->source, "the *_par.txt file; images beside it")->required();
+  middlebury->add_option("PAR_FILE", args->source, "the *_par.txt file; images beside it")
+      ->required();
   AddCommonOptions(middlebury, args.get());
   middlebury->callback(
       [=] { PrintImported(take::ImportMiddlebury(args->source, args->out, args->options)); });
 
   auto* colmap = cmd->add_subcommand("colmap", "A COLMAP text model (cameras.txt, images.txt)");
-  colmap->add_option("SPARSE_DIR", args->source, "folder with cameras.txt and images.txt")->required();
+  colmap->add_option("SPARSE_DIR", args->source, "folder with cameras.txt and images.txt")
+      ->required();
   colmap->add_option("IMAGES_DIR", args->images, "folder with the images")->required();
   colmap->add_option("--mm-per-unit", args->mm_per_unit, "millimetres per model unit")->required();
   AddCommonOptions(colmap, args.get());
   colmap->callback([=] {
-    PrintImported(take::ImportColmap(args->source, args->images, args->out, args->mm_per_unit, args->options));
+    PrintImported(take::ImportColmap(args->source, args->images, args->out, args->mm_per_unit,
+                                     args->options));
   });
   *exit_code = 0;
 }

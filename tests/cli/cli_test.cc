@@ -51,7 +51,8 @@ TEST_F(InfoTest, ValidTakeExitsZeroWithSummary) {
   const Result r = RunDomeBinary("info " + dir_.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("rig: 2 camera(s)"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("instants: 3 (00:00:01:00 .. 00:00:01:10)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("instants: 3 (00:00:01:00 .. 00:00:01:10)"), std::string::npos)
+      << r.output;
   EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
 }
 
@@ -61,14 +62,17 @@ TEST_F(InfoTest, BrokenTakeExitsNonZeroNamingTheFile) {
   const Result r = RunDomeBinary("info " + dir_.string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("2 problem(s)"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("frames/00-00-01-05/c1.png: missing image of camera 'c1'"), std::string::npos)
+  EXPECT_NE(r.output.find("frames/00-00-01-05/c1.png: missing image of camera 'c1'"),
+            std::string::npos)
       << r.output;
-  EXPECT_NE(r.output.find("frames/00-00-01-10/c0.png: unreadable or corrupt image"), std::string::npos)
+  EXPECT_NE(r.output.find("frames/00-00-01-10/c0.png: unreadable or corrupt image"),
+            std::string::npos)
       << r.output;
 }
 
 TEST_F(InfoTest, MalformedRigJsonNamesTheField) {
-  std::ofstream(dir_ / "rig.json") << R"({"format_version": 1, "cameras": [{"id": "c0", "focal_mm": "long"}]})";
+  std::ofstream(dir_ / "rig.json")
+      << R"({"format_version": 1, "cameras": [{"id": "c0", "focal_mm": "long"}]})";
   const Result r = RunDomeBinary("info " + dir_.string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("rig.json"), std::string::npos) << r.output;

@@ -15,7 +15,8 @@ TEST(ParallelFor, VisitsEveryIndexExactlyOnce) {
     ParallelFor(0, 1000, threads, [&](int64_t b, int64_t e) {
       for (int64_t i = b; i < e; ++i) hits[i]++;
     });
-    for (int i = 0; i < 1000; ++i) ASSERT_EQ(hits[i].load(), 1) << "index " << i << " threads " << threads;
+    for (int i = 0; i < 1000; ++i)
+      ASSERT_EQ(hits[i].load(), 1) << "index " << i << " threads " << threads;
   }
 }
 

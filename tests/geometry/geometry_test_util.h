@@ -10,9 +10,9 @@
 #include <string>
 
 #include "core/error.h"
+#include "geometry/tsai_camera.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
-#include "geometry/tsai_camera.h"
 
 namespace dome::geometry::testing {
 

@@ -10,8 +10,8 @@
 #include "io/ply.h"
 #include "take/validate.h"
 #include "take_fixture.h"
-#include "testing/temp_dir.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::take {
 namespace {
@@ -53,8 +53,8 @@ TEST_P(HalconImportTest, ReferenceCloudLandsOnTheObjectInEveryCamera) {
   const io::Mesh reference = io::ReadPly(out / "reference/reference.ply");
   ASSERT_GT(reference.vertices.size(), 10000u);
   for (const auto& cam : take.rig.cameras) {
-    const cv::Mat bgra = io::ReadImage(take.FramePath(take.instants[0], cam.model.id),
-                                       io::ImageMode::kBgra8);
+    const cv::Mat bgra =
+        io::ReadImage(take.FramePath(take.instants[0], cam.model.id), io::ImageMode::kBgra8);
     // Gray level at the projection of each reference point facing the camera,
     // sampled where it projects and 20 px to the side.
     size_t on_valid = 0;

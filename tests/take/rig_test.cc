@@ -8,8 +8,8 @@
 
 #include "core/error.h"
 #include "take_fixture.h"
-#include "testing/temp_dir.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::take {
 namespace {
@@ -49,7 +49,9 @@ TEST(Rig, FileRoundTrip) {
   ASSERT_EQ(back.cameras.size(), 2u);
   EXPECT_EQ(back.cameras[1].model.translation_mm, rig.cameras[1].model.translation_mm);
   // Written atomically: nothing but rig.json is left in the folder.
-  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator()), 1);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir),
+                          std::filesystem::directory_iterator()),
+            1);
 }
 
 TEST(Rig, MissingFileNamesIt) {
@@ -64,7 +66,9 @@ TEST(Rig, UnwritableFolderNamesIt) {
 
 TEST(Rig, UnknownFieldIsRejectedByName) {
   ExpectInputError(
-      [] { ParseRigJson(R"({"format_version": 1, "cameras": [{"id": "a", "focalmm": 3}]})", "r.json"); },
+      [] {
+        ParseRigJson(R"({"format_version": 1, "cameras": [{"id": "a", "focalmm": 3}]})", "r.json");
+      },
       {"r.json", "focalmm", "Cannot find field"});
 }
 
@@ -75,7 +79,10 @@ TEST(Rig, MalformedJsonNamesFile) {
 
 TEST(Rig, WrongTypeNamesField) {
   ExpectInputError(
-      [] { ParseRigJson(R"({"format_version": 1, "cameras": [{"id": "a", "width_px": "wide"}]})", "r.json"); },
+      [] {
+        ParseRigJson(R"({"format_version": 1, "cameras": [{"id": "a", "width_px": "wide"}]})",
+                     "r.json");
+      },
       {"r.json", "cameras[0].width_px"});
 }
 
@@ -97,7 +104,8 @@ class RigFieldTest : public ::testing::Test {
 };
 
 TEST_F(RigFieldTest, NanFocalLength) {
-  const auto json = With([](RigCamera& c) { c.model.focal_mm = std::numeric_limits<double>::quiet_NaN(); });
+  const auto json =
+      With([](RigCamera& c) { c.model.focal_mm = std::numeric_limits<double>::quiet_NaN(); });
   ExpectInputError([&] { ParseRigJson(json, "r.json"); }, {"r.json", "cameras[1]", "focal_mm"});
 }
 
@@ -118,7 +126,8 @@ TEST_F(RigFieldTest, ZeroImageSize) {
 
 TEST_F(RigFieldTest, DuplicateId) {
   const auto json = With([](RigCamera& c) { c.model.id = "c0"; });
-  ExpectInputError([&] { ParseRigJson(json, "r.json"); }, {"cameras[1]", "duplicate camera id 'c0'"});
+  ExpectInputError([&] { ParseRigJson(json, "r.json"); },
+                   {"cameras[1]", "duplicate camera id 'c0'"});
 }
 
 TEST_F(RigFieldTest, IdWithSlash) {
@@ -134,8 +143,9 @@ TEST_F(RigFieldTest, UnknownNeighbour) {
 TEST(Rig, RotationNeedsNineValues) {
   ExpectInputError(
       [] {
-        ParseRigJson(R"({"format_version": 1, "cameras": [{"id": "a", "sensor": {}, "rotation": [1, 0, 0]}]})",
-                     "r.json");
+        ParseRigJson(
+            R"({"format_version": 1, "cameras": [{"id": "a", "sensor": {}, "rotation": [1, 0, 0]}]})",
+            "r.json");
       },
       {"r.json: cameras[0] (id 'a').rotation", "expected 9 values"});
 }

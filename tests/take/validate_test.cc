@@ -27,7 +27,8 @@ class ValidateTest : public ::testing::Test {
     ASSERT_EQ(report.problems.size(), 1u) << report.Summary();
     const auto& p = report.problems[0];
     EXPECT_TRUE(p.where.size() >= where_suffix.size() &&
-                p.where.compare(p.where.size() - where_suffix.size(), where_suffix.size(), where_suffix) == 0)
+                p.where.compare(p.where.size() - where_suffix.size(), where_suffix.size(),
+                                where_suffix) == 0)
         << p.where;
     EXPECT_NE(p.what.find(what), std::string::npos) << p.what;
   }
@@ -52,8 +53,10 @@ TEST_F(ValidateTest, MissingImage) {
 }
 
 TEST_F(ValidateTest, SizeMismatch) {
-  cv::imwrite((dir_ / "frames/00-00-01-00/c2.png").string(), cv::Mat(30, 41, CV_8UC1, cv::Scalar(9)));
-  ExpectOneProblem("frames/00-00-01-00/c2.png", "image is 41x30, rig.json says camera 'c2' is 40x30");
+  cv::imwrite((dir_ / "frames/00-00-01-00/c2.png").string(),
+              cv::Mat(30, 41, CV_8UC1, cv::Scalar(9)));
+  ExpectOneProblem("frames/00-00-01-00/c2.png",
+                   "image is 41x30, rig.json says camera 'c2' is 40x30");
 }
 
 TEST_F(ValidateTest, CorruptImage) {
@@ -62,12 +65,14 @@ TEST_F(ValidateTest, CorruptImage) {
 }
 
 TEST_F(ValidateTest, WrongPixelKind) {
-  cv::imwrite((dir_ / "frames/00-00-01-00/c0.png").string(), cv::Mat(30, 40, CV_16UC1, cv::Scalar(9)));
+  cv::imwrite((dir_ / "frames/00-00-01-00/c0.png").string(),
+              cv::Mat(30, 40, CV_16UC1, cv::Scalar(9)));
   ExpectOneProblem("frames/00-00-01-00/c0.png", "expected an 8-bit gray, BGR or BGRA image");
 }
 
 TEST_F(ValidateTest, UnknownCamera) {
-  cv::imwrite((dir_ / "frames/00-00-01-00/c7.png").string(), cv::Mat(30, 40, CV_8UC1, cv::Scalar(9)));
+  cv::imwrite((dir_ / "frames/00-00-01-00/c7.png").string(),
+              cv::Mat(30, 40, CV_8UC1, cv::Scalar(9)));
   ExpectOneProblem("frames/00-00-01-00/c7.png", "unknown camera id 'c7'");
 }
 
@@ -77,7 +82,8 @@ TEST_F(ValidateTest, BadInstantName) {
 }
 
 TEST_F(ValidateTest, BadRigJson) {
-  std::ofstream(dir_ / "rig.json") << R"({"format_version": 1, "cameras": [{"id": "c0", "lens": 1}]})";
+  std::ofstream(dir_ / "rig.json")
+      << R"({"format_version": 1, "cameras": [{"id": "c0", "lens": 1}]})";
   const TakeReport report = ValidateTake(dir_);
   ASSERT_FALSE(report.ok());
   EXPECT_NE(report.problems[0].Text().find("rig.json"), std::string::npos);
