@@ -14,6 +14,7 @@ packages=(
   libbenchmark-dev
   libcli11-dev
   libtiff-dev
+  libembree-dev
   python3-open3d python3-scipy python3-numpy
 )
 

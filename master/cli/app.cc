@@ -22,6 +22,7 @@ int RunDome(int argc, char** argv) {
   AddInfoCommand(&app, &exit_code);
   AddImportCommand(&app, &exit_code);
   AddEvalCommand(&app, &exit_code);
+  AddSynthCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -10,5 +10,6 @@ namespace dome::cli {
 void AddInfoCommand(CLI::App* app, int* exit_code);
 void AddImportCommand(CLI::App* app, int* exit_code);
 void AddEvalCommand(CLI::App* app, int* exit_code);
+void AddSynthCommand(CLI::App* app, int* exit_code);
 
 }  // namespace dome::cli

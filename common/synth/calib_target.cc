@@ -1,0 +1,91 @@
+#include "synth/calib_target.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dome::synth {
+namespace {
+
+// Black dot of radius r on white, with a 4 mm linear edge ramp so that point
+// sampling does not alias the dot's outline into a jagged one.
+double Dot(double distance_mm, double radius_mm, double dark, double light) {
+  constexpr double kRampMm = 4.0;
+  const double a = std::clamp((distance_mm - radius_mm) / kRampMm + 0.5, 0.0, 1.0);
+  return dark + (light - dark) * a;
+}
+
+}  // namespace
+
+Eigen::Matrix3d PlateRotation(int plate) {
+  Eigen::Matrix3d r;
+  switch (plate) {
+    case 0:  // face z = 0: local x, y = object x, y
+      r << 1, 0, 0, 0, 1, 0, 0, 0, 1;
+      break;
+    case 1:  // face y = 0: local x = object z, local y = object x, local z = object y
+      r << 0, 1, 0, 0, 0, 1, 1, 0, 0;
+      break;
+    default:  // face x = 0: local x = object y, local y = object z, local z = object x
+      r << 0, 0, 1, 1, 0, 0, 0, 1, 0;
+      break;
+  }
+  return r;
+}
+
+std::vector<TargetPoint> CalibObjectPoints() {
+  std::vector<TargetPoint> points;
+  for (int plate = 0; plate < 3; ++plate) {
+    const Eigen::Matrix3d r = PlateRotation(plate);
+    for (int j = 1; j <= kPlateDotsPerSide; ++j) {
+      for (int i = 1; i <= kPlateDotsPerSide; ++i) {
+        TargetPoint p;
+        p.id = 49 * plate + 7 * (j - 1) + (i - 1);
+        p.position_mm = r * Eigen::Vector3d(kPlateDotPitchMm * i, kPlateDotPitchMm * j, 0.0);
+        points.push_back(p);
+      }
+    }
+  }
+  return points;
+}
+
+double CalibPlateAlbedo(double x_mm, double y_mm) {
+  constexpr double kWhite = 0.85, kBlack = 0.05;
+  const int i = static_cast<int>(std::lround(x_mm / kPlateDotPitchMm));
+  const int j = static_cast<int>(std::lround(y_mm / kPlateDotPitchMm));
+  if (i < 1 || i > kPlateDotsPerSide || j < 1 || j > kPlateDotsPerSide) return kWhite;
+  const double d = std::hypot(x_mm - kPlateDotPitchMm * i, y_mm - kPlateDotPitchMm * j);
+  const double radius = (i == 1 && j == 1) ? kPlateKeyDotRadiusMm : kPlateDotRadiusMm;
+  return Dot(d, radius, kBlack, kWhite);
+}
+
+std::vector<TargetPoint> FloorMarkPoints() {
+  std::vector<TargetPoint> points;
+  const double half = 0.5 * (kFloorMarksPerSide - 1) * kFloorMarkPitchMm;
+  for (int row = 0; row < kFloorMarksPerSide; ++row) {
+    for (int col = 0; col < kFloorMarksPerSide; ++col) {
+      TargetPoint p;
+      p.id = kFloorMarksPerSide * row + col;
+      p.position_mm = {-half + kFloorMarkPitchMm * col, -half + kFloorMarkPitchMm * row, 0.0};
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
+double FloorMarksAlbedo(double x_mm, double y_mm, double floor_albedo) {
+  constexpr double kWhite = 0.9, kBlack = 0.04;
+  const double half = 0.5 * (kFloorMarksPerSide - 1) * kFloorMarkPitchMm;
+  const int col = static_cast<int>(std::lround((x_mm + half) / kFloorMarkPitchMm));
+  const int row = static_cast<int>(std::lround((y_mm + half) / kFloorMarkPitchMm));
+  if (col < 0 || col >= kFloorMarksPerSide || row < 0 || row >= kFloorMarksPerSide) {
+    return floor_albedo;
+  }
+  const double d = std::hypot(x_mm - (-half + kFloorMarkPitchMm * col),
+                              y_mm - (-half + kFloorMarkPitchMm * row));
+  if (d > kFloorMarkPadRadiusMm + 2.0) return floor_albedo;
+  const double radius = (row == 0 && col == 0) ? kFloorMarkKeyDotRadiusMm : kFloorMarkDotRadiusMm;
+  const double pad = Dot(d, kFloorMarkPadRadiusMm, kWhite, floor_albedo);
+  return d < radius + 2.0 ? Dot(d, radius, kBlack, kWhite) : pad;
+}
+
+}  // namespace dome::synth

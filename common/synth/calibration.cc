@@ -1,0 +1,85 @@
+#include "synth/calibration.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "synth/noise.h"
+#include "synth/render.h"
+
+namespace dome::synth {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+namespace {
+constexpr uint64_t kBenchStream = 0xbe4c4ca1b5ULL;
+constexpr double kDeg = M_PI / 180.0;
+}  // namespace
+
+void Stage1Pose(const geometry::TsaiCamera& camera, int camera_index, Matrix3d* rotation,
+                Vector3d* translation) {
+  Rng rng(HashKey(kBenchStream, static_cast<uint64_t>(camera_index)));
+  const Vector3d look_at(280, 280, 280);
+  const Vector3d view =
+      (Vector3d(1, 1, 1).normalized() +
+       Vector3d(rng.Uniform(-0.15, 0.15), rng.Uniform(-0.15, 0.15), rng.Uniform(-0.15, 0.15)))
+          .normalized();
+  const double roll = rng.Uniform(-8.0, 8.0) * kDeg;
+  const Vector3d z = -view;
+  const Vector3d down(0, 0, -1);
+  const Vector3d y0 = (down - down.dot(z) * z).normalized();
+  const Vector3d x0 = y0.cross(z);
+  Matrix3d r;
+  r.row(0) = std::cos(roll) * x0 + std::sin(roll) * y0;
+  r.row(1) = -std::sin(roll) * x0 + std::cos(roll) * y0;
+  r.row(2) = z;
+  *rotation = r;
+
+  geometry::TsaiCamera probe = camera;
+  probe.rotation = r;
+  const double s = kPlateSizeMm;
+  const Vector3d corners[] = {{0, 0, 0}, {s, 0, 0}, {0, s, 0}, {0, 0, s},
+                              {s, s, 0}, {s, 0, s}, {0, s, s}};
+  double distance = 2000.0;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    const Vector3d centre = look_at + distance * view;
+    probe.translation_mm = -r * centre;
+    double fill = 0.0;
+    for (const auto& c : corners) {
+      Eigen::Vector2d px;
+      if (!probe.Project(c, &px)) continue;
+      fill = std::max(fill, std::abs(px.x() - camera.cx_px) / (0.5 * camera.width_px));
+      fill = std::max(fill, std::abs(px.y() - camera.cy_px) / (0.5 * camera.height_px));
+    }
+    if (fill <= 0.0) break;
+    distance *= fill / 0.9;  // image extent ~ 1 / distance
+  }
+  *translation = -r * (look_at + distance * view);
+}
+
+std::vector<ImagePointTruth> TrueImagePoints(const geometry::TsaiCamera& camera,
+                                             const std::vector<TargetPoint>& points,
+                                             double marker_radius_mm, const RayCaster& caster) {
+  std::vector<ImagePointTruth> out;
+  const CameraRays rays(camera);
+  const double fx = camera.focal_mm * camera.sx / camera.sensor.dpx_mm();
+  for (const auto& point : points) {
+    const Vector3d c = camera.WorldToCamera(point.position_mm);
+    Eigen::Vector2d px;
+    if (!camera.Project(point.position_mm, &px)) continue;
+    const double margin = marker_radius_mm * fx / c.z();
+    if (px.x() < -0.5 + margin || px.x() > camera.width_px - 0.5 - margin ||
+        px.y() < -0.5 + margin || px.y() > camera.height_px - 0.5 - margin) {
+      continue;
+    }
+    RayHit hit;
+    const Vector3d dir = rays.Direction(px.x(), px.y());
+    if (!caster.Intersect(rays.origin().cast<float>(), dir.cast<float>(), &hit)) continue;
+    if (std::abs(hit.t - c.z()) > 1.0 + 1e-4 * c.z()) continue;  // hidden
+    out.push_back({point.id, px});
+  }
+  return out;
+}
+
+}  // namespace dome::synth
