@@ -23,6 +23,7 @@ int RunDome(int argc, char** argv) {
   AddImportCommand(&app, &exit_code);
   AddEvalCommand(&app, &exit_code);
   AddSynthCommand(&app, &exit_code);
+  AddCalibrateCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,91 @@
+// Acceptance measurement of `dome calibrate` on a synthetic take (issue 5): calibrates
+// the take from TAKE/calib/ and compares every camera with the true rig.json.
+//
+//   build-calib/bin/dome synth --preset paper --instants 1 --no-tape --out /tmp/calib_paper
+//   build-calib/bin/calib_bench_dome /tmp/calib_paper [--stored-points] [--no-joint]
+//
+// Prints, over the cameras: relative focal error, image-centre error (px), relative
+// kappa1 error, camera-centre error (mm), rotation error (deg), RMS reprojection (px):
+// median, 90th percentile and max.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "calib/calibrate.h"
+#include "core/error.h"
+#include "take/rig.h"
+
+namespace {
+
+void Row(const char* name, std::vector<double> v, const char* unit) {
+  std::sort(v.begin(), v.end());
+  auto q = [&](double f) { return v[std::min(v.size() - 1, static_cast<size_t>(f * (v.size() - 1) + 0.5))]; };
+  std::printf("%-22s median %-10.4g p90 %-10.4g max %-10.4g %s\n", name, q(0.5), q(0.9), v.back(), unit);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: %s TAKE [--stored-points] [--no-joint]\n", argv[0]);
+    return 1;
+  }
+  try {
+    dome::calib::CalibrateOptions options;
+    options.keep_going = true;
+    for (int i = 2; i < argc; ++i) {
+      if (!std::strcmp(argv[i], "--stored-points")) options.use_stored_points = true;
+      if (!std::strcmp(argv[i], "--no-joint")) options.joint_refinement = false;
+    }
+    const std::string take = argv[1];
+    const dome::take::Rig truth = dome::take::ReadRig(take + "/rig.json");
+    const auto result = dome::calib::CalibrateTake(take, truth, options);
+    std::fputs(result.BriefReport().c_str(), stdout);
+    for (const bool skip_flagged : {false, true}) {
+      std::vector<double> f, c, k, pos, rot, rms, maxe, fsig, ksig, kz;
+      int skipped = 0;
+      for (size_t i = 0; i < truth.cameras.size(); ++i) {
+        if (result.cameras[i].failed || (skip_flagged && result.cameras[i].flagged)) {
+          ++skipped;
+          continue;
+        }
+        const auto& t = truth.cameras[i].model;
+        const auto& e = result.rig.cameras[i].model;
+        f.push_back(std::abs(e.focal_mm / t.focal_mm - 1) * 100);
+        c.push_back(std::hypot(e.cx_px - t.cx_px, e.cy_px - t.cy_px));
+        k.push_back(std::abs(e.kappa1_per_mm2 / t.kappa1_per_mm2 - 1) * 100);
+        pos.push_back((e.CentreWorld() - t.CentreWorld()).norm());
+        rot.push_back(Eigen::AngleAxisd(e.rotation * t.rotation.transpose()).angle() * 180 / M_PI);
+        rms.push_back(result.cameras[i].rms_px);
+        maxe.push_back(result.cameras[i].max_px);
+        const auto& sg = result.cameras[i].sigma;
+        fsig.push_back(sg.focal_mm / t.focal_mm * 100);
+        ksig.push_back(sg.kappa1_per_mm2 / std::abs(t.kappa1_per_mm2) * 100);
+        kz.push_back(sg.kappa1_per_mm2 > 0 ? std::abs(e.kappa1_per_mm2 - t.kappa1_per_mm2) / sg.kappa1_per_mm2 : 0);
+      }
+      if (f.empty()) continue;
+      std::printf("\nagainst the true rig, over %zu cameras (%d %s excluded):\n", f.size(), skipped,
+                  skip_flagged ? "flagged or failed" : "failed");
+      Row("focal length error", f, "% (goal < 0.1%)");
+      Row("image centre error", c, "px (goal < 1 px)");
+      Row("kappa1 error", k, "% (goal < 2%)");
+      Row("camera centre error", pos, "mm (goal < 2 mm)");
+      Row("rotation error", rot, "deg (goal < 0.05 deg)");
+      Row("RMS reprojection", rms, "px (goal < 0.2 px)");
+      Row("max reprojection", maxe, "px");
+      Row("solver sigma of f", fsig, "% (1 sigma, from the LM covariance)");
+      Row("solver sigma of kappa1", ksig, "% (1 sigma)");
+      Row("kappa1 error / sigma", kz, "(consistent with noise when ~1)");
+    }
+    std::printf("time %.1f s\n", result.seconds);
+    return 0;
+  } catch (const dome::core::InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,81 @@
+#include "calib/target.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "testing/expect_error.h"
+
+namespace dome::calib {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("dome_calib_target_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+void Write(const fs::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+std::string GridTargetJson(int n, double pitch, const std::string& extra_point = "") {
+  std::string s = R"({"format_version": 1, "frame": "world", "marker_radius_mm": 45,
+                     "key_marker_radius_mm": 60, "points": [)";
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      s += (i || j ? "," : "") + std::string("{\"id\": ") + std::to_string(n * j + i) +
+           ", \"x_mm\": " + std::to_string(pitch * i) + ", \"y_mm\": " + std::to_string(pitch * j) +
+           ", \"z_mm\": 0}";
+    }
+  }
+  return s + extra_point + "]}";
+}
+
+TEST(Target, ReadsAndInfersOneGrid) {
+  const fs::path dir = TempDir("grid");
+  Write(dir / "target.json", GridTargetJson(5, 300));
+  const Target t = ReadTarget(dir / "target.json");
+  ASSERT_EQ(t.points.size(), 25u);
+  const GridLayout layout = InferGridLayout(t);
+  ASSERT_EQ(layout.grids.size(), 1u);
+  EXPECT_EQ(layout.grids[0].n, 5);
+  EXPECT_NEAR(layout.grids[0].normal.z(), 1.0, 1e-12);
+}
+
+TEST(Target, NanCoordinateIsAnError) {
+  const fs::path dir = TempDir("nan");
+  Write(dir / "target.json",
+        GridTargetJson(3, 100, R"(,{"id": 99, "x_mm": "NaN", "y_mm": 0, "z_mm": 0})"));
+  testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); },
+                            {"target.json", "points[9]", "id 99", "finite"});
+}
+
+TEST(Target, DuplicateIdIsAnError) {
+  const fs::path dir = TempDir("dup");
+  Write(dir / "target.json", GridTargetJson(3, 100, R"(,{"id": 4, "x_mm": 5, "y_mm": 0, "z_mm": 0})"));
+  testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); },
+                            {"target.json", "points[9].id", "duplicate id 4"});
+}
+
+TEST(Target, UnknownFieldAndMissingFile) {
+  const fs::path dir = TempDir("bad");
+  Write(dir / "target.json", R"({"format_version": 1, "bogus": 3})");
+  testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); }, {"target.json", "bogus"});
+  testing::ExpectInputError([&] { ReadTarget(dir / "absent.json"); }, {"absent.json"});
+}
+
+TEST(Target, NotAGridIsAnError) {
+  const fs::path dir = TempDir("nogrid");
+  Write(dir / "target.json", R"({"format_version": 1, "marker_radius_mm": 1, "key_marker_radius_mm": 2,
+      "points": [{"id": 0, "x_mm": 0}, {"id": 1, "x_mm": 7}, {"id": 2, "y_mm": 3}]})");
+  const Target t = ReadTarget(dir / "target.json");
+  testing::ExpectInputError([&] { InferGridLayout(t); }, {"target.json", "grids"});
+}
+
+}  // namespace
+}  // namespace dome::calib
