@@ -24,6 +24,7 @@ int RunDome(int argc, char** argv) {
   AddEvalCommand(&app, &exit_code);
   AddSynthCommand(&app, &exit_code);
   AddCalibrateCommand(&app, &exit_code);
+  AddStereoCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -12,5 +12,6 @@ void AddImportCommand(CLI::App* app, int* exit_code);
 void AddEvalCommand(CLI::App* app, int* exit_code);
 void AddSynthCommand(CLI::App* app, int* exit_code);
 void AddCalibrateCommand(CLI::App* app, int* exit_code);
+void AddStereoCommand(CLI::App* app, int* exit_code);
 
 }  // namespace dome::cli

@@ -1,0 +1,58 @@
+#include "stereo/cluster.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "core/error.h"
+
+namespace dome::stereo {
+
+void ClusterOptions::Check() const {
+  core::Require(max_neighbours >= 1, "max_neighbours",
+                "must be at least 1, got " + std::to_string(max_neighbours));
+  core::Require(std::isfinite(max_axis_angle_deg) && max_axis_angle_deg > 0.0 &&
+                    max_axis_angle_deg <= 180.0,
+                "max_axis_angle_deg", "must be in (0, 180], got " + std::to_string(max_axis_angle_deg));
+}
+
+std::vector<int> SelectCluster(const take::Rig& rig, const std::string& camera_id,
+                               const ClusterOptions& options) {
+  options.Check();
+  const int ref = rig.Find(camera_id);
+  core::Require(ref >= 0, "--camera", "camera '" + camera_id + "' is not in the rig");
+  std::vector<int> cluster;
+  const auto& named = rig.cameras[ref].neighbours;
+  if (!named.empty()) {
+    for (const auto& id : named) {
+      const int j = rig.Find(id);
+      core::Require(j >= 0 && j != ref, "rig.json: camera '" + camera_id + "'.neighbours",
+                    "names '" + id + "', which is not another camera of the rig");
+      cluster.push_back(j);
+    }
+  } else {
+    const auto& rc = rig.cameras[ref].model;
+    const Eigen::Vector3d axis = rc.rotation.row(2).transpose();
+    const Eigen::Vector3d centre = rc.CentreWorld();
+    const double cos_max = std::cos(options.max_axis_angle_deg * M_PI / 180.0);
+    std::vector<std::pair<double, int>> candidates;
+    for (int j = 0; j < static_cast<int>(rig.cameras.size()); ++j) {
+      if (j == ref) continue;
+      const auto& c = rig.cameras[j].model;
+      const Eigen::Vector3d aj = c.rotation.row(2).transpose();
+      if (axis.dot(aj) < cos_max) continue;
+      candidates.emplace_back((c.CentreWorld() - centre).norm(), j);
+    }
+    std::sort(candidates.begin(), candidates.end());
+    for (size_t k = 0; k < candidates.size() && static_cast<int>(k) < options.max_neighbours; ++k)
+      cluster.push_back(candidates[k].second);
+  }
+  core::Require(!cluster.empty(), "cluster",
+                "camera '" + camera_id +
+                    "' has no neighbours (a cluster of one camera): name them in rig.json or "
+                    "add cameras whose optical axes are within " +
+                    std::to_string(options.max_axis_angle_deg) + " degrees of it");
+  return cluster;
+}
+
+}  // namespace dome::stereo

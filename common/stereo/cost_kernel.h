@@ -1,0 +1,51 @@
+// The SSSD cost kernel of multi-baseline stereo (internal to dome_stereo; the
+// interface is multi_baseline.h, which validates everything before calling it).
+//
+// Work is cut into bands of reference rows; each thread takes contiguous bands. Per
+// band and per level, for every neighbour the homography is evaluated incrementally
+// along each row (q = q0 + x dq, one division per pixel), the neighbour sampled
+// bilinearly and the squared difference added to a band-sized SSD buffer; the window
+// sums come from a running vertical sum and a short horizontal sum (both vectorized
+// across x). The cost volume is never stored: per pixel the kernel keeps the running
+// minimum, the costs at the levels either side of it and the least cost outside them
+// (exact, see UpdateRow in cost_kernel.cc), so memory is O(band x width), not O(levels).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace dome::stereo {
+
+struct KernelNeighbour {
+  double a[3][3];  // x_n ~ a x_r + w b  (ideal pixels, w = 1/z in 1/mm)
+  double b[3];
+  const float* image = nullptr;  // ideal grey image, row-major, NaN = invalid
+  int width = 0;
+  int height = 0;
+};
+
+struct KernelInput {
+  int width = 0, height = 0;
+  const float* reference = nullptr;  // ideal grey, row-major, invalid pixels = 0
+  int num_levels = 0;
+  float w_far = 0.0f;   // inverse depth of level 0, 1/mm
+  float w_step = 0.0f;  // inverse depth per level, 1/mm
+  float outside_cost = 0.0f;  // squared difference of a sample without data
+  std::vector<KernelNeighbour> neighbours;
+  std::vector<int> half_windows;  // one per window size
+};
+
+// Per pixel (row-major), per window size. Pixels whose window leaves the image get
+// best_level -1.
+struct KernelOutput {
+  std::vector<float> best_level;   // level of the least cost
+  std::vector<float> offset;       // parabola vertex offset in levels, [-0.5, 0.5]
+  std::vector<float> curvature;    // c(l-1) - 2 c(l) + c(l+1), summed costs
+  std::vector<float> best_cost;    // c(l)
+  std::vector<float> second_cost;  // least c outside l-1..l+1
+};
+
+// `outputs` has one entry per half window, each vector sized width x height.
+void RunCostKernel(const KernelInput& input, int num_threads, std::vector<KernelOutput>* outputs);
+
+}  // namespace dome::stereo

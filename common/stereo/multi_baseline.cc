@@ -1,0 +1,305 @@
+#include "stereo/multi_baseline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <Eigen/LU>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "core/timer.h"
+#include "geometry/undistort.h"
+#include "stereo/cost_kernel.h"
+
+namespace dome::stereo {
+namespace {
+
+constexpr int kMaxWindowPx = 31;
+
+// Grey image of a view as CV_32FC1 in the ideal (undistorted) camera, NaN where the
+// pixel has no data (alpha 0, or no source after undistortion).
+cv::Mat PrepareImage(const StereoView& view, bool normalize_contrast, const std::string& where) {
+  const auto& cam = view.camera;
+  cam.Check(where + ": camera");
+  const cv::Mat& in = view.image;
+  core::Require(!in.empty(), where + ": image", "is empty");
+  core::Require(in.cols == cam.width_px && in.rows == cam.height_px, where + ": image",
+                "must be the camera's " + std::to_string(cam.width_px) + "x" +
+                    std::to_string(cam.height_px) + " pixels, got " + std::to_string(in.cols) +
+                    "x" + std::to_string(in.rows));
+  cv::Mat grey, valid;
+  if (in.type() == CV_8UC1) {
+    in.convertTo(grey, CV_32F);
+  } else if (in.type() == CV_8UC3) {
+    cv::Mat g;
+    cv::cvtColor(in, g, cv::COLOR_BGR2GRAY);
+    g.convertTo(grey, CV_32F);
+  } else if (in.type() == CV_8UC4) {
+    cv::Mat g;
+    cv::cvtColor(in, g, cv::COLOR_BGRA2GRAY);
+    g.convertTo(grey, CV_32F);
+    cv::extractChannel(in, valid, 3);
+  } else if (in.type() == CV_32FC1) {
+    grey = in.clone();
+    valid = (grey == grey);  // not NaN
+    grey.setTo(0.0f, ~valid);
+  } else {
+    throw core::InputError(where + ": image",
+                           "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
+  }
+  if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
+  if (cam.kappa1_per_mm2 != 0.0) {
+    const geometry::RemapTables tables = geometry::BuildUndistortTables(cam);
+    grey = geometry::Remap(grey, tables);
+    valid = geometry::Remap(valid, tables);
+  }
+  const cv::Mat invalid = valid < 255;
+  if (normalize_contrast) {
+    std::vector<float> values;
+    values.reserve(grey.total());
+    for (int y = 0; y < grey.rows; ++y) {
+      const float* g = grey.ptr<float>(y);
+      const uint8_t* m = invalid.ptr<uint8_t>(y);
+      for (int x = 0; x < grey.cols; ++x)
+        if (!m[x]) values.push_back(g[x]);
+    }
+    if (values.size() > 10) {
+      const size_t i1 = values.size() / 100, i99 = values.size() * 99 / 100;
+      std::nth_element(values.begin(), values.begin() + i1, values.end());
+      const float lo = values[i1];
+      std::nth_element(values.begin(), values.begin() + i99, values.end());
+      const float hi = values[i99];
+      if (hi > lo) grey = (grey - lo) * (255.0 / (hi - lo));
+    }
+  }
+  grey.setTo(std::numeric_limits<float>::quiet_NaN(), invalid);
+  return grey;
+}
+
+// Plane-induced homography pieces: x_n ~ A x_r + w b.
+void HomographyPieces(const geometry::TsaiCamera& ref, const geometry::TsaiCamera& nb,
+                      Eigen::Matrix3d* a, Eigen::Vector3d* b) {
+  const Eigen::Matrix3d r = nb.rotation * ref.rotation.transpose();
+  const Eigen::Vector3d t = nb.translation_mm - r * ref.translation_mm;
+  *a = nb.K() * r * ref.K().inverse();
+  *b = nb.K() * t;
+}
+
+}  // namespace
+
+void StereoOptions::Check() const {
+  core::Require(std::isfinite(z_min_mm) && z_min_mm > 0.0, "z_min_mm",
+                "must be positive, got " + std::to_string(z_min_mm));
+  core::Require(std::isfinite(z_max_mm) && z_max_mm > z_min_mm, "z_max_mm",
+                "must be greater than z_min_mm (" + std::to_string(z_min_mm) + "), got " +
+                    std::to_string(z_max_mm));
+  core::Require(num_levels == 0 || (num_levels >= 3 && num_levels <= 100000), "num_levels",
+                "must be 0 (from the geometry) or 3..100000, got " + std::to_string(num_levels));
+  core::Require(std::isfinite(level_step_px) && level_step_px > 0.0, "level_step_px",
+                "must be positive, got " + std::to_string(level_step_px));
+  core::Require(!window_sizes_px.empty(), "window_sizes_px", "must name at least one window");
+  for (int w : window_sizes_px) {
+    core::Require(w >= 1 && w <= kMaxWindowPx && w % 2 == 1, "window_sizes_px",
+                  "each must be odd and 1.." + std::to_string(kMaxWindowPx) + ", got " +
+                      std::to_string(w));
+  }
+  core::Require(std::isfinite(outside_difference_grey) && outside_difference_grey >= 0.0,
+                "outside_difference_grey", "must be >= 0");
+  core::Require(std::isfinite(min_curvature) && min_curvature >= 0.0, "min_curvature",
+                "must be >= 0");
+  core::Require(std::isfinite(min_uniqueness) && min_uniqueness >= 0.0, "min_uniqueness",
+                "must be >= 0");
+  core::Require(std::isfinite(min_texture_grey) && min_texture_grey >= 0.0, "min_texture_grey",
+                "must be >= 0");
+  core::Require(num_threads >= 0, "num_threads", "must be >= 0 (0 = all)");
+}
+
+double LevelDepthMm(double level, int num_levels, double z_min_mm, double z_max_mm) {
+  const double w_far = 1.0 / z_max_mm, w_near = 1.0 / z_min_mm;
+  const double w = w_far + level * (w_near - w_far) / (num_levels - 1);
+  return 1.0 / w;
+}
+
+int CountDepthLevels(const geometry::TsaiCamera& reference,
+                     const std::vector<geometry::TsaiCamera>& neighbours, double z_min_mm,
+                     double z_max_mm, double step_px) {
+  core::Require(z_min_mm > 0.0 && z_max_mm > z_min_mm, "z_min_mm",
+                "must be positive and less than z_max_mm");
+  core::Require(step_px > 0.0, "level_step_px", "must be positive");
+  core::Require(!neighbours.empty(), "cluster", "needs at least one neighbour");
+  double max_px = -1.0;
+  constexpr int kGrid = 9;
+  for (const auto& nb : neighbours) {
+    Eigen::Matrix3d a;
+    Eigen::Vector3d b;
+    HomographyPieces(reference, nb, &a, &b);
+    for (int gy = 0; gy < kGrid; ++gy) {
+      for (int gx = 0; gx < kGrid; ++gx) {
+        const Eigen::Vector3d p((reference.width_px - 1) * gx / double(kGrid - 1),
+                                (reference.height_px - 1) * gy / double(kGrid - 1), 1.0);
+        // Length of the epipolar segment z_max..z_min inside the neighbour's image
+        // (points in front of it): sampled in inverse depth, pieces with both ends
+        // inside summed. A segment that runs off the image or towards the neighbour's
+        // focal plane would otherwise count thousands of pixels nobody can match.
+        constexpr int kSteps = 256;
+        const auto inside = [&](const Eigen::Vector3d& q) {
+          if (!(q.z() > 0.0)) return false;
+          const double u = q.x() / q.z(), v = q.y() / q.z();
+          return u >= 0 && v >= 0 && u <= nb.width_px - 1 && v <= nb.height_px - 1;
+        };
+        double length = 0.0;
+        Eigen::Vector3d q_prev = a * p + b / z_max_mm;
+        bool in_prev = inside(q_prev);
+        for (int k = 1; k <= kSteps; ++k) {
+          const double w = 1.0 / z_max_mm + (1.0 / z_min_mm - 1.0 / z_max_mm) * k / kSteps;
+          const Eigen::Vector3d q = a * p + w * b;
+          const bool in = inside(q);
+          if (in && in_prev) length += (q.head<2>() / q.z() - q_prev.head<2>() / q_prev.z()).norm();
+          q_prev = q;
+          in_prev = in;
+        }
+        if (length > 0.0) max_px = std::max(max_px, length);
+      }
+    }
+  }
+  core::Require(max_px >= 0.0, "cluster",
+                "no reference pixel between z_min and z_max projects into any neighbour "
+                "(camera '" + reference.id + "')");
+  // The tolerance keeps a parallax of exactly n steps (summed from pieces) at n.
+  return static_cast<int>(std::ceil(max_px / step_px - 1e-9)) + 1;
+}
+
+std::string StereoResult::BriefReport() const {
+  std::ostringstream out;
+  out << "stereo " << camera << ": " << num_levels << " levels, prepare " << prepare_seconds
+      << " s, match " << match_seconds << " s";
+  for (const auto& r : range_images) out << "; w" << r.window_px << " density " << r.density;
+  out << "\n";
+  return out.str();
+}
+
+StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options) {
+  options.Check();
+  core::Require(!input.neighbours.empty(), "cluster",
+                "camera '" + input.reference.camera.id +
+                    "' has no neighbours: multi-baseline stereo needs a cluster of at least two "
+                    "cameras");
+  core::Stopwatch watch;
+  StereoResult result;
+  result.camera = input.reference.camera.id;
+
+  // Distortion removed once per image.
+  const cv::Mat ref_nan = PrepareImage(input.reference, options.normalize_contrast,
+                                       "reference '" + input.reference.camera.id + "'");
+  std::vector<cv::Mat> nb_images;
+  std::vector<geometry::TsaiCamera> nb_cams;
+  for (const auto& v : input.neighbours) {
+    nb_images.push_back(
+        PrepareImage(v, options.normalize_contrast, "neighbour '" + v.camera.id + "'"));
+    nb_cams.push_back(v.camera);
+  }
+  const auto& ref_cam = input.reference.camera;
+  const int num_levels =
+      options.num_levels > 0
+          ? options.num_levels
+          : CountDepthLevels(ref_cam, nb_cams, options.z_min_mm, options.z_max_mm,
+                             options.level_step_px);
+  result.num_levels = num_levels;
+
+  const int width = ref_cam.width_px, height = ref_cam.height_px;
+  // Reference grey with invalid pixels at 0, and its invalid mask.
+  const cv::Mat ref_valid = (ref_nan == ref_nan);
+  cv::Mat ref_grey = ref_nan.clone();
+  ref_grey.setTo(0.0f, ~ref_valid);
+
+  KernelInput kin;
+  kin.width = width;
+  kin.height = height;
+  kin.reference = ref_grey.ptr<float>(0);
+  kin.num_levels = num_levels;
+  kin.w_far = static_cast<float>(1.0 / options.z_max_mm);
+  kin.w_step = static_cast<float>((1.0 / options.z_min_mm - 1.0 / options.z_max_mm) /
+                                  (num_levels - 1));
+  kin.outside_cost = static_cast<float>(options.outside_difference_grey *
+                                        options.outside_difference_grey);
+  for (size_t n = 0; n < nb_cams.size(); ++n) {
+    KernelNeighbour kn;
+    Eigen::Matrix3d a;
+    Eigen::Vector3d b;
+    HomographyPieces(ref_cam, nb_cams[n], &a, &b);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) kn.a[i][j] = a(i, j);
+      kn.b[i] = b(i);
+    }
+    kn.image = nb_images[n].ptr<float>(0);
+    kn.width = nb_images[n].cols;
+    kn.height = nb_images[n].rows;
+    kin.neighbours.push_back(kn);
+  }
+  for (int w : options.window_sizes_px) kin.half_windows.push_back(w / 2);
+  result.prepare_seconds = watch.ElapsedSeconds();
+  watch.Restart();
+
+  std::vector<KernelOutput> outs(options.window_sizes_px.size());
+  for (auto& o : outs) {
+    o.best_level.assign(size_t(width) * height, -1.0f);
+    o.curvature.assign(size_t(width) * height, 0.0f);
+    o.best_cost.assign(size_t(width) * height, 0.0f);
+    o.second_cost.assign(size_t(width) * height, 0.0f);
+    o.offset.assign(size_t(width) * height, 0.0f);
+  }
+  RunCostKernel(kin, options.num_threads, &outs);
+  result.match_seconds = watch.ElapsedSeconds();
+
+  // Validity and depth per window size.
+  const int nn = static_cast<int>(nb_cams.size());
+  for (size_t k = 0; k < options.window_sizes_px.size(); ++k) {
+    const int wpx = options.window_sizes_px[k];
+    const double samples = double(wpx) * wpx * nn;
+    cv::Mat invalid_f, mean, mean2;
+    cv::Mat(~ref_valid).convertTo(invalid_f, CV_32F, 1.0 / 255.0);
+    cv::boxFilter(invalid_f, invalid_f, CV_32F, cv::Size(wpx, wpx), cv::Point(-1, -1), false,
+                  cv::BORDER_CONSTANT);
+    cv::boxFilter(ref_grey, mean, CV_32F, cv::Size(wpx, wpx));
+    cv::boxFilter(ref_grey.mul(ref_grey), mean2, CV_32F, cv::Size(wpx, wpx));
+    RangeImage ri;
+    ri.window_px = wpx;
+    ri.depth_mm = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+    ri.reliability = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+    const KernelOutput& o = outs[k];
+    int64_t n_valid = 0;
+    const double min_var = options.min_texture_grey * options.min_texture_grey;
+    for (int y = 0; y < height; ++y) {
+      float* d = ri.depth_mm.ptr<float>(y);
+      float* r = ri.reliability.ptr<float>(y);
+      for (int x = 0; x < width; ++x) {
+        const size_t i = size_t(y) * width + x;
+        const float bl = o.best_level[i];
+        if (!(bl >= 1.0f && bl <= num_levels - 2.0f)) continue;
+        if (invalid_f.at<float>(y, x) > 0.0f) continue;
+        const double var = mean2.at<float>(y, x) - double(mean.at<float>(y, x)) * mean.at<float>(y, x);
+        if (var < min_var) continue;
+        const double curvature = o.curvature[i] / samples;
+        if (!(curvature >= options.min_curvature) || curvature <= 0.0) continue;
+        const double best = o.best_cost[i], second = o.second_cost[i];
+        if (!(second - best > options.min_uniqueness * (best + samples))) continue;
+        const double level = bl + o.offset[i];
+        const double z = LevelDepthMm(level, num_levels, options.z_min_mm, options.z_max_mm);
+        if (!(std::isfinite(z) && z > 0.0)) continue;
+        d[x] = static_cast<float>(z);
+        r[x] = static_cast<float>(curvature);
+        ++n_valid;
+      }
+    }
+    ri.density = double(n_valid) / (double(width) * height);
+    result.range_images.push_back(std::move(ri));
+  }
+  return result;
+}
+
+}  // namespace dome::stereo

@@ -1,0 +1,55 @@
+// Stereo over a take: every (instant, reference camera) job, read from the take folder
+// and written to an output folder.
+//
+// Output layout (DIR = the output folder):
+//   DIR/<instant>/depth/<camera>.tiff         first window size: z-depth along the
+//                                             reference optical axis, 32-bit float, mm,
+//                                             0 = invalid (io/depth_tiff.h; the same
+//                                             encoding as TAKE/truth/<instant>/depth/)
+//   DIR/<instant>/reliability/<camera>.tiff   32-bit float TIFF: cost curvature per
+//                                             sample at the minimum (grey^2 per level^2),
+//                                             0 = invalid
+//   DIR/<instant>/preview/<camera>.png        colour-mapped depth (io DepthPreview)
+// Each further window size N writes the same three files under depth-wN/,
+// reliability-wN/ and preview-wN/ (seed §5: each window's result is its own range
+// image for fusion).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "stereo/cluster.h"
+#include "stereo/multi_baseline.h"
+#include "take/take.h"
+
+namespace dome::stereo {
+
+struct TakeStereoOptions {
+  StereoOptions stereo;
+  ClusterOptions cluster;
+  bool write_previews = true;
+
+  void Check() const;
+};
+
+// The stereo input of one job: the reference camera's frame at `instant` and its
+// cluster's frames, read from the take (errors name the files).
+StereoInput LoadStereoInput(const take::Take& take, const std::string& instant,
+                            const std::string& camera_id, const ClusterOptions& cluster);
+
+// Writes one result under `out_dir` (layout above) and returns the depth paths written,
+// one per window size.
+std::vector<std::filesystem::path> WriteStereoResult(const StereoResult& result,
+                                                     const std::string& instant,
+                                                     const std::filesystem::path& out_dir,
+                                                     bool write_previews);
+
+// Runs every requested job: `camera_id` empty = every camera, `instant` empty = every
+// instant. Throws core::InputError naming the camera / instant / file at fault.
+std::vector<StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,
+                                        const std::string& camera_id, const std::string& instant,
+                                        const std::filesystem::path& out_dir,
+                                        const TakeStereoOptions& options);
+
+}  // namespace dome::stereo

@@ -1,0 +1,58 @@
+#include "stereo/cluster.h"
+
+#include <gtest/gtest.h>
+
+#include "stereo/stereo_test_util.h"
+#include "testing/expect_error.h"
+
+namespace dome::stereo {
+namespace {
+
+take::Rig LineRig(int n) {
+  take::Rig rig;
+  for (int i = 0; i < n; ++i) {
+    take::RigCamera c;
+    c.model = testing::PlaneCamera("c" + std::to_string(i), 100.0 * i, 0);
+    rig.cameras.push_back(c);
+  }
+  return rig;
+}
+
+TEST(ClusterTest, DerivedFromGeometryNearestFirst) {
+  const take::Rig rig = LineRig(6);
+  ClusterOptions opt;
+  opt.max_neighbours = 3;
+  const auto c = SelectCluster(rig, "c2", opt);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_TRUE((c[0] == 1 || c[0] == 3) && (c[1] == 1 || c[1] == 3) && c[0] != c[1]);
+  EXPECT_TRUE(c[2] == 0 || c[2] == 4);
+}
+
+TEST(ClusterTest, RigNeighboursWin) {
+  take::Rig rig = LineRig(4);
+  rig.cameras[0].neighbours = {"c3", "c2"};
+  const auto c = SelectCluster(rig, "c0", {});
+  EXPECT_EQ(c, (std::vector<int>{3, 2}));
+}
+
+TEST(ClusterTest, AxesFacingAwayAreNotNeighbours) {
+  take::Rig rig = LineRig(2);
+  // Turn c1 around (180 degrees about y): it looks the other way.
+  rig.cameras[1].model.rotation = Eigen::Vector3d(-1, 1, -1).asDiagonal();
+  dome::testing::ExpectInputError([&] { SelectCluster(rig, "c0", {}); },
+                                  {"cluster", "c0", "no neighbours"});
+}
+
+TEST(ClusterTest, BadInputs) {
+  dome::testing::ExpectInputError([&] { SelectCluster(LineRig(3), "c9", {}); },
+                                  {"--camera", "'c9'", "not in the rig"});
+  dome::testing::ExpectInputError([&] { SelectCluster(LineRig(1), "c0", {}); },
+                                  {"cluster", "one camera"});
+  ClusterOptions bad;
+  bad.max_neighbours = 0;
+  dome::testing::ExpectInputError([&] { SelectCluster(LineRig(3), "c0", bad); },
+                                  {"max_neighbours"});
+}
+
+}  // namespace
+}  // namespace dome::stereo

@@ -1,0 +1,132 @@
+#include "stereo/multi_baseline.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "stereo/stereo_test_util.h"
+#include "testing/expect_error.h"
+
+namespace dome::stereo {
+namespace {
+
+using testing::MakeTexture;
+using testing::PlaneCamera;
+using testing::RenderPlane;
+
+StereoInput PlaneInput(double plane_mm, bool textured) {
+  const cv::Mat texture = MakeTexture(1024, 7);
+  const double texel_mm = 12.0;  // about 1.2 px per texel at 2 m with f = 200 px
+  StereoInput in;
+  in.reference.camera = PlaneCamera("ref", 0, 0);
+  const std::vector<Eigen::Vector2d> offsets = {{120, 0}, {-120, 0}, {0, 90}, {0, -90}};
+  int k = 0;
+  for (const auto& o : offsets) {
+    StereoView v;
+    v.camera = PlaneCamera("n" + std::to_string(k++), o.x(), o.y());
+    in.neighbours.push_back(v);
+  }
+  auto render = [&](const geometry::TsaiCamera& c) {
+    return textured ? RenderPlane(c, plane_mm, texture, texel_mm)
+                    : cv::Mat(c.height_px, c.width_px, CV_8UC1, cv::Scalar(128));
+  };
+  in.reference.image = render(in.reference.camera);
+  for (auto& v : in.neighbours) v.image = render(v.camera);
+  return in;
+}
+
+void ExpectPlaneRecovered(double plane_mm, double median_tolerance, double max_tolerance) {
+  StereoOptions opt;
+  opt.window_sizes_px = {5, 9};
+  opt.num_threads = 2;
+  const StereoResult r = ComputeDepth(PlaneInput(plane_mm, true), opt);
+  // 200 px * 120 mm * (1/750 - 1/5000) = 27.2 px -> 29 levels.
+  EXPECT_EQ(r.num_levels, 29);
+  ASSERT_EQ(r.range_images.size(), 2u);
+  for (const auto& ri : r.range_images) {
+    // Interior pixels (every neighbour sees the window): exact to well under a level.
+    std::vector<double> errors;
+    int interior = 0;
+    for (int y = 25; y < 95; ++y) {
+      for (int x = 30; x < 130; ++x) {
+        ++interior;
+        const float d = ri.depth_mm.at<float>(y, x);
+        if (d > 0) errors.push_back(std::abs(d - plane_mm) / plane_mm);
+      }
+    }
+    ASSERT_GT(errors.size(), 0.95 * interior) << "window " << ri.window_px;
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    EXPECT_LT(errors[errors.size() / 2], median_tolerance) << "window " << ri.window_px;
+    const double max_err = *std::max_element(errors.begin(), errors.end());
+    EXPECT_LT(max_err, max_tolerance) << "window " << ri.window_px;
+    EXPECT_GT(ri.density, 0.5);
+  }
+}
+
+// A plane exactly on a depth level: the recovered depth is exact (the parabola is
+// symmetric there) up to the rendering's interpolation and 8-bit rounding: the
+// median error is under 1/30 of a level (3% of the depth per level here).
+TEST(MultiBaselineTest, RecoversFrontoParallelTexturedPlaneExactly) {
+  ExpectPlaneRecovered(LevelDepthMm(7, 29, 750, 5000), 1e-3, 5e-3);
+}
+
+// Between levels (0.4 of a level, about 3% in depth per level here), the parabola gets
+// to a fraction of a level: < 1% of the depth everywhere.
+TEST(MultiBaselineTest, RecoversFrontoParallelTexturedPlaneBetweenLevels) {
+  ExpectPlaneRecovered(2000.0, 0.006, 0.01);
+}
+
+TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {
+  StereoOptions opt;
+  opt.num_threads = 2;
+  const StereoResult r = ComputeDepth(PlaneInput(2000.0, false), opt);
+  ASSERT_EQ(r.range_images.size(), 1u);
+  EXPECT_EQ(cv::countNonZero(r.range_images[0].depth_mm), 0);
+  EXPECT_EQ(r.range_images[0].density, 0.0);
+}
+
+TEST(MultiBaselineTest, LevelCountFromGeometry) {
+  // Rectified pair: parallax f B (1/z_min - 1/z_max) = 200 * 300 * (1/750 - 1/5000)
+  // = 68 px exactly -> 69 levels at 1 px, 35 at 2 px; a 0.7 px step: ceil(97.14) + 1.
+  const auto ref = PlaneCamera("ref", 0, 0);
+  const auto nb = PlaneCamera("nb", 300, 0);
+  const double parallax = 200.0 * 300.0 * (1.0 / 750 - 1.0 / 5000);
+  EXPECT_NEAR(parallax, 68.0, 1e-9);
+  EXPECT_EQ(CountDepthLevels(ref, {nb}, 750, 5000, 1.0), 69);
+  EXPECT_EQ(CountDepthLevels(ref, {nb}, 750, 5000, 2.0), 35);
+  EXPECT_EQ(CountDepthLevels(ref, {nb}, 750, 5000, 0.7), int(std::ceil(parallax / 0.7)) + 1);
+  // The widest baseline decides.
+  const auto near_nb = PlaneCamera("near", 0, 100);
+  EXPECT_EQ(CountDepthLevels(ref, {near_nb, nb}, 750, 5000, 1.0), 69);
+  // Levels are uniform in inverse depth, level 0 at z_max.
+  EXPECT_DOUBLE_EQ(LevelDepthMm(0, 69, 750, 5000), 5000);
+  EXPECT_NEAR(LevelDepthMm(68, 69, 750, 5000), 750, 1e-9);
+  EXPECT_NEAR(1.0 / LevelDepthMm(34, 69, 750, 5000), 0.5 * (1.0 / 750 + 1.0 / 5000), 1e-15);
+}
+
+TEST(MultiBaselineTest, BadInputsGiveClearErrors) {
+  StereoOptions opt;
+  opt.z_min_mm = 3000;
+  opt.z_max_mm = 3000;
+  dome::testing::ExpectInputError([&] { opt.Check(); }, {"z_max_mm", "greater than z_min_mm"});
+  opt.z_max_mm = 1000;
+  dome::testing::ExpectInputError([&] { ComputeDepth(PlaneInput(2000, true), opt); },
+                                  {"z_max_mm"});
+  StereoOptions ok;
+  StereoInput lonely = PlaneInput(2000, true);
+  lonely.neighbours.clear();
+  dome::testing::ExpectInputError([&] { ComputeDepth(lonely, ok); },
+                                  {"cluster", "'ref'", "no neighbours"});
+  StereoOptions even;
+  even.window_sizes_px = {4};
+  dome::testing::ExpectInputError([&] { even.Check(); }, {"window_sizes_px", "odd"});
+  StereoInput wrong_size = PlaneInput(2000, true);
+  wrong_size.neighbours[1].image = cv::Mat(10, 10, CV_8UC1, cv::Scalar(0));
+  dome::testing::ExpectInputError([&] { ComputeDepth(wrong_size, ok); },
+                                  {"neighbour 'n1'", "160x120"});
+}
+
+}  // namespace
+}  // namespace dome::stereo
