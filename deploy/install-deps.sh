@@ -16,6 +16,7 @@ packages=(
   libtiff-dev
   libembree-dev
   python3-open3d python3-scipy python3-numpy
+  libmeshoptimizer-dev python3-skimage
 )
 
 missing=()

@@ -25,6 +25,8 @@ int RunDome(int argc, char** argv) {
   AddSynthCommand(&app, &exit_code);
   AddCalibrateCommand(&app, &exit_code);
   AddStereoCommand(&app, &exit_code);
+  AddFuseCommand(&app, &exit_code);
+  AddMeshCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

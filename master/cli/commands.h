@@ -13,5 +13,7 @@ void AddEvalCommand(CLI::App* app, int* exit_code);
 void AddSynthCommand(CLI::App* app, int* exit_code);
 void AddCalibrateCommand(CLI::App* app, int* exit_code);
 void AddStereoCommand(CLI::App* app, int* exit_code);
+void AddFuseCommand(CLI::App* app, int* exit_code);
+void AddMeshCommand(CLI::App* app, int* exit_code);
 
 }  // namespace dome::cli

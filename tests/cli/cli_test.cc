@@ -86,5 +86,34 @@ TEST(Cli, ImportMissingSceneFails) {
   EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
 }
 
+TEST(Cli, SynthBadOptionsNameTheFlag) {
+  const struct {
+    const char* args;
+    const char* message;
+  } cases[] = {
+      {"--preset huge --out /tmp/dome_never_written", "--preset: unknown preset 'huge'"},
+      {"--preset small --cameras 0 --out /tmp/dome_never_written", "--cameras: expected 1.."},
+      {"--preset small --width 0 --out /tmp/dome_never_written", "--width: expected an image width"},
+      {"--preset small --out /proc/dome_take", "/proc/dome_take: cannot create the take folder"},
+  };
+  for (const auto& c : cases) {
+    const Result r = RunDomeBinary(std::string("synth ") + c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.args << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
+}
+
+TEST(Cli, SynthSmallTakePassesInfo) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take";
+  const Result synth = RunDomeBinary("synth --preset small --instants 1 --out " + take.string());
+  ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  const Result info = RunDomeBinary("info " + take.string());
+  EXPECT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("rig: 6 camera(s), source synthetic"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("truth: 1 instant(s)"), std::string::npos) << info.output;
+}
+
 }  // namespace
 }  // namespace dome

@@ -1,0 +1,118 @@
+// Fusion of range images into a slab of voxel planes (seed §3 and §4.4; Curless &
+// Levoy, "A volumetric method for building complex models from range images",
+// SIGGRAPH 1996), with the seed's change to Curless-Levoy:
+//
+//  * Forward mapping (seed Figure 6): every voxel centre is projected into every
+//    range image with that camera's Tsai model (geometry/tsai_camera.h; pose world ->
+//    camera, camera z forward, distorted pixels with (0, 0) at the top-left pixel
+//    centre).
+//  * Tessellation rule (seed §3): each 2x2 pixel quad is split along its (x, y) ->
+//    (x+1, y+1) diagonal into two triangles; a triangle exists only when its three
+//    depths are valid (> 0) and differ by at most max_depth_jump_ratio of the nearest
+//    one. Depth is interpolated only inside an existing triangle (inverse depth is
+//    interpolated linearly in the image, which is exact for the planar 3D triangle
+//    through the three back-projected samples), never across a depth jump.
+//  * Signed distance along the camera's ray: d = (D - z) * |(x/z, y/z, 1)|, with z the
+//    voxel's camera depth and D the interpolated surface depth, both mm; d > 0 in
+//    front of the surface (free space).
+//  * Free space (seed §3, "we allow the algorithm to adjust all voxels in front of
+//    the surface"): every voxel in front of the surface is updated; d is clamped to
+//    front_clamp_mm so that one view cannot overwhelm the others. Voxels further than
+//    truncation_mm behind the surface are left untouched.
+//  * Weights: uniform (the seed: "we eliminated all weights") or a per-pixel
+//    reliability map interpolated like the depth.
+//  Accumulation (Curless-Levoy): W = sum w_c, D = sum w_c d_c / W, cameras in their
+//  given order; the arithmetic of one voxel depends only on its indices, so every
+//  slab partition and thread count gives bit-identical values.
+//
+// Range images: z-depth along the optical axis in mm, 0 = none (io/depth_tiff.h),
+// exactly the camera's width_px x height_px.
+#pragma once
+
+#include <functional>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "fusion/volume.h"
+#include "geometry/tsai_camera.h"
+
+namespace dome::fusion {
+
+struct FusionOptions {
+  // Voxels more than this far behind the observed surface (along the ray) are not
+  // updated, in mm. Curless-Levoy's ramp half-width; ~3 voxels.
+  double truncation_mm = 60.0;
+  // Largest contribution of one view in front of the surface (seed §3), in mm.
+  double front_clamp_mm = 60.0;
+  // Neighbouring pixels whose depths differ by more than this fraction of the nearer
+  // depth are not connected (no interpolation across the jump), dimensionless.
+  double max_depth_jump_ratio = 0.05;
+  // Voxels closer to a camera than this are not updated by it, in mm (camera z).
+  double min_depth_mm = 1.0;
+  // Threads over the blocks of a slab; <= 0: all hardware threads.
+  int num_threads = 0;
+  // Skip work with a conservative per-block test (8^3 voxel blocks against a min/max
+  // depth pyramid of each image): blocks wholly in clamped free space get the clamp
+  // without per-voxel sampling, blocks wholly far behind the surface or outside the
+  // image are skipped. The values are bit-identical with it off (tested).
+  bool block_culling = true;
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
+};
+
+struct RangeImage {
+  geometry::TsaiCamera camera;
+  cv::Mat depth_mm;  // CV_32FC1, camera.height_px x camera.width_px, 0 = invalid
+  cv::Mat weight;    // empty (uniform weight 1) or CV_32FC1 of the same size, >= 0
+  std::string where;  // names the source (file) in errors
+};
+
+// Throws core::InputError naming the image's `where` when the depth map is not
+// CV_32FC1 of its camera's size, holds a NaN, infinite or negative depth, or the weight
+// map does not match; and when the camera itself is invalid.
+void CheckRangeImage(const RangeImage& image);
+
+// Per-camera data precomputed once per instant (projection tables, frustum); reused
+// by every slab of that instant.
+class Integrator {
+ public:
+  // Checks `grid`, `options` and every image (above). The images are referenced, not
+  // copied: they must outlive the integrator.
+  Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& images,
+             const FusionOptions& options);
+  ~Integrator();
+  Integrator(const Integrator&) = delete;
+  Integrator& operator=(const Integrator&) = delete;
+
+  // Fuses every image into planes [k0, k1); throws core::InputError when the slab is
+  // not inside the volume. Memory: the slab (8 bytes per voxel) plus per-thread rows.
+  Slab IntegrateSlab(int k0, int k1) const;
+
+  const VolumeGrid& grid() const { return grid_; }
+
+  struct CameraTables;  // per-camera tables (integrate.cc)
+
+ private:
+  struct Scratch;
+  enum class BlockClass { kExact, kSkip, kFreeSpace };
+  BlockClass ClassifyBlock(const CameraTables& t, int i0, int i1, int j0, int j1, int k0,
+                           int k1) const;
+  // Adds camera t's contributions to voxels i in [i0, i1) of row (j, k).
+  void IntegrateSpan(const CameraTables& t, int j, int k, int i0, int i1, float* sum_wd,
+                     float* sum_w, Scratch* scratch) const;
+  void IntegrateBlockRow(int bj, int bk, int k0, int k1, Slab* slab, Scratch* scratch) const;
+
+  VolumeGrid grid_;
+  FusionOptions options_;
+  std::vector<CameraTables> cameras_;
+};
+
+// Convenience: fuses the whole volume in slabs of `planes_per_slab`, calling
+// `consume(slab)` for each in plane order (memory bounded by one slab).
+void FuseVolume(const VolumeGrid& grid, const std::vector<RangeImage>& images,
+                const FusionOptions& options, int planes_per_slab,
+                const std::function<void(const Slab&)>& consume);
+
+}  // namespace dome::fusion

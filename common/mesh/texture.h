@@ -1,0 +1,62 @@
+// Texture from the instant's images (seed §1/§4.5: "by reprojecting the intensity
+// images for that time instant onto the recovered model"): each surface point takes
+// the weighted mean colour of the cameras that see it, with
+//  * visibility: a depth test against the mesh itself rendered from that camera (a
+//    z-buffer at the camera's resolution; camera z in mm, Tsai projection with
+//    distortion, geometry/tsai_camera.h), so occluded cameras do not paint;
+//  * view-angle weighting: weight = cos(angle between the surface normal and the
+//    direction to the camera centre)^2, cameras below min_cos_angle ignored.
+// Outputs: per-vertex colours (io::Mesh::colors) and a texture atlas written as
+// OBJ + MTL + PNG (each triangle gets its own half-cell of a square grid of cells).
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "geometry/tsai_camera.h"
+#include "io/mesh.h"
+
+namespace dome::mesh {
+
+struct TextureView {
+  geometry::TsaiCamera camera;
+  cv::Mat image;  // CV_8UC1 or CV_8UC3 (BGR), camera.height_px x camera.width_px
+  std::string where;  // the image's file, for errors
+};
+
+struct TextureOptions {
+  // A point is visible from a camera when its camera depth is within this of the
+  // z-buffer's, in mm.
+  double depth_tolerance_mm = 30.0;
+  // Cameras seeing the surface more obliquely than this cosine do not contribute.
+  double min_cos_angle = 0.1;
+  // Edge of an atlas cell (two triangles per cell), in texels.
+  int atlas_cell_px = 8;
+  // Threads over cameras / texels; <= 0: all hardware threads.
+  int num_threads = 0;
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
+};
+
+// Throws core::InputError naming the view when the image does not match its camera.
+void CheckTextureView(const TextureView& view);
+
+// Sets mesh->colors (RGB); vertices no camera sees get grey 128.
+void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
+                   const TextureOptions& options);
+
+struct TexturedMesh {
+  io::Mesh mesh;                     // positions and faces
+  std::vector<Eigen::Vector2f> uv;   // 3 per face, OBJ convention (v up), in [0, 1]
+  cv::Mat atlas;                     // CV_8UC3 BGR
+};
+
+TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
+                               const TextureOptions& options);
+
+// Writes `obj_path` (.obj), the .mtl and the .png beside it (same stem), atomically.
+void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh& textured);
+
+}  // namespace dome::mesh

@@ -1,0 +1,280 @@
+#include "fusion/integrate.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "fusion/fusion_test_util.h"
+#include "fusion/volume.h"
+#include "testing/expect_error.h"
+
+namespace dome::fusion {
+namespace {
+
+using testing::ExpectInputError;
+
+// A camera at the origin looking along world +z (identity pose), no distortion.
+geometry::TsaiCamera AxisCamera(int w = 64, int h = 48) {
+  geometry::TsaiCamera cam;
+  cam.id = "axis";
+  cam.width_px = w;
+  cam.height_px = h;
+  cam.sensor = {double(w), double(w), 0.01, 0.01};
+  cam.focal_mm = 0.64;
+  cam.cx_px = 0.5 * (w - 1);
+  cam.cy_px = 0.5 * (h - 1);
+  return cam;
+}
+
+// A single-voxel grid whose voxel centre is `p`.
+VolumeGrid OneVoxel(const Eigen::Vector3d& p, double size = 1.0) {
+  VolumeGrid g;
+  g.voxel_size_mm = size;
+  g.nx = g.ny = g.nz = 1;
+  g.origin_mm = p - Eigen::Vector3d::Constant(0.5 * size);
+  return g;
+}
+
+RangeImage Flat(double depth, int w = 64, int h = 48) {
+  RangeImage image;
+  image.camera = AxisCamera(w, h);
+  image.depth_mm = cv::Mat(h, w, CV_32FC1, cv::Scalar(depth));
+  image.where = "flat.tiff";
+  return image;
+}
+
+Slab Fuse(const VolumeGrid& g, const std::vector<RangeImage>& images, FusionOptions o = {}) {
+  Integrator integrator(g, images, o);
+  return integrator.IntegrateSlab(0, g.nz);
+}
+
+// The point on the optical axis of AxisCamera at depth z has ray scale 1.
+TEST(Integrate, SignedDistanceAlongRayTruncationAndFreeSpaceClamp) {
+  FusionOptions o;
+  o.truncation_mm = 50;
+  o.front_clamp_mm = 40;
+  const std::vector<RangeImage> images = {Flat(1000)};
+  // In front, within the clamp: d = 1000 - 970.
+  Slab s = Fuse(OneVoxel({0, 0, 970}), images, o);
+  EXPECT_FLOAT_EQ(s.weight[0], 1.0f);
+  EXPECT_NEAR(s.distance_mm[0], 30.0f, 1e-3);
+  // Far in front (free space): updated, clamped to front_clamp_mm.
+  s = Fuse(OneVoxel({0, 0, 300}), images, o);
+  EXPECT_FLOAT_EQ(s.weight[0], 1.0f);
+  EXPECT_FLOAT_EQ(s.distance_mm[0], 40.0f);
+  // Behind within the truncation: negative.
+  s = Fuse(OneVoxel({0, 0, 1030}), images, o);
+  EXPECT_FLOAT_EQ(s.weight[0], 1.0f);
+  EXPECT_NEAR(s.distance_mm[0], -30.0f, 1e-3);
+  // Far behind: untouched.
+  s = Fuse(OneVoxel({0, 0, 1080}), images, o);
+  EXPECT_EQ(s.weight[0], 0.0f);
+  EXPECT_EQ(s.distance_mm[0], 0.0f);
+  // Off axis the distance is measured along the ray: (D - z) * |(x/z, y/z, 1)|.
+  const Eigen::Vector3d p(200, 0, 980);
+  s = Fuse(OneVoxel(p), images, o);
+  EXPECT_NEAR(s.distance_mm[0], 20.0 * std::sqrt(1 + std::pow(200.0 / 980, 2)), 2e-3);
+}
+
+TEST(Integrate, NoInterpolationAcrossDepthJump) {
+  RangeImage step = Flat(1000);
+  step.depth_mm.colRange(32, 64).setTo(2000);  // a jump between columns 31 and 32
+  const geometry::TsaiCamera& cam = step.camera;
+  // A voxel that projects between columns 31 and 32 (u = 31.5) is not updated.
+  const Eigen::Vector3d between = cam.BackProjectAtDepth(Eigen::Vector2d(31.5, 20.3), 900);
+  EXPECT_EQ(Fuse(OneVoxel(between), {step}).weight[0], 0.0f);
+  // Inside either flat part it is.
+  const Eigen::Vector3d left = cam.BackProjectAtDepth(Eigen::Vector2d(20.4, 20.3), 980);
+  Slab s = Fuse(OneVoxel(left), {step});
+  EXPECT_EQ(s.weight[0], 1.0f);
+  const Eigen::Vector3d right = cam.BackProjectAtDepth(Eigen::Vector2d(40.4, 20.3), 1980);
+  EXPECT_EQ(Fuse(OneVoxel(right), {step}).weight[0], 1.0f);
+  // An invalid pixel (0) breaks every triangle it touches.
+  RangeImage hole = Flat(1000);
+  hole.depth_mm.at<float>(20, 20) = 0;
+  EXPECT_EQ(Fuse(OneVoxel(cam.BackProjectAtDepth({20.2, 20.6}, 900)), {hole}).weight[0], 0.0f);
+  // Outside the image: not observed.
+  EXPECT_EQ(Fuse(OneVoxel({5000, 0, 900}), {Flat(1000)}).weight[0], 0.0f);
+  // Behind the camera: not observed.
+  EXPECT_EQ(Fuse(OneVoxel({0, 0, -900}), {Flat(1000)}).weight[0], 0.0f);
+}
+
+TEST(Integrate, WeightsAverageCameras) {
+  RangeImage a = Flat(1000), b = Flat(1040);
+  b.weight = cv::Mat(48, 64, CV_32FC1, cv::Scalar(3.0f));
+  const Slab s = Fuse(OneVoxel({0, 0, 1000}), {a, b});
+  EXPECT_FLOAT_EQ(s.weight[0], 4.0f);
+  EXPECT_NEAR(s.distance_mm[0], (0 * 1 + 40 * 3) / 4.0, 1e-3);
+}
+
+TEST(Integrate, SphereZeroCrossingIsTheSurface) {
+  const std::vector<testing::Sphere> spheres = {{Eigen::Vector3d(0, 0, 500), 200}};
+  const auto images = testing::RingImages(spheres, 8, 96, 72, {300, 500, 700});
+  VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = g.ny = g.nz = 60;
+  g.origin_mm = Eigen::Vector3d(-300, -300, 200);
+  const Slab s = Fuse(g, images);
+  // Along the x axis through the centre, the zero crossing is near x = +-200.
+  const int j = 30, k = 30;  // voxel centres at y = 5, z = 505
+  for (int i = 0; i + 1 < g.nx; ++i) {
+    const size_t idx = (size_t(k) * g.ny + j) * g.nx + i;
+    const float a = s.distance_mm[idx], b = s.distance_mm[idx + 1];
+    if (s.weight[idx] > 0 && s.weight[idx + 1] > 0 && (a < 0) != (b < 0)) {
+      const double x = g.VoxelCentreMm(i + a / (a - b), j, k).x();
+      EXPECT_NEAR(std::abs(x), std::sqrt(200.0 * 200 - 5 * 5 - 5 * 5), 3.0) << x;
+    }
+  }
+  // The centre is inside (negative, or beyond truncation: unobserved); the corner
+  // is free space seen by some camera.
+  const size_t centre = (size_t(30) * g.ny + 30) * g.nx + 30;
+  EXPECT_TRUE(s.weight[centre] == 0 || s.distance_mm[centre] < 0);
+  const size_t corner = (size_t(30) * g.ny + 0) * g.nx + 0;
+  EXPECT_GT(s.weight[corner], 0);
+  EXPECT_GT(s.distance_mm[corner], 0);
+}
+
+TEST(Integrate, AnySlabPartitionAndThreadCountIsBitIdentical) {
+  const auto images = testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
+  VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = g.ny = 32;
+  g.nz = 300;
+  g.origin_mm = Eigen::Vector3d(-160, -160, 0);
+  FusionOptions one_thread;
+  one_thread.num_threads = 1;
+  const Slab whole = Integrator(g, images, one_thread).IntegrateSlab(0, g.nz);
+  double weight_sum = 0;
+  for (float w : whole.weight) weight_sum += w;
+  EXPECT_GT(weight_sum, 0);
+  for (int threads : {1, 2, 3}) {
+    FusionOptions o;
+    o.num_threads = threads;
+    Integrator integrator(g, images, o);
+    for (int slabs : {1, 7, 300}) {
+      std::vector<float> d, w;
+      for (int s = 0; s < slabs; ++s) {
+        const int k0 = g.nz * s / slabs, k1 = g.nz * (s + 1) / slabs;
+        const Slab part = integrator.IntegrateSlab(k0, k1);
+        d.insert(d.end(), part.distance_mm.begin(), part.distance_mm.end());
+        w.insert(w.end(), part.weight.begin(), part.weight.end());
+      }
+      ASSERT_EQ(d.size(), whole.distance_mm.size());
+      EXPECT_EQ(std::memcmp(d.data(), whole.distance_mm.data(), d.size() * 4), 0)
+          << threads << " threads, " << slabs << " slabs";
+      EXPECT_EQ(std::memcmp(w.data(), whole.weight.data(), w.size() * 4), 0);
+    }
+  }
+}
+
+TEST(Integrate, SlabRoundTripsThroughBytes) {
+  Slab s;
+  s.k0 = 3;
+  s.k1 = 5;
+  s.nx = 2;
+  s.ny = 3;
+  for (int m = 0; m < 12; ++m) {
+    s.distance_mm.push_back(m * 0.5f - 2);
+    s.weight.push_back(float(m));
+  }
+  const Slab back = DecodeSlab(EncodeSlab(s), "slab.bin");
+  EXPECT_EQ(back.k0, 3);
+  EXPECT_EQ(back.k1, 5);
+  EXPECT_EQ(back.distance_mm, s.distance_mm);
+  EXPECT_EQ(back.weight, s.weight);
+  std::string bytes = EncodeSlab(s);
+  bytes.pop_back();
+  ExpectInputError([&] { DecodeSlab(bytes, "slab.bin"); }, {"slab.bin", "bytes"});
+  ExpectInputError([&] { DecodeSlab("garbage", "slab.bin"); }, {"slab.bin", "DOMESLAB"});
+}
+
+TEST(Integrate, BadInputGivesClearErrors) {
+  const VolumeGrid ok = OneVoxel({0, 0, 900});
+  // Depth map size not matching its camera.
+  RangeImage wrong = Flat(1000);
+  wrong.depth_mm = cv::Mat(40, 64, CV_32FC1, cv::Scalar(1000));
+  ExpectInputError([&] { Integrator(ok, {wrong}, {}); },
+                   {"flat.tiff", "64x40", "camera axis is 64x48"});
+  // NaN depth.
+  RangeImage nan = Flat(1000);
+  nan.depth_mm.at<float>(5, 7) = std::numeric_limits<float>::quiet_NaN();
+  ExpectInputError([&] { Integrator(ok, {nan}, {}); }, {"flat.tiff", "(7, 5)"});
+  // Negative depth.
+  RangeImage negative = Flat(1000);
+  negative.depth_mm.at<float>(1, 2) = -5;
+  ExpectInputError([&] { Integrator(ok, {negative}, {}); }, {"flat.tiff", "(2, 1)"});
+  // Weight map of the wrong size.
+  RangeImage weighted = Flat(1000);
+  weighted.weight = cv::Mat(3, 3, CV_32FC1, cv::Scalar(1));
+  ExpectInputError([&] { Integrator(ok, {weighted}, {}); }, {"flat.tiff: weight"});
+  // Volume with zero or negative size.
+  VolumeGrid zero = ok;
+  zero.nx = 0;
+  ExpectInputError([&] { Integrator(zero, {Flat(1000)}, {}); }, {"volume: nx", "positive"});
+  VolumeGrid negative_size = ok;
+  negative_size.nz = -3;
+  ExpectInputError([&] { Integrator(negative_size, {Flat(1000)}, {}); }, {"volume: nz"});
+  VolumeGrid no_voxel = ok;
+  no_voxel.voxel_size_mm = 0;
+  ExpectInputError([&] { Integrator(no_voxel, {Flat(1000)}, {}); }, {"volume: voxel_size_mm"});
+  VolumeGrid nan_origin = ok;
+  nan_origin.origin_mm.x() = std::nan("");
+  ExpectInputError([&] { Integrator(nan_origin, {Flat(1000)}, {}); }, {"volume: origin_mm"});
+  // Slab outside the volume.
+  Integrator integrator(ok, {Flat(1000)}, {});
+  ExpectInputError([&] { integrator.IntegrateSlab(0, 2); }, {"slab", "[0, 2)", "[0, 1)"});
+  ExpectInputError([&] { integrator.IntegrateSlab(-1, 1); }, {"slab", "[-1, 1)"});
+  ExpectInputError([&] { integrator.IntegrateSlab(1, 1); }, {"slab", "[1, 1)"});
+  // Options out of range.
+  FusionOptions bad;
+  bad.truncation_mm = 0;
+  ExpectInputError([&] { Integrator(ok, {Flat(1000)}, bad); }, {"fusion: truncation_mm"});
+  bad = {};
+  bad.max_depth_jump_ratio = std::nan("");
+  ExpectInputError([&] { Integrator(ok, {Flat(1000)}, bad); }, {"fusion: max_depth_jump_ratio"});
+  ExpectInputError([&] { FuseVolume(ok, {Flat(1000)}, {}, 0, [](const Slab&) {}); },
+                   {"planes_per_slab"});
+}
+
+}  // namespace
+}  // namespace dome::fusion
+
+namespace dome::fusion {
+namespace {
+
+// Block culling is a pure shortcut: with it off every voxel takes the per-voxel path.
+TEST(Integrate, BlockCullingChangesNothing) {
+  const std::vector<RangeImage> images = testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
+  // A backdrop: every pixel has a surface (a far wall), so free space is everywhere.
+  std::vector<RangeImage> walled = images;
+  for (auto& im : walled) {
+    for (int y = 0; y < im.depth_mm.rows; ++y)
+      for (int x = 0; x < im.depth_mm.cols; ++x)
+        if (im.depth_mm.at<float>(y, x) == 0) im.depth_mm.at<float>(y, x) = 2900.0f + x;
+  }
+  VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = 45;
+  g.ny = 37;
+  g.nz = 300;
+  g.origin_mm = Eigen::Vector3d(-230, -190, 0);
+  for (const std::vector<RangeImage>* set : {&images, const_cast<const std::vector<RangeImage>*>(&walled)}) {
+    FusionOptions on, off;
+    off.block_culling = false;
+    const Slab a = Integrator(g, *set, on).IntegrateSlab(0, g.nz);
+    const Slab b = Integrator(g, *set, off).IntegrateSlab(0, g.nz);
+    EXPECT_EQ(std::memcmp(a.distance_mm.data(), b.distance_mm.data(), a.distance_mm.size() * 4), 0);
+    EXPECT_EQ(std::memcmp(a.weight.data(), b.weight.data(), a.weight.size() * 4), 0);
+    // And slabs that cut blocks (7 planes) agree too.
+    Integrator integrator(g, *set, on);
+    const Slab part = integrator.IntegrateSlab(13, 20);
+    EXPECT_EQ(std::memcmp(part.distance_mm.data(), a.distance_mm.data() + size_t(13) * 45 * 37,
+                          part.distance_mm.size() * 4),
+              0);
+  }
+}
+
+}  // namespace
+}  // namespace dome::fusion

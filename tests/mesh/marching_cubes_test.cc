@@ -1,0 +1,125 @@
+#include "mesh/marching_cubes.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <set>
+
+#include "fusion/fusion_test_util.h"
+#include "fusion/integrate.h"
+#include "io/ply.h"
+#include "mesh/mesh_test_util.h"
+#include "testing/expect_error.h"
+
+namespace dome::mesh {
+namespace {
+
+double SignedVolume(const io::Mesh& m) {
+  double v = 0;
+  for (const auto& f : m.faces) {
+    v += m.vertices[f[0]].cast<double>().dot(
+             m.vertices[f[1]].cast<double>().cross(m.vertices[f[2]].cast<double>())) /
+         6.0;
+  }
+  return v;
+}
+
+TEST(MarchingCubes, SphereIsClosedOrientedAndAccurate) {
+  const auto v = testing::SphereVolume(40, 12.0);
+  const io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+  ASSERT_GT(m.faces.size(), 1000u);
+  EXPECT_EQ(m.Inconsistency(), "");
+  const MeshTopology t = AnalyzeTopology(m);
+  EXPECT_EQ(t.boundary_edges, 0);
+  EXPECT_EQ(t.non_manifold_edges, 0);
+  EXPECT_EQ(t.inconsistent_edges, 0);
+  // Euler characteristic of a sphere: V - E + F = 2.
+  EXPECT_EQ(int64_t(m.vertices.size()) - t.edges + int64_t(m.faces.size()), 2);
+  const double r = 24.0;  // mm
+  EXPECT_NEAR(SurfaceAreaMm2(m), 4 * M_PI * r * r, 0.01 * 4 * M_PI * r * r);
+  // Counter-clockwise from outside: positive enclosed volume.
+  EXPECT_NEAR(SignedVolume(m), 4.0 / 3 * M_PI * r * r * r, 0.01 * 4.0 / 3 * M_PI * r * r * r);
+  const Eigen::Vector3d c(0.173, -0.291, 0.117);
+  for (const auto& p : m.vertices) EXPECT_NEAR((p.cast<double>() - c).norm(), r, 0.05);
+}
+
+TEST(MarchingCubes, EveryCaseIsWatertight) {
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    const auto v = testing::RandomVolume(16, seed);
+    const io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+    const MeshTopology t = AnalyzeTopology(m);
+    EXPECT_EQ(t.boundary_edges, 0) << seed;
+    EXPECT_EQ(t.non_manifold_edges, 0) << seed;
+    EXPECT_EQ(t.inconsistent_edges, 0) << seed;
+  }
+}
+
+TEST(MarchingCubes, UnobservedCellsAreSkipped) {
+  auto v = testing::SphereVolume(30, 8.0);
+  const size_t full = MarchingCubes(v.grid, v.distance, v.weight).faces.size();
+  // Unobserve the half x < 0: the surface there disappears and leaves a boundary.
+  for (int k = 0; k < 30; ++k)
+    for (int j = 0; j < 30; ++j)
+      for (int i = 0; i < 15; ++i) v.weight[(size_t(k) * 30 + j) * 30 + i] = 0;
+  const io::Mesh half = MarchingCubes(v.grid, v.distance, v.weight);
+  EXPECT_LT(half.faces.size(), full * 0.6);
+  EXPECT_GT(half.faces.size(), full * 0.4);
+  EXPECT_GT(AnalyzeTopology(half).boundary_edges, 0);
+  for (const auto& p : half.vertices) EXPECT_GT(p.x(), -1.0f);
+}
+
+// Slab invariance end to end: fusion in 1, 7 and 300 slabs, streamed into marching
+// cubes, gives byte-identical PLY files.
+TEST(MarchingCubes, OneSevenAndThreeHundredSlabsGiveIdenticalMeshes) {
+  const auto images =
+      testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
+  fusion::VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = g.ny = 32;
+  g.nz = 300;
+  g.origin_mm = Eigen::Vector3d(-160, -160, 0);
+  fusion::FusionOptions o;
+  o.num_threads = 2;
+  fusion::Integrator integrator(g, images, o);
+  std::string reference;
+  for (int slabs : {1, 7, 300}) {
+    StreamingMarchingCubes mc(g);
+    for (int s = 0; s < slabs; ++s) {
+      mc.AddSlab(integrator.IntegrateSlab(g.nz * s / slabs, g.nz * (s + 1) / slabs));
+    }
+    const io::Mesh m = mc.Finish();
+    ASSERT_GT(m.faces.size(), 500u);
+    // Six spheres, each closed (the volume's x/y sides cut nothing: radius 110 < 160).
+    const MeshTopology t = AnalyzeTopology(m);
+    EXPECT_EQ(t.non_manifold_edges, 0);
+    EXPECT_EQ(t.inconsistent_edges, 0);
+    const std::string bytes = io::EncodePly(m);
+    if (reference.empty()) {
+      reference = bytes;
+    } else {
+      EXPECT_EQ(bytes, reference) << slabs << " slabs";
+    }
+  }
+}
+
+TEST(MarchingCubes, PlanesOutOfOrderAreRejected) {
+  const auto v = testing::SphereVolume(10, 3.0);
+  StreamingMarchingCubes mc(v.grid);
+  fusion::Slab slab;
+  slab.k0 = 1;
+  slab.k1 = 2;
+  slab.nx = slab.ny = 10;
+  slab.distance_mm.assign(100, 1.0f);
+  slab.weight.assign(100, 1.0f);
+  testing::ExpectInputError([&] { mc.AddSlab(slab); }, {"plane 1", "plane 0 was expected"});
+  slab.nx = 9;
+  testing::ExpectInputError([&] { mc.AddSlab(slab); }, {"9x10", "10x10"});
+  fusion::VolumeGrid bad = v.grid;
+  bad.ny = 0;
+  testing::ExpectInputError([&] { StreamingMarchingCubes x(bad); }, {"volume: ny"});
+}
+
+}  // namespace
+}  // namespace dome::mesh
