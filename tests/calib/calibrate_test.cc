@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include "calib/detect.h"
 #include "calib/target.h"
@@ -17,6 +18,7 @@
 #include "synth/synth.h"
 #include "take/rig.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::calib {
 namespace {
@@ -25,8 +27,11 @@ namespace fs = std::filesystem;
 
 class SmallTake : public ::testing::Test {
  protected:
+  // ctest runs each test in its own process, several at once: every process renders
+  // its own take into its own folder.
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / "dome_calib_small_take";
+    tmp_ = std::make_unique<dome::testing::TempDir>();
+    dir_ = tmp_->path() / "take";
     synth::SynthOptions options;
     // The small preset's 160 x 120 images make its dots 1-2 px across, below what a
     // blob detector can place to 0.1 px: the same 6 cameras at 320 x 240.
@@ -40,15 +45,18 @@ class SmallTake : public ::testing::Test {
   }
   // A copy of the take's rig and calib/ to break.
   static fs::path Copy(const std::string& name) {
-    const fs::path out = fs::temp_directory_path() / ("dome_calib_broken_" + name);
+    const fs::path out = tmp_->path() / ("broken_" + name);
     fs::remove_all(out);
     fs::create_directories(out);
     fs::copy(dir_ / "calib", out / "calib", fs::copy_options::recursive);
     fs::copy(dir_ / "rig.json", out / "rig.json");
     return out;
   }
+  static void TearDownTestSuite() { tmp_.reset(); }
+  static std::unique_ptr<dome::testing::TempDir> tmp_;
   static fs::path dir_;
 };
+std::unique_ptr<dome::testing::TempDir> SmallTake::tmp_;
 fs::path SmallTake::dir_;
 
 TEST_F(SmallTake, DetectsDotsWhereTheRendererPutThem) {
@@ -83,7 +91,7 @@ TEST_F(SmallTake, CalibratedRigProjectsTheMeshLikeTheTrueRig) {
   const CalibrationResult result = CalibrateTake(dir_, truth, options);
   ASSERT_EQ(result.rig.cameras.size(), truth.cameras.size());
   // Written and read back, as `dome calibrate` does.
-  const fs::path rig_path = fs::temp_directory_path() / "dome_calib_small_rig.json";
+  const fs::path rig_path = tmp_->path() / "calibrated_rig.json";
   take::WriteRig(result.rig, rig_path);
   const take::Rig calibrated = take::ReadRig(rig_path);
   const io::Mesh mesh = io::ReadPly(dir_ / "truth" / synth::InstantName(0) / "mesh.ply");
@@ -102,8 +110,9 @@ TEST_F(SmallTake, CalibratedRigProjectsTheMeshLikeTheTrueRig) {
   ASSERT_GT(diffs.size(), 1000u);
   std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
   EXPECT_LT(diffs[diffs.size() / 2], 0.3) << result.BriefReport();
-  std::printf("mesh projections, calibrated vs true rig: median %.4f px over %zu (camera, vertex)\n",
-              diffs[diffs.size() / 2], diffs.size());
+  std::printf(
+      "mesh projections, calibrated vs true rig: median %.4f px over %zu (camera, vertex)\n",
+      diffs[diffs.size() / 2], diffs.size());
   const std::string json = result.ReportJson();
   EXPECT_NE(json.find("\"worst_points\""), std::string::npos);
   EXPECT_NE(json.find("\"sigma\""), std::string::npos);
@@ -121,7 +130,8 @@ TEST_F(SmallTake, MissingViewFile) {
   const fs::path take = Copy("view");
   fs::remove(take / "calib" / "stage2" / "c01.json");
   const take::Rig rig = take::ReadRig(take / "rig.json");
-  testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); }, {"stage2/c01.json", "does not exist"});
+  testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); },
+                            {"stage2/c01.json", "does not exist"});
 }
 
 TEST_F(SmallTake, CameraThatSeesTooFewFloorMarks) {
@@ -147,8 +157,9 @@ TEST_F(SmallTake, CameraThatSeesTooFewFloorMarks) {
   original(keep).copyTo(gray(keep));
   io::WriteImage(image, gray);
   const take::Rig rig = take::ReadRig(take / "rig.json");
-  testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); },
-                            {"stage2/c03.json", "camera c03 sees", "floor marks; stage 2 needs at least 6"});
+  testing::ExpectInputError(
+      [&] { CalibrateTake(take, rig, {}); },
+      {"stage2/c03.json", "camera c03 sees", "floor marks; stage 2 needs at least 6"});
 }
 
 TEST_F(SmallTake, StoredPointsWithUnknownIdOrTooFew) {

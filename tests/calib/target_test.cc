@@ -1,6 +1,7 @@
 #include "calib/target.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -13,15 +14,14 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("dome_calib_target_" + name);
+  const fs::path dir =
+      fs::temp_directory_path() / ("dome_calib_target_" + std::to_string(::getpid()) + "_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
 }
 
-void Write(const fs::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+void Write(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
 
 std::string GridTargetJson(int n, double pitch, const std::string& extra_point = "") {
   std::string s = R"({"format_version": 1, "frame": "world", "marker_radius_mm": 45,
@@ -57,7 +57,8 @@ TEST(Target, NanCoordinateIsAnError) {
 
 TEST(Target, DuplicateIdIsAnError) {
   const fs::path dir = TempDir("dup");
-  Write(dir / "target.json", GridTargetJson(3, 100, R"(,{"id": 4, "x_mm": 5, "y_mm": 0, "z_mm": 0})"));
+  Write(dir / "target.json",
+        GridTargetJson(3, 100, R"(,{"id": 4, "x_mm": 5, "y_mm": 0, "z_mm": 0})"));
   testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); },
                             {"target.json", "points[9].id", "duplicate id 4"});
 }
@@ -71,7 +72,8 @@ TEST(Target, UnknownFieldAndMissingFile) {
 
 TEST(Target, NotAGridIsAnError) {
   const fs::path dir = TempDir("nogrid");
-  Write(dir / "target.json", R"({"format_version": 1, "marker_radius_mm": 1, "key_marker_radius_mm": 2,
+  Write(dir / "target.json",
+        R"({"format_version": 1, "marker_radius_mm": 1, "key_marker_radius_mm": 2,
       "points": [{"id": 0, "x_mm": 0}, {"id": 1, "x_mm": 7}, {"id": 2, "y_mm": 3}]})");
   const Target t = ReadTarget(dir / "target.json");
   testing::ExpectInputError([&] { InferGridLayout(t); }, {"target.json", "grids"});

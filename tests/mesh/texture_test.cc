@@ -9,6 +9,7 @@
 #include "mesh/marching_cubes.h"
 #include "mesh/mesh_test_util.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::mesh {
 namespace {
@@ -40,21 +41,20 @@ TEST(Texture, VisibleVerticesTakeTheImageColourOccludedOnesDoNot) {
   // The atlas writes an OBJ, an MTL and a PNG that reads back.
   const TexturedMesh t = BuildTextureAtlas(m, {view}, o);
   EXPECT_EQ(t.uv.size(), 3 * m.faces.size());
-  const auto dir = std::filesystem::temp_directory_path() / "dome_texture_test";
-  std::filesystem::create_directories(dir);
+  const dome::testing::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
   WriteTexturedObj(dir / "mesh.obj", t);
   EXPECT_TRUE(std::filesystem::exists(dir / "mesh.mtl"));
   const cv::Mat atlas = io::ReadImage(dir / "mesh.png", io::ImageMode::kBgr8);
   EXPECT_EQ(atlas.size(), t.atlas.size());
-  std::filesystem::remove_all(dir);
 }
 
 TEST(Texture, ImageSizeMustMatchItsCamera) {
   const auto v = testing::SphereVolume(10, 3.0);
   io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
   TextureView view;
-  view.camera = testing::LookAtCamera("c0", Eigen::Vector3d(400, 0, 0), Eigen::Vector3d::Zero(),
-                                      160, 120);
+  view.camera =
+      testing::LookAtCamera("c0", Eigen::Vector3d(400, 0, 0), Eigen::Vector3d::Zero(), 160, 120);
   view.image = cv::Mat(100, 160, CV_8UC3);
   view.where = "frames/x/c0.png";
   testing::ExpectInputError([&] { ColorVertices(&m, {view}, {}); },
