@@ -109,8 +109,7 @@ std::vector<std::string> SplitLines(std::string_view text) {
   return lines;
 }
 
-Eigen::Matrix3d RequireNearRotation(const Eigen::Matrix3d& rotation, double tolerance,
-                                    const std::string& where) {
+void RequireRotation(const Eigen::Matrix3d& rotation, double tolerance, const std::string& where) {
   core::Require(rotation.allFinite(), where, "rotation has a non-finite entry");
   const double orthonormality =
       (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
@@ -121,6 +120,11 @@ Eigen::Matrix3d RequireNearRotation(const Eigen::Matrix3d& rotation, double tole
   core::Require(std::abs(det - 1.0) <= tolerance, where,
                 "rotation has determinant " + FormatDouble(det) +
                     ", expected +1 (a reflection or a camera->world/world->camera mix-up?)");
+}
+
+Eigen::Matrix3d RequireNearRotation(const Eigen::Matrix3d& rotation, double tolerance,
+                                    const std::string& where) {
+  RequireRotation(rotation, tolerance, where);
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rotation, Eigen::ComputeFullU | Eigen::ComputeFullV);
   return svd.matrixU() * svd.matrixV().transpose();
 }

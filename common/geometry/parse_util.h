@@ -31,6 +31,10 @@ std::vector<std::string> SplitWhitespace(std::string_view text);
 // Splits into lines at '\n', dropping a trailing '\r' from each line.
 std::vector<std::string> SplitLines(std::string_view text);
 
+// Requires `rotation` to be orthonormal with determinant +1 to `tolerance` (max
+// |(R R^T - I)_ij| and |det - 1|); InputError naming `where` otherwise.
+void RequireRotation(const Eigen::Matrix3d& rotation, double tolerance, const std::string& where);
+
 // Rotation read from a file, printed with a limited number of digits: require it to be
 // orthonormal with determinant +1 to `tolerance` (max |(R R^T - I)_ij| and |det - 1|),
 // naming `where`, then return the nearest rotation (SVD projection) so that downstream

@@ -81,14 +81,7 @@ void PinholeCamera::Check(const std::string& where) const {
                 "must be 1, got " + FormatDouble(K(2, 2)));
   core::Require(std::isfinite(k1), Field(where, "k1"), "must be finite, got " + FormatDouble(k1));
   core::Require(std::isfinite(k2), Field(where, "k2"), "must be finite, got " + FormatDouble(k2));
-  const double orthonormality =
-      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  core::Require(orthonormality <= 1e-6, Field(where, "rotation"),
-                "must be orthonormal to 1e-6, max |R R^T - I| = " + FormatDouble(orthonormality));
-  const double det = rotation.determinant();
-  core::Require(
-      std::abs(det - 1.0) <= 1e-6, Field(where, "rotation"),
-      "must have determinant +1 (a rotation, not a reflection), got " + FormatDouble(det));
+  internal::RequireRotation(rotation, 1e-6, Field(where, "rotation"));
 }
 
 void PinholeConversionOptions::Check() const {

@@ -49,14 +49,7 @@ void TsaiCamera::Check(const std::string& where) const {
                     "rotation(" + std::to_string(i) + "," + std::to_string(j) + ")");
     }
   }
-  const double orthonormality =
-      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  core::Require(orthonormality <= 1e-6, Field(where, "rotation"),
-                "must be orthonormal to 1e-6, max |R R^T - I| = " + FormatDouble(orthonormality));
-  const double det = rotation.determinant();
-  core::Require(
-      std::abs(det - 1.0) <= 1e-6, Field(where, "rotation"),
-      "must have determinant +1 (a rotation, not a reflection), got " + FormatDouble(det));
+  internal::RequireRotation(rotation, 1e-6, Field(where, "rotation"));
 }
 
 Eigen::Vector3d TsaiCamera::CentreWorld() const { return -(rotation.transpose() * translation_mm); }
