@@ -13,10 +13,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <opencv2/calib3d.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/calib3d.hpp>
 
 #include "calib/detect.h"
 #include "calib/tsai_calibration.h"
@@ -50,8 +49,8 @@ int main(int argc, char** argv) {
       corners.push_back(c);
       names.push_back(name);
     }
-    std::printf("%zu images with all %d x %d corners found\n", corners.size(), board.inner_corners_x,
-                board.inner_corners_y);
+    std::printf("%zu images with all %d x %d corners found\n", corners.size(),
+                board.inner_corners_x, board.inner_corners_y);
     if (corners.size() < 3) return 1;
 
     // OpenCV
@@ -61,7 +60,8 @@ int main(int argc, char** argv) {
       std::vector<cv::Point3f> o;
       std::vector<cv::Point2f> im;
       for (size_t k = 0; k < c.size(); ++k) {
-        o.emplace_back(static_cast<float>(k % board.inner_corners_x), static_cast<float>(k / board.inner_corners_x), 0.f);
+        o.emplace_back(static_cast<float>(k % board.inner_corners_x),
+                       static_cast<float>(k / board.inner_corners_x), 0.f);
         im.emplace_back(static_cast<float>(c[k].x()), static_cast<float>(c[k].y()));
       }
       object.push_back(o);
@@ -69,9 +69,9 @@ int main(int argc, char** argv) {
     }
     cv::Mat k_cv, dist_cv;
     std::vector<cv::Mat> rvecs, tvecs;
-    const double rms_cv = cv::calibrateCamera(
-        object, image, size, k_cv, dist_cv, rvecs, tvecs,
-        cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST);
+    const double rms_cv =
+        cv::calibrateCamera(object, image, size, k_cv, dist_cv, rvecs, tvecs,
+                            cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST);
 
     // Tsai
     dome::geometry::TsaiCamera cam;
@@ -115,16 +115,21 @@ int main(int argc, char** argv) {
                 100 * (s.final_rms_px / rms_cv - 1));
     const double fx_cv = k_cv.at<double>(0, 0), fy_cv = k_cv.at<double>(1, 1);
     const double cx_cv = k_cv.at<double>(0, 2), cy_cv = k_cv.at<double>(1, 2);
-    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "fx (px)", k(0, 0), fx_cv, 100 * (k(0, 0) / fx_cv - 1));
-    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "fy (px)", k(1, 1), fy_cv, 100 * (k(1, 1) / fy_cv - 1));
-    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "cx (px)", k(0, 2), cx_cv, 100 * (k(0, 2) - cx_cv) / cx_cv);
-    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "cy (px)", k(1, 2), cy_cv, 100 * (k(1, 2) - cy_cv) / cy_cv);
+    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "fx (px)", k(0, 0), fx_cv,
+                100 * (k(0, 0) / fx_cv - 1));
+    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "fy (px)", k(1, 1), fy_cv,
+                100 * (k(1, 1) / fy_cv - 1));
+    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "cx (px)", k(0, 2), cx_cv,
+                100 * (k(0, 2) - cx_cv) / cx_cv);
+    std::printf("%-28s %12.2f %12.2f %9.2f%%\n", "cy (px)", k(1, 2), cy_cv,
+                100 * (k(1, 2) - cy_cv) / cy_cv);
     std::printf("%-28s %12.4g %12.4g\n", "distortion", cam.kappa1_per_mm2, dist_cv.at<double>(0));
-    std::printf("  (Tsai kappa1 in 1/mm^2, distorted -> undistorted, dpx = 0.01 mm;\n"
-                "   OpenCV k1 on normalised coordinates, undistorted -> distorted)\n");
-    std::printf("Tsai sigma: f %.4g mm (%.3f%%), cx %.3f px, cy %.3f px, sx %.2e; %s\n", s.sigma.focal_mm,
-                100 * s.sigma.focal_mm / cam.focal_mm, s.sigma.cx_px, s.sigma.cy_px, s.sigma.sx,
-                s.BriefReport().c_str());
+    std::printf(
+        "  (Tsai kappa1 in 1/mm^2, distorted -> undistorted, dpx = 0.01 mm;\n"
+        "   OpenCV k1 on normalised coordinates, undistorted -> distorted)\n");
+    std::printf("Tsai sigma: f %.4g mm (%.3f%%), cx %.3f px, cy %.3f px, sx %.2e; %s\n",
+                s.sigma.focal_mm, 100 * s.sigma.focal_mm / cam.focal_mm, s.sigma.cx_px,
+                s.sigma.cy_px, s.sigma.sx, s.BriefReport().c_str());
     return 0;
   } catch (const dome::core::InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -7,14 +7,13 @@
 // Prints, over the cameras: relative focal error, image-centre error (px), relative
 // kappa1 error, camera-centre error (mm), rotation error (deg), RMS reprojection (px):
 // median, 90th percentile and max.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "calib/calibrate.h"
 #include "core/error.h"
@@ -24,8 +23,11 @@ namespace {
 
 void Row(const char* name, std::vector<double> v, const char* unit) {
   std::sort(v.begin(), v.end());
-  auto q = [&](double f) { return v[std::min(v.size() - 1, static_cast<size_t>(f * (v.size() - 1) + 0.5))]; };
-  std::printf("%-22s median %-10.4g p90 %-10.4g max %-10.4g %s\n", name, q(0.5), q(0.9), v.back(), unit);
+  auto q = [&](double f) {
+    return v[std::min(v.size() - 1, static_cast<size_t>(f * (v.size() - 1) + 0.5))];
+  };
+  std::printf("%-22s median %-10.4g p90 %-10.4g max %-10.4g %s\n", name, q(0.5), q(0.9), v.back(),
+              unit);
 }
 
 }  // namespace
@@ -66,7 +68,9 @@ int main(int argc, char** argv) {
         const auto& sg = result.cameras[i].sigma;
         fsig.push_back(sg.focal_mm / t.focal_mm * 100);
         ksig.push_back(sg.kappa1_per_mm2 / std::abs(t.kappa1_per_mm2) * 100);
-        kz.push_back(sg.kappa1_per_mm2 > 0 ? std::abs(e.kappa1_per_mm2 - t.kappa1_per_mm2) / sg.kappa1_per_mm2 : 0);
+        kz.push_back(sg.kappa1_per_mm2 > 0
+                         ? std::abs(e.kappa1_per_mm2 - t.kappa1_per_mm2) / sg.kappa1_per_mm2
+                         : 0);
       }
       if (f.empty()) continue;
       std::printf("\nagainst the true rig, over %zu cameras (%d %s excluded):\n", f.size(), skipped,

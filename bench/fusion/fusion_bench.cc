@@ -39,11 +39,16 @@ int main(int argc, char** argv) {
   double noise = 10.0, voxel = 20.0;
   for (int a = 4; a + 1 < argc; a += 2) {
     const std::string k = argv[a];
-    if (k == "--threads") threads = std::atoi(argv[a + 1]);
-    else if (k == "--noise-mm") noise = std::atof(argv[a + 1]);
-    else if (k == "--voxel-mm") voxel = std::atof(argv[a + 1]);
-    else if (k == "--slab-planes") slab_planes = std::atoi(argv[a + 1]);
-    else if (k == "--repeat") repeat = std::atoi(argv[a + 1]);
+    if (k == "--threads")
+      threads = std::atoi(argv[a + 1]);
+    else if (k == "--noise-mm")
+      noise = std::atof(argv[a + 1]);
+    else if (k == "--voxel-mm")
+      voxel = std::atof(argv[a + 1]);
+    else if (k == "--slab-planes")
+      slab_planes = std::atoi(argv[a + 1]);
+    else if (k == "--repeat")
+      repeat = std::atoi(argv[a + 1]);
   }
   try {
     const take::Take take = take::OpenTake(argv[1]);
@@ -59,16 +64,17 @@ int main(int argc, char** argv) {
                                           im.depth_mm.total() * 4));
       const Eigen::Matrix3d K = im.camera.K();
       char buf[1024];
-      std::snprintf(buf, sizeof buf,
-                    "%s{\"id\": \"%s\", \"width\": %d, \"height\": %d, \"fx\": %.17g, \"fy\": %.17g, "
-                    "\"cx\": %.17g, \"cy\": %.17g, \"R\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g, "
-                    "%.17g, %.17g, %.17g], \"t\": [%.17g, %.17g, %.17g]}",
-                    cams.size() > 1 ? ", " : "", im.camera.id.c_str(), im.camera.width_px,
-                    im.camera.height_px, K(0, 0), K(1, 1), K(0, 2), K(1, 2), im.camera.rotation(0, 0),
-                    im.camera.rotation(0, 1), im.camera.rotation(0, 2), im.camera.rotation(1, 0),
-                    im.camera.rotation(1, 1), im.camera.rotation(1, 2), im.camera.rotation(2, 0),
-                    im.camera.rotation(2, 1), im.camera.rotation(2, 2), im.camera.translation_mm.x(),
-                    im.camera.translation_mm.y(), im.camera.translation_mm.z());
+      std::snprintf(
+          buf, sizeof buf,
+          "%s{\"id\": \"%s\", \"width\": %d, \"height\": %d, \"fx\": %.17g, \"fy\": %.17g, "
+          "\"cx\": %.17g, \"cy\": %.17g, \"R\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g, "
+          "%.17g, %.17g, %.17g], \"t\": [%.17g, %.17g, %.17g]}",
+          cams.size() > 1 ? ", " : "", im.camera.id.c_str(), im.camera.width_px,
+          im.camera.height_px, K(0, 0), K(1, 1), K(0, 2), K(1, 2), im.camera.rotation(0, 0),
+          im.camera.rotation(0, 1), im.camera.rotation(0, 2), im.camera.rotation(1, 0),
+          im.camera.rotation(1, 1), im.camera.rotation(1, 2), im.camera.rotation(2, 0),
+          im.camera.rotation(2, 1), im.camera.rotation(2, 2), im.camera.translation_mm.x(),
+          im.camera.translation_mm.y(), im.camera.translation_mm.z());
       cams += buf;
     }
     io::WriteFileAtomically(out / "cameras.json", cams + "]\n");

@@ -11,9 +11,9 @@
 //       aloeGT.png): bad-pixel rates (> 1 px, > 2 px) over ground-truth pixels given a
 //       value, and density, for dome's stereo, OpenCV StereoBM and StereoSGBM.
 //
-// Textured surface: truth has a surface inside the searched range z_min..z_max and the reference image's 7x7 grey standard
-// deviation is at least 4 grey levels. Discontinuity: a truth pixel whose 4-neighbour
-// is nearer by more than 5% (or has a surface where it has none). Fattening: pixels on
+// Textured surface: truth has a surface inside the searched range z_min..z_max and the reference
+// image's 7x7 grey standard deviation is at least 4 grey levels. Discontinuity: a truth pixel whose
+// 4-neighbour is nearer by more than 5% (or has a surface where it has none). Fattening: pixels on
 // the far side within 10 px of a discontinuity that get a depth nearer than the truth
 // by more than 5%, per discontinuity pixel (so: a width in pixels). Thinning: pixels
 // on the near side within 10 px whose estimate is farther than the truth by more than
@@ -114,8 +114,10 @@ SynthScore ScoreSynth(const cv::Mat& est, const cv::Mat& truth, const cv::Mat& r
   for (int y = 0; y < H; ++y) {
     for (int x = 0; x < W; ++x) {
       const float t = truth.at<float>(y, x), e = est.at<float>(y, x);
-      const bool far_side = dist_far.at<float>(y, x) <= 10 && dist_far.at<float>(y, x) < dist_near.at<float>(y, x);
-      const bool near_side = dist_near.at<float>(y, x) <= 10 && dist_near.at<float>(y, x) <= dist_far.at<float>(y, x);
+      const bool far_side =
+          dist_far.at<float>(y, x) <= 10 && dist_far.at<float>(y, x) < dist_near.at<float>(y, x);
+      const bool near_side =
+          dist_near.at<float>(y, x) <= 10 && dist_near.at<float>(y, x) <= dist_far.at<float>(y, x);
       if (far_side && e > 0 && (t <= 0 || e < 0.95f * t)) ++fat;
       if (near_side && t > 0 && e > 1.05f * t) ++thin;
     }
@@ -140,23 +142,27 @@ int RunSynth(const std::string& take_dir, std::vector<int> windows) {
     const auto r = stereo::ComputeDepth(input, opt.stereo);
     const cv::Mat truth = io::ReadDepthTiff(take.TruthDepthPath(instant, cam.model.id));
     cv::Mat grey;
-    if (input.reference.image.channels() == 1) grey = input.reference.image;
-    else cv::cvtColor(input.reference.image, grey, cv::COLOR_BGR2GRAY);
+    if (input.reference.image.channels() == 1)
+      grey = input.reference.image;
+    else
+      cv::cvtColor(input.reference.image, grey, cv::COLOR_BGR2GRAY);
     for (size_t k = 0; k < nw; ++k) {
-      const SynthScore s = ScoreSynth(r.range_images[k].depth_mm, truth, grey,
-                                      opt.stereo.z_min_mm, opt.stereo.z_max_mm);
+      const SynthScore s = ScoreSynth(r.range_images[k].depth_mm, truth, grey, opt.stereo.z_min_mm,
+                                      opt.stereo.z_max_mm);
       all[k].push_back(s);
       std::printf("%s %d %d %.2f %.4f %.4f %.2f %.2f %.1f\n", cam.model.id.c_str(),
                   r.range_images[k].window_px, r.num_levels, s.median_abs_mm, s.within1, s.density,
                   s.fatten_px, s.thin_px, 1e3 * r.match_seconds);
     }
   }
-  std::printf("\nsummary over %zu cameras (median of per-camera values)\n", take.rig.cameras.size());
+  std::printf("\nsummary over %zu cameras (median of per-camera values)\n",
+              take.rig.cameras.size());
   std::printf("window median_abs_mm within1%% density fatten_px thin_px\n");
   for (size_t k = 0; k < nw; ++k) {
     auto col = [&](auto f) {
       std::vector<double> v;
-      for (const auto& s : all[k]) if (std::isfinite(f(s))) v.push_back(f(s));
+      for (const auto& s : all[k])
+        if (std::isfinite(f(s))) v.push_back(f(s));
       return Median(v);
     };
     std::printf("%d %.2f %.4f %.4f %.2f %.2f\n", opt.stereo.window_sizes_px[k],
@@ -242,8 +248,8 @@ int RunAloe(const std::string& dir, std::vector<int> windows) {
         if (z > 0) disp.at<float>(y, x) = float(f * b / z);
       }
     const BadPixels s = ScoreDisparity(disp, gt);
-    std::printf("dome_w%d(%d_levels) %.4f %.4f %.4f %.0f(all_windows)\n", ri.window_px, r.num_levels,
-                s.bad1, s.bad2, s.density, ms);
+    std::printf("dome_w%d(%d_levels) %.4f %.4f %.4f %.0f(all_windows)\n", ri.window_px,
+                r.num_levels, s.bad1, s.bad2, s.density, ms);
   }
   cv::setNumThreads(2);
   for (int block : {9, 15, 21}) {
@@ -351,7 +357,8 @@ int RunRobovision(const std::string& take_dir, std::vector<int> windows) {
 int main(int argc, char** argv) {
   try {
     if (argc < 3) {
-      std::fprintf(stderr, "usage: stereo_accuracy synth TAKE | robovision TAKE | aloe DIR  [WINDOWS...]\n");
+      std::fprintf(
+          stderr, "usage: stereo_accuracy synth TAKE | robovision TAKE | aloe DIR  [WINDOWS...]\n");
       return 2;
     }
     std::vector<int> windows;

@@ -38,7 +38,8 @@ StereoInput BuiltInInput() {
   const double texel_mm = 6.0;
   StereoInput in;
   in.reference.camera = dome::stereo::testing::PlaneCamera("ref", 0, 0, kWidth, kHeight, 400.0);
-  in.reference.image = dome::stereo::testing::RenderPlane(in.reference.camera, 2000, texture, texel_mm);
+  in.reference.image =
+      dome::stereo::testing::RenderPlane(in.reference.camera, 2000, texture, texel_mm);
   for (int k = 0; k < 6; ++k) {
     dome::stereo::StereoView v;
     const double a = k * M_PI / 3.0;
@@ -78,7 +79,8 @@ void BM_MultiBaseline(benchmark::State& state) {
   const double evals = pixels * levels * double(input.neighbours.size());
   state.counters["levels"] = levels;
   state.counters["neighbours"] = double(input.neighbours.size());
-  state.counters["evals/s"] = benchmark::Counter(evals, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["evals/s"] =
+      benchmark::Counter(evals, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["match_ms"] = 1e3 * match_s / double(state.iterations());
   // Per CPU-second of the whole process (all threads): meaningful on a loaded machine.
   const double cpu_s = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
@@ -121,7 +123,8 @@ void BM_OpenCvStereoBM(benchmark::State& state) {
   state.counters["evals/s"] = benchmark::Counter(double(kWidth) * kHeight * disparities,
                                                  benchmark::Counter::kIsIterationInvariantRate);
   const double cpu_s = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
-  state.counters["evals/cpu_s"] = double(kWidth) * kHeight * disparities * double(state.iterations()) / cpu_s;
+  state.counters["evals/cpu_s"] =
+      double(kWidth) * kHeight * disparities * double(state.iterations()) / cpu_s;
 }
 BENCHMARK(BM_OpenCvStereoBM)->Arg(5)->Arg(7)->Arg(11)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -139,7 +142,8 @@ void BM_OpenCvStereoSGBM(benchmark::State& state) {
   state.counters["evals/s"] = benchmark::Counter(double(kWidth) * kHeight * disparities,
                                                  benchmark::Counter::kIsIterationInvariantRate);
   const double cpu_s = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
-  state.counters["evals/cpu_s"] = double(kWidth) * kHeight * disparities * double(state.iterations()) / cpu_s;
+  state.counters["evals/cpu_s"] =
+      double(kWidth) * kHeight * disparities * double(state.iterations()) / cpu_s;
 }
 BENCHMARK(BM_OpenCvStereoSGBM)->Unit(benchmark::kMillisecond)->UseRealTime();
 

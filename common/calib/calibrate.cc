@@ -1,9 +1,9 @@
 #include "calib/calibrate.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "calib/target.h"
 #include "core/error.h"
@@ -21,16 +21,18 @@ void CalibrateOptions::Check() const {
   detector.Check();
   init.Check();
   Require(max_function_evaluations > 0, "--max-evaluations", "must be positive");
-  Require(min_stage2_points >= 5, "--min-floor-marks", "must be at least 5 (Tsai's coplanar minimum)");
+  Require(min_stage2_points >= 5, "--min-floor-marks",
+          "must be at least 5 (Tsai's coplanar minimum)");
   Require(outlier_px > 0, "--outlier-px", "must be positive (pixels)");
-  Require(flag_rms_px > 0 && flag_max_px > 0, "--flag-rms-px/--flag-max-px", "must be positive (pixels)");
+  Require(flag_rms_px > 0 && flag_max_px > 0, "--flag-rms-px/--flag-max-px",
+          "must be positive (pixels)");
   Require(worst_points >= 0, "worst_points", "must be >= 0");
 }
 
 namespace {
 
 struct LoadedView {
-  std::string where;  // the view file
+  std::string where;           // the view file
   std::string detector_error;  // why no points were found, when none were
   std::vector<Correspondence> points;
   StageReport report;
@@ -53,7 +55,8 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
     const cv::Mat gray = io::ReadImage(view.image, io::ImageMode::kGray8);
     const GridLayout layout = InferGridLayout(target);
     try {
-      const DotDetection det = DetectDotTarget(gray, target, layout, options.detector, view.image.string());
+      const DotDetection det =
+          DetectDotTarget(gray, target, layout, options.detector, view.image.string());
       points = det.points;
       out.report.blobs = det.blobs;
       out.report.missing_ids = det.missing_ids;
@@ -125,14 +128,17 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
   report.stage1 = s1.report;
   Require(s1.detector_error.empty(), s1.where,
           fmt::format("camera {}: no calibration points found ({})", known.id, s1.detector_error));
-  geometry::TsaiCamera cam = TsaiInitNonCoplanar(cp, 0.5 * (known.width_px - 1), 0.5 * (known.height_px - 1),
-                                                 s1.points, options.init, s1.where);
+  geometry::TsaiCamera cam =
+      TsaiInitNonCoplanar(cp, 0.5 * (known.width_px - 1), 0.5 * (known.height_px - 1), s1.points,
+                          options.init, s1.where);
   View v1{"stage1", s1.points, cam.rotation, cam.translation_mm};
   std::vector<View> views1{v1};
   RefineCamera(&cam, &views1, Refine(options, true, false), s1.where);
   report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
-  for (int pass = 0; pass < 3 && RejectOutliers(cam, &views1[0], options.outlier_px, &report.stage1); ++pass) {
-    Require(static_cast<int>(views1[0].points.size()) >= options.init.min_points_noncoplanar, s1.where,
+  for (int pass = 0;
+       pass < 3 && RejectOutliers(cam, &views1[0], options.outlier_px, &report.stage1); ++pass) {
+    Require(static_cast<int>(views1[0].points.size()) >= options.init.min_points_noncoplanar,
+            s1.where,
             fmt::format("only {} points left after rejecting outliers", views1[0].points.size()));
     report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
   }
@@ -146,12 +152,15 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
           fmt::format("camera {} sees {} floor marks; stage 2 needs at least {}{}", known.id,
                       s2.points.size(), options.min_stage2_points,
                       s2.detector_error.empty() ? "" : " (" + s2.detector_error + ")"));
-  const geometry::TsaiCamera posed = TsaiInitCoplanar(cam, s2.points, /*fix_focal=*/true, options.init, s2.where);
+  const geometry::TsaiCamera posed =
+      TsaiInitCoplanar(cam, s2.points, /*fix_focal=*/true, options.init, s2.where);
   std::vector<View> views2{View{"stage2", s2.points, posed.rotation, posed.translation_mm}};
   report.stage2.refine = RefineCamera(&cam, &views2, Refine(options, false, false), s2.where);
-  for (int pass = 0; pass < 3 && RejectOutliers(cam, &views2[0], options.outlier_px, &report.stage2); ++pass) {
+  for (int pass = 0;
+       pass < 3 && RejectOutliers(cam, &views2[0], options.outlier_px, &report.stage2); ++pass) {
     Require(static_cast<int>(views2[0].points.size()) >= options.min_stage2_points, s2.where,
-            fmt::format("camera {}: only {} floor marks left after rejecting outliers; stage 2 needs at least {}",
+            fmt::format("camera {}: only {} floor marks left after rejecting outliers; stage 2 "
+                        "needs at least {}",
                         known.id, views2[0].points.size(), options.min_stage2_points));
     report.stage2.refine = RefineCamera(&cam, &views2, Refine(options, false, false), s2.where);
   }
@@ -182,17 +191,20 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
       all.push_back({v == 0 ? "stage1" : "stage2", c.id, e});
     }
   }
-  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.error_px > b.error_px; });
+  std::sort(all.begin(), all.end(),
+            [](const auto& a, const auto& b) { return a.error_px > b.error_px; });
   all.resize(std::min<size_t>(all.size(), options.worst_points));
   report.worst = all;
   report.rms_px = count ? std::sqrt(sum / count) : 0.0;
   report.max_px = mx;
   std::vector<std::string> reasons;
-  if (report.rms_px > options.flag_rms_px) reasons.push_back(fmt::format("RMS {:.3f} px > {}", report.rms_px, options.flag_rms_px));
-  if (report.max_px > options.flag_max_px) reasons.push_back(fmt::format("max {:.3f} px > {}", report.max_px, options.flag_max_px));
+  if (report.rms_px > options.flag_rms_px)
+    reasons.push_back(fmt::format("RMS {:.3f} px > {}", report.rms_px, options.flag_rms_px));
+  if (report.max_px > options.flag_max_px)
+    reasons.push_back(fmt::format("max {:.3f} px > {}", report.max_px, options.flag_max_px));
   if (!report.stage1.rejected_ids.empty() || !report.stage2.rejected_ids.empty()) {
-    reasons.push_back(fmt::format("{} outliers rejected",
-                                  report.stage1.rejected_ids.size() + report.stage2.rejected_ids.size()));
+    reasons.push_back(fmt::format("{} outliers rejected", report.stage1.rejected_ids.size() +
+                                                              report.stage2.rejected_ids.size()));
   }
   report.flagged = !reasons.empty();
   for (size_t i = 0; i < reasons.size(); ++i) report.flag_reason += (i ? "; " : "") + reasons[i];
@@ -208,7 +220,8 @@ CalibrationResult CalibrateTake(const fs::path& take_dir, const take::Rig& prior
   options.Check();
   core::Stopwatch stopwatch;
   const fs::path calib = take_dir / "calib";
-  Require(fs::is_directory(calib), calib.string(), "no calibration folder (expected calib/stage1, calib/stage2)");
+  Require(fs::is_directory(calib), calib.string(),
+          "no calibration folder (expected calib/stage1, calib/stage2)");
   Require(!prior.cameras.empty(), "rig", "the prior rig has no cameras");
   const int n = static_cast<int>(prior.cameras.size());
   CalibrationResult result;
@@ -240,9 +253,9 @@ std::string CalibrationResult::BriefReport() const {
   s += "camera  stage1 pts  rms     stage2 pts  rms     all rms  max     f sd(mm)  flag\n";
   int flagged = 0;
   for (const auto& c : cameras) {
-    s += fmt::format("{:<7} {:>10}  {:.3f}   {:>10}  {:.3f}   {:.3f}    {:.3f}   {:.2e}  {}\n", c.id,
-                     c.stage1.points, c.stage1.rms_px, c.stage2.points, c.stage2.rms_px, c.rms_px,
-                     c.max_px, c.sigma.focal_mm, c.flagged ? c.flag_reason : "");
+    s += fmt::format("{:<7} {:>10}  {:.3f}   {:>10}  {:.3f}   {:.3f}    {:.3f}   {:.2e}  {}\n",
+                     c.id, c.stage1.points, c.stage1.rms_px, c.stage2.points, c.stage2.rms_px,
+                     c.rms_px, c.max_px, c.sigma.focal_mm, c.flagged ? c.flag_reason : "");
     flagged += c.flagged;
   }
   s += fmt::format("{} camera(s) flagged\n", flagged);
@@ -258,37 +271,44 @@ std::string IntList(const std::vector<int>& v) {
 std::string StageJson(const StageReport& r) {
   using eval::JsonNumber;
   return fmt::format(
-      "{{\"points\": {}, \"detected\": {}, \"blobs\": {}, \"missing_ids\": {}, \"rejected_ids\": {}, "
+      "{{\"points\": {}, \"detected\": {}, \"blobs\": {}, \"missing_ids\": {}, \"rejected_ids\": "
+      "{}, "
       "\"rms_px\": {}, \"max_px\": {}, \"lm_iterations\": {}, \"lm_converged\": {}}}",
       r.points, r.detected, r.blobs, IntList(r.missing_ids), IntList(r.rejected_ids),
-      JsonNumber(r.rms_px), JsonNumber(r.max_px), r.refine.iterations, r.refine.converged ? "true" : "false");
+      JsonNumber(r.rms_px), JsonNumber(r.max_px), r.refine.iterations,
+      r.refine.converged ? "true" : "false");
 }
 }  // namespace
 
 std::string CalibrationResult::ReportJson() const {
   using eval::JsonNumber;
   using eval::JsonQuote;
-  std::string s = fmt::format("{{\"format_version\": 1, \"seconds\": {}, \"cameras\": [\n", JsonNumber(seconds));
+  std::string s = fmt::format("{{\"format_version\": 1, \"seconds\": {}, \"cameras\": [\n",
+                              JsonNumber(seconds));
   for (size_t i = 0; i < cameras.size(); ++i) {
     const auto& c = cameras[i];
     std::string worst = "[";
     for (size_t w = 0; w < c.worst.size(); ++w) {
-      worst += fmt::format("{}{{\"stage\": {}, \"id\": {}, \"error_px\": {}}}", w ? ", " : "",
-                           JsonQuote(c.worst[w].stage), c.worst[w].id, JsonNumber(c.worst[w].error_px));
+      worst +=
+          fmt::format("{}{{\"stage\": {}, \"id\": {}, \"error_px\": {}}}", w ? ", " : "",
+                      JsonQuote(c.worst[w].stage), c.worst[w].id, JsonNumber(c.worst[w].error_px));
     }
     worst += "]";
     const auto& sg = c.sigma;
     s += fmt::format(
-        "  {{\"id\": {}, \"rms_px\": {}, \"max_px\": {}, \"flagged\": {}, \"failed\": {}, \"flag_reason\": {},\n"
+        "  {{\"id\": {}, \"rms_px\": {}, \"max_px\": {}, \"flagged\": {}, \"failed\": {}, "
+        "\"flag_reason\": {},\n"
         "   \"stage1\": {},\n   \"stage2\": {},\n   \"worst_points\": {},\n"
-        "   \"sigma\": {{\"focal_mm\": {}, \"kappa1_per_mm2\": {}, \"cx_px\": {}, \"cy_px\": {}, \"sx\": {}, "
+        "   \"sigma\": {{\"focal_mm\": {}, \"kappa1_per_mm2\": {}, \"cx_px\": {}, \"cy_px\": {}, "
+        "\"sx\": {}, "
         "\"rotation_deg\": [{}, {}, {}], \"translation_mm\": [{}, {}, {}]}}}}{}\n",
         JsonQuote(c.id), JsonNumber(c.rms_px), JsonNumber(c.max_px), c.flagged ? "true" : "false",
-        c.failed ? "true" : "false",
-        JsonQuote(c.flag_reason), StageJson(c.stage1), StageJson(c.stage2), worst, JsonNumber(sg.focal_mm),
-        JsonNumber(sg.kappa1_per_mm2), JsonNumber(sg.cx_px), JsonNumber(sg.cy_px), JsonNumber(sg.sx),
-        JsonNumber(sg.rotation_deg(0)), JsonNumber(sg.rotation_deg(1)), JsonNumber(sg.rotation_deg(2)),
-        JsonNumber(sg.translation_mm(0)), JsonNumber(sg.translation_mm(1)), JsonNumber(sg.translation_mm(2)),
+        c.failed ? "true" : "false", JsonQuote(c.flag_reason), StageJson(c.stage1),
+        StageJson(c.stage2), worst, JsonNumber(sg.focal_mm), JsonNumber(sg.kappa1_per_mm2),
+        JsonNumber(sg.cx_px), JsonNumber(sg.cy_px), JsonNumber(sg.sx),
+        JsonNumber(sg.rotation_deg(0)), JsonNumber(sg.rotation_deg(1)),
+        JsonNumber(sg.rotation_deg(2)), JsonNumber(sg.translation_mm(0)),
+        JsonNumber(sg.translation_mm(1)), JsonNumber(sg.translation_mm(2)),
         i + 1 < cameras.size() ? "," : "");
   }
   s += "]}\n";

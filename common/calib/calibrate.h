@@ -43,7 +43,7 @@ struct CalibrateOptions {
   // A camera that cannot be calibrated (its error) is flagged and keeps its prior
   // parameters instead of failing the whole take.
   bool keep_going = false;
-  void Check() const;                   // throws core::InputError naming the option
+  void Check() const;  // throws core::InputError naming the option
 };
 
 struct PointError {
@@ -53,9 +53,9 @@ struct PointError {
 };
 
 struct StageReport {
-  int points = 0;            // used in the final fit
-  int detected = 0;          // identified in the image
-  int blobs = 0;             // dark blobs in the image
+  int points = 0;                 // used in the final fit
+  int detected = 0;               // identified in the image
+  int blobs = 0;                  // dark blobs in the image
   std::vector<int> missing_ids;   // target points not found in the image
   std::vector<int> rejected_ids;  // found, rejected as outliers
   double rms_px = 0.0;
@@ -69,7 +69,7 @@ struct CameraReport {
   double rms_px = 0.0;  // over both stages' points, final parameters
   double max_px = 0.0;
   std::vector<PointError> worst;  // largest errors first
-  ParameterSigma sigma;           // intrinsics from stage 1 (or joint), pose from stage 2 (or joint)
+  ParameterSigma sigma;  // intrinsics from stage 1 (or joint), pose from stage 2 (or joint)
   bool flagged = false;
   bool failed = false;  // keep_going: calibration failed, prior parameters kept
   std::string flag_reason;
@@ -92,7 +92,7 @@ CalibrationResult CalibrateTake(const std::filesystem::path& take_dir, const tak
 
 // One camera, from its two views (what CalibrateTake runs per camera).
 CameraReport CalibrateCamera(const take::RigCamera& prior, const std::filesystem::path& stage1_view,
-                             const std::filesystem::path& stage2_view, const CalibrateOptions& options,
-                             geometry::TsaiCamera* calibrated);
+                             const std::filesystem::path& stage2_view,
+                             const CalibrateOptions& options, geometry::TsaiCamera* calibrated);
 
 }  // namespace dome::calib

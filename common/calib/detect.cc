@@ -1,12 +1,12 @@
 #include "calib/detect.h"
 
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
-
-#include <Eigen/Dense>
-#include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -18,8 +18,10 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 
 void DotDetectorOptions::Check() const {
-  core::Require(background_radius_px >= 1, "DotDetectorOptions: background_radius_px", "must be >= 1 px");
-  core::Require(min_contrast > 0, "DotDetectorOptions: min_contrast", "must be positive (grey levels)");
+  core::Require(background_radius_px >= 1, "DotDetectorOptions: background_radius_px",
+                "must be >= 1 px");
+  core::Require(min_contrast > 0, "DotDetectorOptions: min_contrast",
+                "must be positive (grey levels)");
   core::Require(max_blob_area_px >= 1, "DotDetectorOptions: max_blob_area_px", "must be >= 1 px^2");
   core::Require(key_mass_ratio > 1, "DotDetectorOptions: key_mass_ratio", "must exceed 1");
   core::Require(match_tolerance > 0 && match_tolerance < 0.5, "DotDetectorOptions: match_tolerance",
@@ -30,8 +32,8 @@ void DotDetectorOptions::Check() const {
 void ChessboardOptions::Check() const {
   core::Require(inner_corners_x >= 2 && inner_corners_y >= 2, "ChessboardOptions: inner_corners",
                 "need at least 2 x 2 inner corners");
-  core::Require(subpix_window_px >= 3 && subpix_window_px % 2 == 1, "ChessboardOptions: subpix_window_px",
-                "must be odd and >= 3");
+  core::Require(subpix_window_px >= 3 && subpix_window_px % 2 == 1,
+                "ChessboardOptions: subpix_window_px", "must be odd and >= 3");
 }
 
 std::vector<Blob> DetectBlobs(const cv::Mat& gray, const DotDetectorOptions& options) {
@@ -52,8 +54,10 @@ std::vector<Blob> DetectBlobs(const cv::Mat& gray, const DotDetectorOptions& opt
     if (area > options.max_blob_area_px) continue;
     const int x0 = std::max(0, stats.at<int>(k, cv::CC_STAT_LEFT) - 1);
     const int y0 = std::max(0, stats.at<int>(k, cv::CC_STAT_TOP) - 1);
-    const int x1 = std::min(gray.cols - 1, stats.at<int>(k, cv::CC_STAT_LEFT) + stats.at<int>(k, cv::CC_STAT_WIDTH));
-    const int y1 = std::min(gray.rows - 1, stats.at<int>(k, cv::CC_STAT_TOP) + stats.at<int>(k, cv::CC_STAT_HEIGHT));
+    const int x1 = std::min(
+        gray.cols - 1, stats.at<int>(k, cv::CC_STAT_LEFT) + stats.at<int>(k, cv::CC_STAT_WIDTH));
+    const int y1 = std::min(
+        gray.rows - 1, stats.at<int>(k, cv::CC_STAT_TOP) + stats.at<int>(k, cv::CC_STAT_HEIGHT));
     // Touching the border: the dot may be cut and its centroid biased. Kept for
     // matching (it may be the key marker) but never output as a point.
     const bool cut = x0 == 0 || y0 == 0 || x1 == gray.cols - 1 || y1 == gray.rows - 1;
@@ -68,7 +72,9 @@ std::vector<Blob> DetectBlobs(const cv::Mat& gray, const DotDetectorOptions& opt
           for (int dy = -1; dy <= 1 && !in; ++dy) {
             for (int dx = -1; dx <= 1 && !in; ++dx) {
               const int yy = y + dy, xx = x + dx;
-              if (yy >= 0 && yy < gray.rows && xx >= 0 && xx < gray.cols && labels.at<int>(yy, xx) == k) in = true;
+              if (yy >= 0 && yy < gray.rows && xx >= 0 && xx < gray.cols &&
+                  labels.at<int>(yy, xx) == k)
+                in = true;
             }
           }
         }
@@ -222,8 +228,8 @@ GridFit Grow(const std::vector<Blob>& blobs, int n, const int seed[4], double to
 // When no corner stands out but the grid is complete save one corner that lies well
 // inside the image, that corner is taken as the key: a key marker that merged with its
 // surroundings (steep views shrink the white pad around it) is the likely reason.
-double PutKeyAtOrigin(const std::vector<Blob>& blobs, int n, const cv::Size& image, double key_ratio,
-                      GridFit* fit) {
+double PutKeyAtOrigin(const std::vector<Blob>& blobs, int n, const cv::Size& image,
+                      double key_ratio, GridFit* fit) {
   auto mass = [&](int i, int j) {
     const int b = fit->blob_of_cell[n * j + i];
     return b < 0 ? 0.0 : blobs[b].mass;
@@ -378,9 +384,10 @@ DltFit Dlt(const std::vector<Vector3d>& world, const std::vector<Vector2d>& imag
 }  // namespace
 
 std::string DotDetection::BriefReport() const {
-  return fmt::format("{} dots identified ({} blobs, {} grids); {} target points not found; {} "
-                     "claimed twice",
-                     points.size(), blobs, grids_found, missing_ids.size(), conflicting_ids.size());
+  return fmt::format(
+      "{} dots identified ({} blobs, {} grids); {} target points not found; {} "
+      "claimed twice",
+      points.size(), blobs, grids_found, missing_ids.size(), conflicting_ids.size());
 }
 
 DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const GridLayout& layout,
@@ -414,7 +421,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
     for (size_t i = 0; i < k; ++i) masses.push_back(blobs[near[i].second].mass);
     std::nth_element(masses.begin(), masses.begin() + masses.size() / 2, masses.end());
     const double ratio = blobs[b].mass / std::max(1e-9, masses[masses.size() / 2]);
-    if (ratio >= 1.0 + 0.5 * (options.key_mass_ratio - 1.0)) keys.emplace_back(darkness(static_cast<int>(b)), static_cast<int>(b));
+    if (ratio >= 1.0 + 0.5 * (options.key_mass_ratio - 1.0))
+      keys.emplace_back(darkness(static_cast<int>(b)), static_cast<int>(b));
   }
   core::Require(!keys.empty(), where, "no key marker (a dot larger than its neighbours) found");
   std::sort(keys.rbegin(), keys.rend());  // darkest first: printed dots, not texture
@@ -430,7 +438,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
   }
   std::vector<int> order(fits.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return fits[a].matched > fits[b].matched; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return fits[a].matched > fits[b].matched; });
   std::vector<GridFit> found;
   std::vector<int> claims(blobs.size(), 0);
   for (int f : order) {
@@ -447,8 +456,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
   }
   out.grids_found = static_cast<int>(found.size());
   core::Require(!found.empty(), where,
-                fmt::format("no grid of {} x {} dots found around any of {} key-marker candidates", n,
-                            n, keys.size()));
+                fmt::format("no grid of {} x {} dots found around any of {} key-marker candidates",
+                            n, n, keys.size()));
 
   // Which found grid is which target grid: the assignment with the best projective fit.
   std::vector<int> assign(found.size());
@@ -484,7 +493,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
       Vector3d centre = Vector3d::Zero();
       for (const auto& w : world) centre += w;
       centre /= std::max<size_t>(1, world.size());
-      const double up = fit.Project(centre).y() - fit.Project(centre + Vector3d(0, 0, 1.0 / fit.ws)).y();
+      const double up =
+          fit.Project(centre).y() - fit.Project(centre + Vector3d(0, 0, 1.0 / fit.ws)).y();
       candidates.push_back({perm, fit.rms, std::isfinite(up) ? up : 0.0});
     } while (std::next_permutation(perm.begin(), perm.end()));
     double best_rms = std::numeric_limits<double>::infinity();
@@ -513,7 +523,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
   for (size_t i = 0; i < target.points.size(); ++i) {
     if (!have[i]) out.missing_ids.push_back(target.points[i].id);
   }
-  std::sort(out.points.begin(), out.points.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  std::sort(out.points.begin(), out.points.end(),
+            [](const auto& a, const auto& b) { return a.id < b.id; });
   return out;
 }
 

@@ -20,41 +20,40 @@
 // top-left pixel (geometry/tsai_camera.h; OpenCV's convention too).
 #pragma once
 
-#include <string>
-#include <vector>
-
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <string>
+#include <vector>
 
 #include "calib/target.h"
 
 namespace dome::calib {
 
 struct DotDetectorOptions {
-  int background_radius_px = 6;    // radius of the closing that gives the local white level, px
-  double min_contrast = 25.0;      // darkness below the local white level for a dot pixel, grey levels
-  int max_blob_area_px = 600;      // larger dark regions are not dots, px^2
-  double key_mass_ratio = 1.3;     // key marker: its darkness mass over its neighbours' median
-  double match_tolerance = 0.15;   // accept a dot within this fraction of the local grid pitch
-  int min_grid_points = 6;         // a grid with fewer matched dots is dropped (and reported)
-  void Check() const;  // throws core::InputError naming the option
+  int background_radius_px = 6;  // radius of the closing that gives the local white level, px
+  double min_contrast = 25.0;   // darkness below the local white level for a dot pixel, grey levels
+  int max_blob_area_px = 600;   // larger dark regions are not dots, px^2
+  double key_mass_ratio = 1.3;  // key marker: its darkness mass over its neighbours' median
+  double match_tolerance = 0.15;  // accept a dot within this fraction of the local grid pitch
+  int min_grid_points = 6;        // a grid with fewer matched dots is dropped (and reported)
+  void Check() const;             // throws core::InputError naming the option
 };
 
 struct Blob {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // px, darkness-weighted centroid
-  double mass = 0.0;  // summed darkness (grey levels x pixels)
+  double mass = 0.0;                                 // summed darkness (grey levels x pixels)
   int area_px = 0;
-  bool cut = false;   // touches the image border (centroid unreliable)
+  bool cut = false;  // touches the image border (centroid unreliable)
 };
 
 // Dark blobs of an 8-bit grey image (CV_8UC1).
 std::vector<Blob> DetectBlobs(const cv::Mat& gray, const DotDetectorOptions& options);
 
 struct DotDetection {
-  std::vector<ImagePoint> points;  // matched dots, by target id
-  int blobs = 0;                   // dark blobs found
-  int grids_found = 0;             // of the layout's grids
-  std::vector<int> missing_ids;    // target ids not found in the image
+  std::vector<ImagePoint> points;    // matched dots, by target id
+  int blobs = 0;                     // dark blobs found
+  int grids_found = 0;               // of the layout's grids
+  std::vector<int> missing_ids;      // target ids not found in the image
   std::vector<int> conflicting_ids;  // dots claimed by two grids (dropped, reported)
   std::string BriefReport() const;
 };
@@ -65,8 +64,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
                              const DotDetectorOptions& options, const std::string& where);
 
 struct ChessboardOptions {
-  int inner_corners_x = 9;  // inner corners per row
-  int inner_corners_y = 6;  // inner corners per column
+  int inner_corners_x = 9;    // inner corners per row
+  int inner_corners_y = 6;    // inner corners per column
   int subpix_window_px = 11;  // cornerSubPix window side (2 * half + 1), px
   void Check() const;
 };

@@ -1,11 +1,11 @@
 #include "calib/target.h"
 
-#include <cmath>
-#include <set>
-
-#include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <set>
 
 #include "calib.pb.h"
 #include "core/error.h"
@@ -64,7 +64,8 @@ Target ReadTarget(const fs::path& path) {
             fmt::format("point id {} has a coordinate that is not a finite number", p.id()));
     Require(seen.insert(static_cast<int>(p.id())).second, field + ".id",
             fmt::format("duplicate id {}", p.id()));
-    target.points.push_back({static_cast<int>(p.id()), Eigen::Vector3d(p.x_mm(), p.y_mm(), p.z_mm())});
+    target.points.push_back(
+        {static_cast<int>(p.id()), Eigen::Vector3d(p.x_mm(), p.y_mm(), p.z_mm())});
   }
   return target;
 }
@@ -129,8 +130,9 @@ GridLayout InferGridLayout(const Target& target) {
     }
     if (ok) return layout;
   }
-  throw core::InputError(target.path, "the points do not form square dot grids (G blocks of n x n "
-                                      "consecutive ids, id = base + n j + i, each a planar grid)");
+  throw core::InputError(target.path,
+                         "the points do not form square dot grids (G blocks of n x n "
+                         "consecutive ids, id = base + n j + i, each a planar grid)");
 }
 
 }  // namespace dome::calib

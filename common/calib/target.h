@@ -14,11 +14,10 @@
 // (one 5 x 5 grid).
 #pragma once
 
+#include <Eigen/Core>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace dome::calib {
 
@@ -28,8 +27,8 @@ struct TargetPoint {
 };
 
 struct Target {
-  std::string path;    // file it was read from (for messages)
-  std::string frame;   // "object" or "world"
+  std::string path;   // file it was read from (for messages)
+  std::string frame;  // "object" or "world"
   double marker_radius_mm = 0.0;
   double key_marker_radius_mm = 0.0;
   std::vector<TargetPoint> points;  // ids unique, coordinates finite
@@ -43,10 +42,10 @@ struct ImagePoint {
 };
 
 struct CalibViewFile {
-  std::string path;         // the view's JSON file
-  std::string camera;       // camera id
-  std::filesystem::path image;   // absolute (resolved against the JSON's folder)
-  std::filesystem::path target;  // absolute
+  std::string path;                // the view's JSON file
+  std::string camera;              // camera id
+  std::filesystem::path image;     // absolute (resolved against the JSON's folder)
+  std::filesystem::path target;    // absolute
   std::vector<ImagePoint> points;  // as stored (truth or a detector's), may be empty
 };
 

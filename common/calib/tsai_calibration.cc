@@ -1,12 +1,12 @@
 #include "calib/tsai_calibration.h"
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
+#include <fmt/format.h>
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
-#include <fmt/format.h>
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <unsupported/Eigen/LevenbergMarquardt>
 
 #include "core/error.h"
@@ -56,8 +56,9 @@ void CheckFinite(const std::vector<Correspondence>& points, const std::string& w
 // f and tz from Tsai's second linear step, Yd (r3.p + tz) = f (r2.p + ty), together
 // with its x counterpart Xd (r3.p + tz) = f (r1.p + tx) (Willson uses y only; both rows
 // make it well conditioned when the points span little of one image axis).
-bool SolveFocalTz(const Matrix3d& r, double tx, double ty, const std::vector<Correspondence>& points,
-                  const std::vector<Vector2d>& sensor, double* f, double* tz) {
+bool SolveFocalTz(const Matrix3d& r, double tx, double ty,
+                  const std::vector<Correspondence>& points, const std::vector<Vector2d>& sensor,
+                  double* f, double* tz) {
   const int n = static_cast<int>(points.size());
   MatrixXd a(2 * n, 2);
   VectorXd b(2 * n);
@@ -99,11 +100,12 @@ void RequireInFront(const geometry::TsaiCamera& cam, const std::vector<Correspon
       if (first < 0) first = c.id;
     }
   }
-  core::Require(behind == 0, where,
-                fmt::format("{} of {} points (first: id {}) are behind the camera in the closed-form "
-                            "solution; the image points do not match the target (mismatched ids or "
-                            "a mirrored target?)",
-                            behind, points.size(), first));
+  core::Require(
+      behind == 0, where,
+      fmt::format("{} of {} points (first: id {}) are behind the camera in the closed-form "
+                  "solution; the image points do not match the target (mismatched ids or "
+                  "a mirrored target?)",
+                  behind, points.size(), first));
   core::Require(cam.focal_mm > 0 && std::isfinite(cam.focal_mm), where,
                 "the closed-form solution has no positive focal length (degenerate geometry)");
 }
@@ -148,7 +150,8 @@ geometry::TsaiCamera TsaiInitNonCoplanar(const CameraPrior& prior, double cx_px,
                             n, options.min_points_noncoplanar));
   CheckFinite(points, where);
   const Vector3d origin = ConditioningOrigin(points, cy_px);
-  geometry::TsaiCamera cam = NonCoplanarImpl(prior, cx_px, cy_px, Shifted(points, origin), options, where);
+  geometry::TsaiCamera cam =
+      NonCoplanarImpl(prior, cx_px, cy_px, Shifted(points, origin), options, where);
   cam.translation_mm -= cam.rotation * origin;
   RequireInFront(cam, points, where);
   return cam;
@@ -165,7 +168,8 @@ geometry::TsaiCamera TsaiInitCoplanar(const geometry::TsaiCamera& intrinsics,
   CheckFinite(points, where);
   Vector3d origin = ConditioningOrigin(points, intrinsics.cy_px);
   origin.z() = 0.0;  // stay on the plane
-  geometry::TsaiCamera cam = CoplanarImpl(intrinsics, Shifted(points, origin), fix_focal, options, where);
+  geometry::TsaiCamera cam =
+      CoplanarImpl(intrinsics, Shifted(points, origin), fix_focal, options, where);
   cam.translation_mm -= cam.rotation * origin;
   RequireInFront(cam, points, where);
   return cam;
@@ -189,10 +193,11 @@ geometry::TsaiCamera NonCoplanarImpl(const CameraPrior& prior, double cx_px, dou
   for (const auto& c : points) scatter += (c.target_mm - mean) * (c.target_mm - mean).transpose();
   Eigen::SelfAdjointEigenSolver<Matrix3d> eig(scatter);
   const Vector3d ev = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();  // ascending
-  core::Require(ev(2) > 0 && ev(0) / ev(2) >= options.min_volume_ratio, where,
-                fmt::format("the calibration points are (nearly) coplanar (thickness ratio {:.3g} < "
-                            "{}); stage 1 needs points spanning a volume",
-                            ev(2) > 0 ? ev(0) / ev(2) : 0.0, options.min_volume_ratio));
+  core::Require(
+      ev(2) > 0 && ev(0) / ev(2) >= options.min_volume_ratio, where,
+      fmt::format("the calibration points are (nearly) coplanar (thickness ratio {:.3g} < "
+                  "{}); stage 1 needs points spanning a volume",
+                  ev(2) > 0 ? ev(0) / ev(2) : 0.0, options.min_volume_ratio));
 
   const double dpx = prior.sensor.dpx_mm(), dpy = prior.sensor.dpy_mm();
   std::vector<Vector2d> s(n);  // (Xd' = Xd * sx, Yd), mm
@@ -241,7 +246,8 @@ geometry::TsaiCamera NonCoplanarImpl(const CameraPrior& prior, double cx_px, dou
     r(2, 0) = -r(2, 0);
     r(2, 1) = -r(2, 1);
     r = NearestRotation(r);
-    core::Require(SolveFocalTz(r, tx, ty, points, sd, &f, &tz), where, "degenerate solution (f, tz)");
+    core::Require(SolveFocalTz(r, tx, ty, points, sd, &f, &tz), where,
+                  "degenerate solution (f, tz)");
   }
   geometry::TsaiCamera cam;
   cam.id = prior.id;
@@ -278,7 +284,8 @@ geometry::TsaiCamera CoplanarImpl(const geometry::TsaiCamera& intrinsics,
   std::vector<Vector2d> s(n);  // undistorted sensor coordinates, mm
   for (int i = 0; i < n; ++i) {
     const Vector2d u = intrinsics.UndistortPixel(points[i].pixel);
-    s[i] = Vector2d((u.x() - intrinsics.cx_px) * dpx / intrinsics.sx, (u.y() - intrinsics.cy_px) * dpy);
+    s[i] = Vector2d((u.x() - intrinsics.cx_px) * dpx / intrinsics.sx,
+                    (u.y() - intrinsics.cy_px) * dpy);
   }
   MatrixXd a(n, 5);
   VectorXd b(n);
@@ -308,7 +315,8 @@ geometry::TsaiCamera CoplanarImpl(const geometry::TsaiCamera& intrinsics,
   for (int i = 1; i < n; ++i) {
     if (s[i].squaredNorm() > s[far].squaredNorm()) far = i;
   }
-  if (!TyIsPositive(Vector3d(l1, l2, 0), Vector3d(l4, l5, 0), l3, ty, points[far].target_mm, s[far])) {
+  if (!TyIsPositive(Vector3d(l1, l2, 0), Vector3d(l4, l5, 0), l3, ty, points[far].target_mm,
+                    s[far])) {
     ty = -ty;
   }
   const double r11 = l1 * ty, r12 = l2 * ty, r21 = l4 * ty, r22 = l5 * ty, tx = l3 * ty;
@@ -328,7 +336,8 @@ geometry::TsaiCamera CoplanarImpl(const geometry::TsaiCamera& intrinsics,
     r(2, 0) = -r(2, 0);
     r(2, 1) = -r(2, 1);
     r = NearestRotation(r);
-    core::Require(SolveFocalTz(r, tx, ty, points, s, &f, &tz), where, "degenerate solution (f, tz)");
+    core::Require(SolveFocalTz(r, tx, ty, points, s, &f, &tz), where,
+                  "degenerate solution (f, tz)");
   }
   geometry::TsaiCamera cam = intrinsics;
   if (fix_focal) {
@@ -370,7 +379,9 @@ namespace {
 struct Problem : Eigen::DenseFunctor<double> {
   Problem(const geometry::TsaiCamera& camera, const std::vector<View>& views,
           const RefineOptions& options, int inputs, int values)
-      : Eigen::DenseFunctor<double>(inputs, values), camera(camera), views(views),
+      : Eigen::DenseFunctor<double>(inputs, values),
+        camera(camera),
+        views(views),
         options(options) {}
 
   const geometry::TsaiCamera& camera;
@@ -421,7 +432,8 @@ struct Problem : Eigen::DenseFunctor<double> {
     if (options.refine_poses) {
       for (const auto& v : views) {
         for (int i = 0; i < 3; ++i) add(0.0, 1.0);
-        for (int i = 0; i < 3; ++i) add(v.translation_mm(i), std::max(1.0, v.translation_mm.norm()));
+        for (int i = 0; i < 3; ++i)
+          add(v.translation_mm(i), std::max(1.0, v.translation_mm.norm()));
       }
     }
     return Eigen::Map<VectorXd>(x.data(), static_cast<int>(x.size()));
@@ -468,10 +480,11 @@ struct Problem : Eigen::DenseFunctor<double> {
 }  // namespace
 
 std::string RefineSummary::BriefReport() const {
-  return fmt::format("LM: {} iterations, {} evaluations, {} parameters, {} residuals, RMS {:.4f} -> "
-                     "{:.4f} px{}",
-                     iterations, function_evaluations, parameters, residuals, initial_rms_px,
-                     final_rms_px, converged ? "" : " (not converged)");
+  return fmt::format(
+      "LM: {} iterations, {} evaluations, {} parameters, {} residuals, RMS {:.4f} -> "
+      "{:.4f} px{}",
+      iterations, function_evaluations, parameters, residuals, initial_rms_px, final_rms_px,
+      converged ? "" : " (not converged)");
 }
 
 RefineSummary RefineCamera(geometry::TsaiCamera* camera, std::vector<View>* views,
@@ -479,13 +492,14 @@ RefineSummary RefineCamera(geometry::TsaiCamera* camera, std::vector<View>* view
   options.Check();
   int residuals = 0;
   for (const auto& v : *views) residuals += 2 * static_cast<int>(v.points.size());
-  const int intrinsics = options.refine_focal + options.refine_kappa1 + 2 * options.refine_centre +
-                         options.refine_sx;
-  const int parameters = intrinsics + (options.refine_poses ? 6 * static_cast<int>(views->size()) : 0);
+  const int intrinsics =
+      options.refine_focal + options.refine_kappa1 + 2 * options.refine_centre + options.refine_sx;
+  const int parameters =
+      intrinsics + (options.refine_poses ? 6 * static_cast<int>(views->size()) : 0);
   core::Require(parameters > 0, where, "nothing to refine");
   core::Require(residuals >= parameters + 1, where,
-                fmt::format("{} image coordinates for {} free parameters; too few points", residuals,
-                            parameters));
+                fmt::format("{} image coordinates for {} free parameters; too few points",
+                            residuals, parameters));
   Problem problem(*camera, *views, options, parameters, residuals);
   VectorXd x = problem.Pack();
   VectorXd f(residuals);

@@ -14,10 +14,9 @@
 // RefineCamera shares the intrinsics across views.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "geometry/tsai_camera.h"
 

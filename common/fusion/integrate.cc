@@ -1,9 +1,9 @@
 #include "fusion/integrate.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <Eigen/LU>
 #include <limits>
 
 #include "core/error.h"
@@ -31,17 +31,17 @@ void FusionOptions::Check() const {
 }
 
 void CheckRangeImage(const RangeImage& image) {
-  const std::string where = image.where.empty() ? "range image of camera " + image.camera.id
-                                                : image.where;
+  const std::string where =
+      image.where.empty() ? "range image of camera " + image.camera.id : image.where;
   image.camera.Check(where + ": camera");
   core::Require(!image.depth_mm.empty() && image.depth_mm.type() == CV_32FC1, where,
                 "depth map must be a 32-bit float single-channel image");
-  core::Require(image.depth_mm.cols == image.camera.width_px &&
-                    image.depth_mm.rows == image.camera.height_px,
-                where, "depth map is " + std::to_string(image.depth_mm.cols) + "x" +
-                           std::to_string(image.depth_mm.rows) + " but camera " +
-                           image.camera.id + " is " + std::to_string(image.camera.width_px) +
-                           "x" + std::to_string(image.camera.height_px));
+  core::Require(
+      image.depth_mm.cols == image.camera.width_px && image.depth_mm.rows == image.camera.height_px,
+      where,
+      "depth map is " + std::to_string(image.depth_mm.cols) + "x" +
+          std::to_string(image.depth_mm.rows) + " but camera " + image.camera.id + " is " +
+          std::to_string(image.camera.width_px) + "x" + std::to_string(image.camera.height_px));
   io::CheckDepthMap(image.depth_mm, where);
   if (!image.weight.empty()) {
     core::Require(image.weight.type() == CV_32FC1 && image.weight.size() == image.depth_mm.size(),
@@ -62,15 +62,15 @@ void CheckRangeImage(const RangeImage& image) {
 struct Integrator::CameraTables {
   Eigen::Matrix3d rotation;
   Eigen::Vector3d translation_mm;
-  float fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;  // normalized -> pixel (times lambda)
-  float rn2_max = 0;                                  // largest tabulated (x/z)^2 + (y/z)^2
-  float lut_scale = 0;                                // (kLutSize - 1) / rn2_max
-  std::vector<float> lambda;                          // distortion factor over rn^2
+  float fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;       // normalized -> pixel (times lambda)
+  float rn2_max = 0;                                      // largest tabulated (x/z)^2 + (y/z)^2
+  float lut_scale = 0;                                    // (kLutSize - 1) / rn2_max
+  std::vector<float> lambda;                              // distortion factor over rn^2
   double xn_min = 0, xn_max = 0, yn_min = 0, yn_max = 0;  // frustum, normalized coords
   int width = 0, height = 0;
-  std::vector<float> inv_depth;   // 1 / depth, 0 where invalid; width x height
-  std::vector<float> weight;      // empty = uniform
-  std::vector<uint8_t> quad;      // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle
+  std::vector<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
+  std::vector<float> weight;     // empty = uniform
+  std::vector<uint8_t> quad;     // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle
   // Min/max depth pyramid over the quads for block culling. Level 0: one cell per quad
   // (min over its 4 depths, +inf unless all valid; max over its valid depths, -inf if
   // none; connected = both triangles exist); level l + 1 merges 2x2 cells of level l.
@@ -199,7 +199,8 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
     t.inv_depth.resize(size_t(w) * h);
     for (int y = 0; y < h; ++y) {
       const float* row = image.depth_mm.ptr<float>(y);
-      for (int x = 0; x < w; ++x) t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
+      for (int x = 0; x < w; ++x)
+        t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
     }
     if (!image.weight.empty()) {
       t.weight.resize(size_t(w) * h);
@@ -239,8 +240,12 @@ struct Integrator::Scratch {
   std::vector<float> pu, pv, pz, ps;
   std::vector<float> sum_wd, sum_w;  // the block: kBlock^3, (k, j, i) order
   explicit Scratch(int nx)
-      : pu(nx), pv(nx), pz(nx), ps(nx),
-        sum_wd(kBlock * kBlock * kBlock), sum_w(kBlock * kBlock * kBlock) {}
+      : pu(nx),
+        pv(nx),
+        pz(nx),
+        ps(nx),
+        sum_wd(kBlock * kBlock * kBlock),
+        sum_w(kBlock * kBlock * kBlock) {}
 };
 
 // Conservative test of a whole block against one image (see FusionOptions::block_culling).
@@ -256,7 +261,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
   // of them is outside.
   int outside[5] = {0, 0, 0, 0, 0};
   for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d p = grid_.VoxelCentreMm(c & 1 ? i1 : i0, c & 2 ? j1 : j0, c & 4 ? k1 : k0);
+    const Eigen::Vector3d p =
+        grid_.VoxelCentreMm(c & 1 ? i1 : i0, c & 2 ? j1 : j0, c & 4 ? k1 : k0);
     q[c] = t.rotation * p + t.translation_mm;
     zmin = std::min(zmin, q[c].z());
     zmax = std::max(zmax, q[c].z());
@@ -305,7 +311,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
     ++level;
   }
   const auto& L = t.pyramid[level];
-  float dmin = std::numeric_limits<float>::infinity(), dmax = -std::numeric_limits<float>::infinity();
+  float dmin = std::numeric_limits<float>::infinity(),
+        dmax = -std::numeric_limits<float>::infinity();
   bool all_connected = true;
   for (int cy = qy0 >> level; cy <= (qy1 >> level); ++cy) {
     for (int cx = qx0 >> level; cx <= (qx1 >> level); ++cx) {
@@ -330,8 +337,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
 // them (the camera-frame position is affine in i -- the incremental projection along
 // the row, evaluated from the row's start so that it does not depend on the span),
 // then a pass that samples the tessellated depth map (seed Figure 6).
-void Integrator::IntegrateSpan(const CameraTables& t, int j, int k, int i0, int i1,
-                               float* sum_wd, float* sum_w, Scratch* scratch) const {
+void Integrator::IntegrateSpan(const CameraTables& t, int j, int k, int i0, int i1, float* sum_wd,
+                               float* sum_w, Scratch* scratch) const {
   const Eigen::Vector3d c0 = t.rotation * grid_.VoxelCentreMm(0, j, k) + t.translation_mm;
   const Eigen::Vector3d s = t.rotation.col(0) * grid_.voxel_size_mm;
   float* pu = scratch->pu.data();
@@ -434,8 +441,8 @@ void Integrator::IntegrateBlockRow(int bj, int bk, int k0, int k1, Slab* slab,
           const int sj = jb + b * kHalf, sj_end = std::min(je, sj + kHalf);
           for (int c = 0; c < 2; ++c) {
             const int si = ib + c * kHalf, si_end = std::min(ie, si + kHalf);
-            sub[a][b][c] = sk < sk_end && sj < sj_end && si < si_end &&
-                                   sk < ke && sk_end > kb  // meets the slab
+            sub[a][b][c] = sk < sk_end && sj < sj_end && si < si_end && sk < ke &&
+                                   sk_end > kb  // meets the slab
                                ? ClassifyBlock(t, si, si_end - 1, sj, sj_end - 1, sk, sk_end - 1)
                                : BlockClass::kSkip;
           }
@@ -505,8 +512,8 @@ Slab Integrator::IntegrateSlab(int k0, int k1) const {
   const int bjn = (grid_.ny + kBlock - 1) / kBlock;
   const int64_t items = int64_t(bk1 - bk0) * bjn;
   const int threads = static_cast<int>(std::max<int64_t>(
-      1, std::min<int64_t>(options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads(),
-                           items)));
+      1, std::min<int64_t>(
+             options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads(), items)));
   std::atomic<int64_t> next{0};
   core::ParallelFor(0, threads, threads, [&](int64_t, int64_t) {
     Scratch scratch(grid_.nx);

@@ -64,8 +64,8 @@ struct FusionOptions {
 
 struct RangeImage {
   geometry::TsaiCamera camera;
-  cv::Mat depth_mm;  // CV_32FC1, camera.height_px x camera.width_px, 0 = invalid
-  cv::Mat weight;    // empty (uniform weight 1) or CV_32FC1 of the same size, >= 0
+  cv::Mat depth_mm;   // CV_32FC1, camera.height_px x camera.width_px, 0 = invalid
+  cv::Mat weight;     // empty (uniform weight 1) or CV_32FC1 of the same size, >= 0
   std::string where;  // names the source (file) in errors
 };
 

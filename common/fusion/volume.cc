@@ -70,8 +70,9 @@ Slab DecodeSlab(const std::string& bytes, const std::string& where) {
   int32_t h[4];
   std::memcpy(&version, bytes.data() + 8, 4);
   std::memcpy(h, bytes.data() + 12, 16);
-  core::Require(version == 1, where, "slab format version " + std::to_string(version) +
-                                         " is not the supported version 1");
+  core::Require(
+      version == 1, where,
+      "slab format version " + std::to_string(version) + " is not the supported version 1");
   Slab slab;
   slab.k0 = h[0];
   slab.k1 = h[1];

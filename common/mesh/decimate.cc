@@ -16,7 +16,8 @@ void DecimationOptions::Check() const {
   core::Require(target_triangles >= 0, "decimation: target_triangles",
                 "must be >= 0, got " + std::to_string(target_triangles));
   core::Require(std::isfinite(target_ratio) && target_ratio > 0.0 && target_ratio <= 1.0,
-                "decimation: target_ratio", "must be in (0, 1], got " + std::to_string(target_ratio));
+                "decimation: target_ratio",
+                "must be in (0, 1], got " + std::to_string(target_ratio));
   core::Require(std::isfinite(max_error_mm) && max_error_mm >= 0.0, "decimation: max_error_mm",
                 "must be >= 0 mm, got " + std::to_string(max_error_mm));
 }
@@ -34,9 +35,8 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
   }
   const float* positions = mesh.vertices.empty() ? nullptr : mesh.vertices[0].data();
   const size_t target_triangles =
-      options.target_triangles > 0
-          ? size_t(options.target_triangles)
-          : size_t(std::llround(options.target_ratio * double(triangles)));
+      options.target_triangles > 0 ? size_t(options.target_triangles)
+                                   : size_t(std::llround(options.target_ratio * double(triangles)));
   float scale = 1.0f;
   if (!mesh.vertices.empty()) {
     scale = meshopt_simplifyScale(positions, mesh.vertices.size(), sizeof(Eigen::Vector3f));

@@ -12,9 +12,18 @@ namespace dome::mesh {
 namespace {
 
 // Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1).
-constexpr std::array<std::array<int, 2>, 12> kEdgeCorners = {{{0, 1}, {2, 3}, {4, 5}, {6, 7},
-                                                              {0, 2}, {1, 3}, {4, 6}, {5, 7},
-                                                              {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
+constexpr std::array<std::array<int, 2>, 12> kEdgeCorners = {{{0, 1},
+                                                              {2, 3},
+                                                              {4, 5},
+                                                              {6, 7},
+                                                              {0, 2},
+                                                              {1, 3},
+                                                              {4, 6},
+                                                              {5, 7},
+                                                              {0, 4},
+                                                              {1, 5},
+                                                              {2, 6},
+                                                              {3, 7}}};
 
 int EdgeOf(int a, int b) {
   for (int e = 0; e < 12; ++e) {
@@ -79,8 +88,8 @@ struct CaseTable {
   CaseTable() {
     // The six faces, corners in cyclic order, oriented counter-clockwise seen from
     // outside the cell (fixed below by the outward normal).
-    std::array<std::array<int, 4>, 6> faces = {{{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                                                {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}}};
+    std::array<std::array<int, 4>, 6> faces = {
+        {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}}};
     const Eigen::Vector3d centre(0.5, 0.5, 0.5);
     for (auto& f : faces) {
       const Eigen::Vector3d p0 = CornerPos(f[0]), p1 = CornerPos(f[1]), p2 = CornerPos(f[2]);
@@ -203,9 +212,9 @@ int StreamingMarchingCubes::VertexOnEdge(int slot, int axis, int i, int j) {
 }
 
 void StreamingMarchingCubes::AddPlane(int k, const float* distance_mm, const float* weight) {
-  core::Require(k == next_plane_, "slab", "plane " + std::to_string(k) +
-                                              " arrived but plane " +
-                                              std::to_string(next_plane_) + " was expected next");
+  core::Require(k == next_plane_, "slab",
+                "plane " + std::to_string(k) + " arrived but plane " + std::to_string(next_plane_) +
+                    " was expected next");
   core::Require(k < grid_.nz, "slab", "plane " + std::to_string(k) + " is outside the volume");
   const size_t n = size_t(grid_.PlaneVoxels());
   std::swap(distance_[0], distance_[1]);
@@ -261,7 +270,8 @@ io::Mesh MarchingCubes(const fusion::VolumeGrid& grid, const std::vector<float>&
   DOME_CHECK(distance_mm.size() == n * grid.nz && weight.size() == n * grid.nz,
              "volume arrays must hold nx * ny * nz values");
   StreamingMarchingCubes mc(grid, options);
-  for (int k = 0; k < grid.nz; ++k) mc.AddPlane(k, distance_mm.data() + k * n, weight.data() + k * n);
+  for (int k = 0; k < grid.nz; ++k)
+    mc.AddPlane(k, distance_mm.data() + k * n, weight.data() + k * n);
   return mc.Finish();
 }
 

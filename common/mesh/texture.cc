@@ -17,7 +17,7 @@ namespace {
 // One camera prepared for shading: colour image, z-buffer of the mesh, centre.
 struct ShadingView {
   const geometry::TsaiCamera* camera = nullptr;
-  cv::Mat bgr;                // CV_8UC3
+  cv::Mat bgr;                 // CV_8UC3
   std::vector<float> zbuffer;  // camera z of the nearest mesh surface per pixel, mm
   Eigen::Vector3d centre;
 };
@@ -135,11 +135,11 @@ void CheckTextureView(const TextureView& view) {
   view.camera.Check(where + ": camera");
   core::Require(view.image.type() == CV_8UC1 || view.image.type() == CV_8UC3, where,
                 "must be an 8-bit gray or BGR image");
-  core::Require(view.image.cols == view.camera.width_px && view.image.rows == view.camera.height_px,
-                where, "image is " + std::to_string(view.image.cols) + "x" +
-                           std::to_string(view.image.rows) + " but camera " + view.camera.id +
-                           " is " + std::to_string(view.camera.width_px) + "x" +
-                           std::to_string(view.camera.height_px));
+  core::Require(
+      view.image.cols == view.camera.width_px && view.image.rows == view.camera.height_px, where,
+      "image is " + std::to_string(view.image.cols) + "x" + std::to_string(view.image.rows) +
+          " but camera " + view.camera.id + " is " + std::to_string(view.camera.width_px) + "x" +
+          std::to_string(view.camera.height_px));
 }
 
 void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
@@ -153,18 +153,18 @@ void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
     for (int m = 0; m < 3; ++m) normals[f[m]] += n;
   }
   mesh->colors.assign(mesh->vertices.size(), io::Color3u8(128, 128, 128));
-  core::ParallelFor(0, int64_t(mesh->vertices.size()), options.num_threads,
-                    [&](int64_t b, int64_t e) {
-                      for (int64_t v = b; v < e; ++v) {
-                        Eigen::Vector3d bgr;
-                        const Eigen::Vector3d n = normals[v].normalized();
-                        if (Shade(mesh->vertices[v].cast<double>(), n, prepared, options, &bgr)) {
-                          mesh->colors[v] = io::Color3u8(uint8_t(std::lround(bgr[2])),
-                                                         uint8_t(std::lround(bgr[1])),
-                                                         uint8_t(std::lround(bgr[0])));
-                        }
-                      }
-                    });
+  core::ParallelFor(
+      0, int64_t(mesh->vertices.size()), options.num_threads, [&](int64_t b, int64_t e) {
+        for (int64_t v = b; v < e; ++v) {
+          Eigen::Vector3d bgr;
+          const Eigen::Vector3d n = normals[v].normalized();
+          if (Shade(mesh->vertices[v].cast<double>(), n, prepared, options, &bgr)) {
+            mesh->colors[v] =
+                io::Color3u8(uint8_t(std::lround(bgr[2])), uint8_t(std::lround(bgr[1])),
+                             uint8_t(std::lround(bgr[0])));
+          }
+        }
+      });
 }
 
 TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
@@ -186,7 +186,7 @@ TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureVi
   // Corners of the two halves of a cell, in texel coordinates relative to the cell.
   const double lo = 0.5, hi = s - 0.5;
   const Eigen::Vector2d half_uv[2][3] = {{{lo, lo}, {hi, lo}, {lo, hi}},
-                                          {{hi, hi}, {lo, hi}, {hi, lo}}};
+                                         {{hi, hi}, {lo, hi}, {hi, lo}}};
   for (int64_t f = 0; f < faces; ++f) {
     const int64_t cell = f / 2;
     const double x0 = double(cell % cols) * s, y0 = double(cell / cols) * s;
@@ -205,9 +205,12 @@ TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureVi
           if (f >= faces) continue;
           const Eigen::Vector2d* c = half_uv[half];
           const Eigen::Vector2d p(tx + 0.5, ty + 0.5);
-          const double area = (c[1] - c[0]).x() * (c[2] - c[0]).y() - (c[2] - c[0]).x() * (c[1] - c[0]).y();
-          double w1 = ((p - c[0]).x() * (c[2] - c[0]).y() - (c[2] - c[0]).x() * (p - c[0]).y()) / area;
-          double w2 = ((c[1] - c[0]).x() * (p - c[0]).y() - (p - c[0]).x() * (c[1] - c[0]).y()) / area;
+          const double area =
+              (c[1] - c[0]).x() * (c[2] - c[0]).y() - (c[2] - c[0]).x() * (c[1] - c[0]).y();
+          double w1 =
+              ((p - c[0]).x() * (c[2] - c[0]).y() - (c[2] - c[0]).x() * (p - c[0]).y()) / area;
+          double w2 =
+              ((c[1] - c[0]).x() * (p - c[0]).y() - (p - c[0]).x() * (c[1] - c[0]).y()) / area;
           w1 = std::clamp(w1, 0.0, 1.0);
           w2 = std::clamp(w2, 0.0, 1.0 - w1);
           const auto& face = mesh.faces[f];
@@ -231,9 +234,9 @@ void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh&
   const std::string stem = obj_path.stem().string();
   const auto dir = obj_path.parent_path();
   io::WriteImage(dir / (stem + ".png"), t.atlas);
-  io::WriteFileAtomically(dir / (stem + ".mtl"),
-                          "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem +
-                              ".png\n");
+  io::WriteFileAtomically(
+      dir / (stem + ".mtl"),
+      "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem + ".png\n");
   std::string obj = "# dome textured mesh, world frame, mm\nmtllib " + stem + ".mtl\nusemtl dome\n";
   obj.reserve(t.mesh.vertices.size() * 40 + t.uv.size() * 30 + t.mesh.faces.size() * 40);
   char buf[128];

@@ -22,7 +22,7 @@ namespace dome::mesh {
 
 struct TextureView {
   geometry::TsaiCamera camera;
-  cv::Mat image;  // CV_8UC1 or CV_8UC3 (BGR), camera.height_px x camera.width_px
+  cv::Mat image;      // CV_8UC1 or CV_8UC3 (BGR), camera.height_px x camera.width_px
   std::string where;  // the image's file, for errors
 };
 
@@ -48,9 +48,9 @@ void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
                    const TextureOptions& options);
 
 struct TexturedMesh {
-  io::Mesh mesh;                     // positions and faces
-  std::vector<Eigen::Vector2f> uv;   // 3 per face, OBJ convention (v up), in [0, 1]
-  cv::Mat atlas;                     // CV_8UC3 BGR
+  io::Mesh mesh;                    // positions and faces
+  std::vector<Eigen::Vector2f> uv;  // 3 per face, OBJ convention (v up), in [0, 1]
+  cv::Mat atlas;                    // CV_8UC3 BGR
 };
 
 TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,

@@ -11,9 +11,9 @@ namespace dome::stereo {
 void ClusterOptions::Check() const {
   core::Require(max_neighbours >= 1, "max_neighbours",
                 "must be at least 1, got " + std::to_string(max_neighbours));
-  core::Require(std::isfinite(max_axis_angle_deg) && max_axis_angle_deg > 0.0 &&
-                    max_axis_angle_deg <= 180.0,
-                "max_axis_angle_deg", "must be in (0, 180], got " + std::to_string(max_axis_angle_deg));
+  core::Require(
+      std::isfinite(max_axis_angle_deg) && max_axis_angle_deg > 0.0 && max_axis_angle_deg <= 180.0,
+      "max_axis_angle_deg", "must be in (0, 180], got " + std::to_string(max_axis_angle_deg));
 }
 
 std::vector<int> SelectCluster(const take::Rig& rig, const std::string& camera_id,

@@ -15,8 +15,8 @@
 namespace dome::stereo {
 
 struct ClusterOptions {
-  int max_neighbours = 6;             // cameras besides the reference (count, >= 1)
-  double max_axis_angle_deg = 60.0;   // largest angle between optical axes, in degrees
+  int max_neighbours = 6;            // cameras besides the reference (count, >= 1)
+  double max_axis_angle_deg = 60.0;  // largest angle between optical axes, in degrees
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;

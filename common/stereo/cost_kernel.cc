@@ -78,10 +78,12 @@ struct BandState {
 //           levels back, when the minimum moves here);
 //   after: least cost over levels >= level+2.
 // second = min(before, after).
-__attribute__((noinline)) void UpdateRow(const float* __restrict cost, int n, float lvl, float* __restrict best,
-                      float* __restrict level, float* __restrict cm, float* __restrict cp,
-                      float* __restrict before, float* __restrict after, float* __restrict run,
-                      float* __restrict run_prev, float* __restrict prev) {
+__attribute__((noinline)) void UpdateRow(const float* __restrict cost, int n, float lvl,
+                                         float* __restrict best, float* __restrict level,
+                                         float* __restrict cm, float* __restrict cp,
+                                         float* __restrict before, float* __restrict after,
+                                         float* __restrict run, float* __restrict run_prev,
+                                         float* __restrict prev) {
   // Plain selects on floats only, so that GCC vectorizes it (std::min through
   // references and mixed bool logic kept it scalar).
   for (int x = 0; x < n; ++x) {
@@ -151,8 +153,8 @@ void RunBands(const KernelInput& in, int64_t band_begin, int64_t band_end,
           }
           const size_t o = size_t(y - y0) * width + h;
           UpdateRow(c, n, float(l), st.best.data() + o, st.level.data() + o, st.cm.data() + o,
-                    st.cp.data() + o, st.before.data() + o, st.after.data() + o,
-                    st.run.data() + o, st.run_prev.data() + o, st.prev.data() + o);
+                    st.cp.data() + o, st.before.data() + o, st.after.data() + o, st.run.data() + o,
+                    st.run_prev.data() + o, st.prev.data() + o);
         }
       }
     }

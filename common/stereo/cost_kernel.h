@@ -28,8 +28,8 @@ struct KernelInput {
   int width = 0, height = 0;
   const float* reference = nullptr;  // ideal grey, row-major, invalid pixels = 0
   int num_levels = 0;
-  float w_far = 0.0f;   // inverse depth of level 0, 1/mm
-  float w_step = 0.0f;  // inverse depth per level, 1/mm
+  float w_far = 0.0f;         // inverse depth of level 0, 1/mm
+  float w_step = 0.0f;        // inverse depth per level, 1/mm
   float outside_cost = 0.0f;  // squared difference of a sample without data
   std::vector<KernelNeighbour> neighbours;
   std::vector<int> half_windows;  // one per window size

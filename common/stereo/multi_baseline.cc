@@ -1,10 +1,10 @@
 #include "stereo/multi_baseline.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <Eigen/LU>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
@@ -49,8 +49,7 @@ cv::Mat PrepareImage(const StereoView& view, bool normalize_contrast, const std:
     valid = (grey == grey);  // not NaN
     grey.setTo(0.0f, ~valid);
   } else {
-    throw core::InputError(where + ": image",
-                           "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
+    throw core::InputError(where + ": image", "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
   }
   if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
   if (cam.kappa1_per_mm2 != 0.0) {
@@ -104,9 +103,9 @@ void StereoOptions::Check() const {
                 "must be positive, got " + std::to_string(level_step_px));
   core::Require(!window_sizes_px.empty(), "window_sizes_px", "must name at least one window");
   for (int w : window_sizes_px) {
-    core::Require(w >= 1 && w <= kMaxWindowPx && w % 2 == 1, "window_sizes_px",
-                  "each must be odd and 1.." + std::to_string(kMaxWindowPx) + ", got " +
-                      std::to_string(w));
+    core::Require(
+        w >= 1 && w <= kMaxWindowPx && w % 2 == 1, "window_sizes_px",
+        "each must be odd and 1.." + std::to_string(kMaxWindowPx) + ", got " + std::to_string(w));
   }
   core::Require(std::isfinite(outside_difference_grey) && outside_difference_grey >= 0.0,
                 "outside_difference_grey", "must be >= 0");
@@ -169,7 +168,8 @@ int CountDepthLevels(const geometry::TsaiCamera& reference,
   }
   core::Require(max_px >= 0.0, "cluster",
                 "no reference pixel between z_min and z_max projects into any neighbour "
-                "(camera '" + reference.id + "')");
+                "(camera '" +
+                    reference.id + "')");
   // The tolerance keeps a parallax of exactly n steps (summed from pieces) at n.
   return static_cast<int>(std::ceil(max_px / step_px - 1e-9)) + 1;
 }
@@ -204,11 +204,10 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
     nb_cams.push_back(v.camera);
   }
   const auto& ref_cam = input.reference.camera;
-  const int num_levels =
-      options.num_levels > 0
-          ? options.num_levels
-          : CountDepthLevels(ref_cam, nb_cams, options.z_min_mm, options.z_max_mm,
-                             options.level_step_px);
+  const int num_levels = options.num_levels > 0
+                             ? options.num_levels
+                             : CountDepthLevels(ref_cam, nb_cams, options.z_min_mm,
+                                                options.z_max_mm, options.level_step_px);
   result.num_levels = num_levels;
 
   const int width = ref_cam.width_px, height = ref_cam.height_px;
@@ -223,10 +222,10 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   kin.reference = ref_grey.ptr<float>(0);
   kin.num_levels = num_levels;
   kin.w_far = static_cast<float>(1.0 / options.z_max_mm);
-  kin.w_step = static_cast<float>((1.0 / options.z_min_mm - 1.0 / options.z_max_mm) /
-                                  (num_levels - 1));
-  kin.outside_cost = static_cast<float>(options.outside_difference_grey *
-                                        options.outside_difference_grey);
+  kin.w_step =
+      static_cast<float>((1.0 / options.z_min_mm - 1.0 / options.z_max_mm) / (num_levels - 1));
+  kin.outside_cost =
+      static_cast<float>(options.outside_difference_grey * options.outside_difference_grey);
   for (size_t n = 0; n < nb_cams.size(); ++n) {
     KernelNeighbour kn;
     Eigen::Matrix3d a;
@@ -282,7 +281,8 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
         const float bl = o.best_level[i];
         if (!(bl >= 1.0f && bl <= num_levels - 2.0f)) continue;
         if (invalid_f.at<float>(y, x) > 0.0f) continue;
-        const double var = mean2.at<float>(y, x) - double(mean.at<float>(y, x)) * mean.at<float>(y, x);
+        const double var =
+            mean2.at<float>(y, x) - double(mean.at<float>(y, x)) * mean.at<float>(y, x);
         if (var < min_var) continue;
         const double curvature = o.curvature[i] / samples;
         if (!(curvature >= options.min_curvature) || curvature <= 0.0) continue;

@@ -88,13 +88,13 @@ struct StereoInput {
 
 struct RangeImage {
   int window_px = 0;
-  cv::Mat depth_mm;     // CV_32FC1, z along the reference optical axis in mm, 0 = invalid
-  cv::Mat reliability;  // CV_32FC1, cost curvature per sample (grey^2/level^2), 0 = invalid
+  cv::Mat depth_mm;      // CV_32FC1, z along the reference optical axis in mm, 0 = invalid
+  cv::Mat reliability;   // CV_32FC1, cost curvature per sample (grey^2/level^2), 0 = invalid
   double density = 0.0;  // fraction of pixels with a depth
 };
 
 struct StereoResult {
-  std::string camera;                   // the reference camera id
+  std::string camera;  // the reference camera id
   int num_levels = 0;
   std::vector<RangeImage> range_images;  // one per window size, in the options' order
   double prepare_seconds = 0.0;          // undistortion and conversion
@@ -107,9 +107,9 @@ struct StereoResult {
 // projections at z_min and z_max of any of a 9x9 grid of reference pixels into any
 // neighbour (ideal pinhole cameras), counting only the part of that epipolar segment
 // that falls inside the neighbour's image in front of it (sampled at 256 steps of
-// inverse depth), divided by step_px, rounded up, plus one. For a rectified pair with baseline B and focal f pixels this is
-// ceil(f B (1/z_min - 1/z_max) / step_px) + 1. Throws InputError when no grid point
-// projects into any neighbour.
+// inverse depth), divided by step_px, rounded up, plus one. For a rectified pair with baseline B
+// and focal f pixels this is ceil(f B (1/z_min - 1/z_max) / step_px) + 1. Throws InputError when no
+// grid point projects into any neighbour.
 int CountDepthLevels(const geometry::TsaiCamera& reference,
                      const std::vector<geometry::TsaiCamera>& neighbours, double z_min_mm,
                      double z_max_mm, double step_px);

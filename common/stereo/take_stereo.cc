@@ -1,8 +1,9 @@
 #include "stereo/take_stereo.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>
-#include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "io/depth_tiff.h"
@@ -22,8 +23,8 @@ namespace {
 cv::Mat ReadFrame(const fs::path& path) {
   // Keep alpha when present: it marks valid pixels.
   cv::Mat image = io::ReadImage(path, io::ImageMode::kUnchanged);
-  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3 &&
-                                 image.channels() != 4)) {
+  if (image.depth() != CV_8U ||
+      (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
     throw core::InputError(path.string(), "must be an 8-bit gray, BGR or BGRA image");
   }
   return image;
@@ -67,8 +68,9 @@ std::vector<fs::path> WriteStereoResult(const StereoResult& result, const std::s
     io::WriteDepthTiff(depth, r.depth_mm);
     std::vector<uchar> bytes;
     cv::imencode(".tiff", r.reliability, bytes);
-    io::WriteFileAtomically(base / ("reliability" + sfx) / (result.camera + ".tiff"),
-                            std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    io::WriteFileAtomically(
+        base / ("reliability" + sfx) / (result.camera + ".tiff"),
+        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
     if (write_previews) {
       io::WriteDepthPreviewPng(base / ("preview" + sfx) / (result.camera + ".png"), r.depth_mm);
     }

@@ -2,11 +2,12 @@
 // TAKE/calib/ (common/calib/calibrate.h). Writes the calibrated rig (default
 // TAKE/rig.json) and a JSON report (default TAKE/calib/report.json); prints a summary.
 // Exit status 0 when every camera is within bounds, 2 when some camera is flagged.
+#include "calib/calibrate.h"
+
 #include <cstdio>
 #include <memory>
 #include <string>
 
-#include "calib/calibrate.h"
 #include "cli/commands.h"
 #include "io/file_util.h"
 #include "take/rig.h"
@@ -23,16 +24,19 @@ void AddCalibrateCommand(CLI::App* app, int* exit_code) {
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("TAKE", args->take, "take folder with calib/stage1 and calib/stage2")->required();
-  cmd->add_option("--prior", args->prior,
-                  "rig giving the cameras' ids, image sizes and sensor constants (default TAKE/rig.json)");
+  cmd->add_option(
+      "--prior", args->prior,
+      "rig giving the cameras' ids, image sizes and sensor constants (default TAKE/rig.json)");
   cmd->add_option("--out", args->out, "rig file to write (default TAKE/rig.json)");
-  cmd->add_option("--report", args->report, "report file to write (default TAKE/calib/report.json)");
+  cmd->add_option("--report", args->report,
+                  "report file to write (default TAKE/calib/report.json)");
   cmd->add_flag("--no-joint", args->no_joint, "skip the final joint refinement of both stages");
   cmd->add_flag("--stored-points", args->options.use_stored_points,
                 "use the image points stored in the view files instead of detecting them");
   cmd->add_option("--outlier-px", args->options.outlier_px, "reject points beyond this error (px)")
       ->capture_default_str();
-  cmd->add_option("--flag-rms-px", args->options.flag_rms_px, "flag cameras whose RMS exceeds this (px)")
+  cmd->add_option("--flag-rms-px", args->options.flag_rms_px,
+                  "flag cameras whose RMS exceeds this (px)")
       ->capture_default_str();
   cmd->add_option("--flag-max-px", args->options.flag_max_px,
                   "flag cameras whose largest error exceeds this (px)")
@@ -40,16 +44,20 @@ void AddCalibrateCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--min-floor-marks", args->options.min_stage2_points,
                   "floor marks each camera must see")
       ->capture_default_str();
-  cmd->add_option("--threads", args->options.threads, "worker threads (0 = all)")->capture_default_str();
+  cmd->add_option("--threads", args->options.threads, "worker threads (0 = all)")
+      ->capture_default_str();
   cmd->callback([=] {
     const std::filesystem::path take(args->take);
     calib::CalibrateOptions options = args->options;
     options.joint_refinement = !args->no_joint;
-    const take::Rig prior = take::ReadRig(args->prior.empty() ? take / "rig.json" : std::filesystem::path(args->prior));
+    const take::Rig prior =
+        take::ReadRig(args->prior.empty() ? take / "rig.json" : std::filesystem::path(args->prior));
     const calib::CalibrationResult result = calib::CalibrateTake(take, prior, options);
-    const std::filesystem::path report = args->report.empty() ? take / "calib" / "report.json" : std::filesystem::path(args->report);
+    const std::filesystem::path report =
+        args->report.empty() ? take / "calib" / "report.json" : std::filesystem::path(args->report);
     io::WriteFileAtomically(report, result.ReportJson());
-    take::WriteRig(result.rig, args->out.empty() ? take / "rig.json" : std::filesystem::path(args->out));
+    take::WriteRig(result.rig,
+                   args->out.empty() ? take / "rig.json" : std::filesystem::path(args->out));
     std::fputs(result.BriefReport().c_str(), stdout);
     bool flagged = false;
     for (const auto& c : result.cameras) flagged = flagged || c.flagged;

@@ -94,7 +94,8 @@ io::Mesh Crop(const io::Mesh& m, const Eigen::Vector3f& lo, const Eigen::Vector3
   io::Mesh out;
   std::vector<int> remap(m.vertices.size(), -1);
   auto in = [&](int v) {
-    return (m.vertices[v].array() >= lo.array()).all() && (m.vertices[v].array() <= hi.array()).all();
+    return (m.vertices[v].array() >= lo.array()).all() &&
+           (m.vertices[v].array() <= hi.array()).all();
   };
   for (const auto& f : m.faces) {
     if (!in(f[0]) || !in(f[1]) || !in(f[2])) continue;
@@ -115,8 +116,9 @@ io::Mesh Crop(const io::Mesh& m, const Eigen::Vector3f& lo, const Eigen::Vector3
 
 void AddFuseCommand(CLI::App* app, int* exit_code) {
   auto* cmd = app->add_subcommand(
-      "fuse", "Fuse each instant's depth maps into a mesh (volumetric fusion, marching cubes, "
-              "decimation, texture)");
+      "fuse",
+      "Fuse each instant's depth maps into a mesh (volumetric fusion, marching cubes, "
+      "decimation, texture)");
   struct Args {
     std::string take, out, depth_dir;
     std::vector<std::string> instants;
@@ -137,8 +139,10 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
   cmd->add_option("--voxel-mm", a->voxel_mm, "voxel edge, mm (seed: 20)")->capture_default_str();
-  cmd->add_option("--origin", a->origin, "volume min corner x y z, mm (default: the seed's 6 m "
-                  "cube around the dome, -3000 -3000 -2750)")->expected(3);
+  cmd->add_option("--origin", a->origin,
+                  "volume min corner x y z, mm (default: the seed's 6 m "
+                  "cube around the dome, -3000 -3000 -2750)")
+      ->expected(3);
   cmd->add_option("--dims", a->dims, "voxels along x y z (default: 6000 mm / voxel)")->expected(3);
   cmd->add_option("--slab-planes", a->slab_planes, "voxel planes per slab")->capture_default_str();
   cmd->add_option("--threads", a->fusion.num_threads, "threads (0: all)");
@@ -161,7 +165,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
     grid.voxel_size_mm = a->voxel_mm;
     core::Require(a->voxel_mm > 0, "--voxel-mm", "must be positive");
     grid.nx = grid.ny = grid.nz = int(std::lround(6000.0 / a->voxel_mm));
-    if (!a->origin.empty()) grid.origin_mm = Eigen::Vector3d(a->origin[0], a->origin[1], a->origin[2]);
+    if (!a->origin.empty())
+      grid.origin_mm = Eigen::Vector3d(a->origin[0], a->origin[1], a->origin[2]);
     if (!a->dims.empty()) {
       grid.nx = int(a->dims[0]);
       grid.ny = int(a->dims[1]);
@@ -176,7 +181,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
     std::vector<std::string> instants = a->instants.empty() ? take.instants : a->instants;
     for (const std::string& instant : instants) {
       const auto pos = std::find(take.instants.begin(), take.instants.end(), instant);
-      core::Require(pos != take.instants.end(), "--instant", "no instant '" + instant + "' in the take");
+      core::Require(pos != take.instants.end(), "--instant",
+                    "no instant '" + instant + "' in the take");
       const std::filesystem::path dir = std::filesystem::path(a->out) / instant;
       std::filesystem::create_directories(dir);
       core::Stopwatch total;
@@ -187,7 +193,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
         truth.seed = a->seed;
         images = fusion::LoadTruthRangeImages(take, instant, truth);
       } else {
-        images = fusion::LoadRangeImagesFromDir(take, std::filesystem::path(a->depth_dir) / instant);
+        images =
+            fusion::LoadRangeImagesFromDir(take, std::filesystem::path(a->depth_dir) / instant);
       }
       const double t_load = total.ElapsedSeconds();
       core::Stopwatch w;
@@ -196,7 +203,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       double t_fusion = w.ElapsedSeconds(), t_mc = 0;
       for (int k0 = 0; k0 < grid.nz; k0 += a->slab_planes) {
         w.Restart();
-        const fusion::Slab slab = integrator.IntegrateSlab(k0, std::min(grid.nz, k0 + a->slab_planes));
+        const fusion::Slab slab =
+            integrator.IntegrateSlab(k0, std::min(grid.nz, k0 + a->slab_planes));
         t_fusion += w.ElapsedSeconds();
         w.Restart();
         mc.AddSlab(slab);
@@ -214,18 +222,21 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       mesh::TextureOptions tex;
       tex.num_threads = options.num_threads;
       mesh::ColorVertices(&decimated, views, tex);
-      if (a->texture) mesh::WriteTexturedObj(dir / "textured.obj", mesh::BuildTextureAtlas(decimated, views, tex));
+      if (a->texture)
+        mesh::WriteTexturedObj(dir / "textured.obj",
+                               mesh::BuildTextureAtlas(decimated, views, tex));
       const double t_tex = w.ElapsedSeconds();
-      io::WritePly(dir / "mesh_decimated.ply", decimated, {io::PlyFormat::kBinaryLittleEndian, {"units mm"}});
-      std::string json = "{\"instant\": \"" + instant + "\", \"cameras\": " +
-                         std::to_string(images.size()) + ", \"voxel_mm\": " + Num(grid.voxel_size_mm) +
-                         ", \"voxels\": [" + std::to_string(grid.nx) + ", " + std::to_string(grid.ny) +
-                         ", " + std::to_string(grid.nz) + "], \"triangles\": " +
-                         std::to_string(surface.faces.size()) + ", \"decimated_triangles\": " +
-                         std::to_string(decimated.faces.size()) + ", \"seconds\": {\"load\": " +
-                         Num(t_load) + ", \"fusion\": " + Num(t_fusion) + ", \"marching_cubes\": " +
-                         Num(t_mc) + ", \"decimation\": " + Num(t_dec) + ", \"texture\": " + Num(t_tex) +
-                         ", \"total\": " + Num(total.ElapsedSeconds()) + "}";
+      io::WritePly(dir / "mesh_decimated.ply", decimated,
+                   {io::PlyFormat::kBinaryLittleEndian, {"units mm"}});
+      std::string json =
+          "{\"instant\": \"" + instant + "\", \"cameras\": " + std::to_string(images.size()) +
+          ", \"voxel_mm\": " + Num(grid.voxel_size_mm) + ", \"voxels\": [" +
+          std::to_string(grid.nx) + ", " + std::to_string(grid.ny) + ", " +
+          std::to_string(grid.nz) + "], \"triangles\": " + std::to_string(surface.faces.size()) +
+          ", \"decimated_triangles\": " + std::to_string(decimated.faces.size()) +
+          ", \"seconds\": {\"load\": " + Num(t_load) + ", \"fusion\": " + Num(t_fusion) +
+          ", \"marching_cubes\": " + Num(t_mc) + ", \"decimation\": " + Num(t_dec) +
+          ", \"texture\": " + Num(t_tex) + ", \"total\": " + Num(total.ElapsedSeconds()) + "}";
       const auto truth_mesh = take.TruthMeshPath(instant);
       if (a->evaluate && std::filesystem::exists(truth_mesh)) {
         eval::CloudEvalOptions eo;
@@ -236,8 +247,9 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
         eo.num_threads = options.num_threads;
         // The scene inside the volume above the floor: the person and the bat (the
         // room's walls lie outside the seed's 6 m cube, the floor is trivially exact).
-        const Eigen::Vector3f lo = (grid.origin_mm + Eigen::Vector3d(0, 0, 0)).cast<float>().cwiseMax(
-            Eigen::Vector3f(-1500, -1500, 30));
+        const Eigen::Vector3f lo = (grid.origin_mm + Eigen::Vector3d(0, 0, 0))
+                                       .cast<float>()
+                                       .cwiseMax(Eigen::Vector3f(-1500, -1500, 30));
         const Eigen::Vector3f hi =
             (grid.origin_mm + grid.voxel_size_mm * Eigen::Vector3d(grid.nx, grid.ny, grid.nz))
                 .cast<float>()
@@ -283,8 +295,10 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   dec->add_option("OUT", d->out, "output mesh, PLY (binary)")->required();
   dec->add_option("--ratio", d->options.target_ratio, "target fraction of triangles")
       ->capture_default_str();
-  dec->add_option("--triangles", d->options.target_triangles, "target triangle count (overrides --ratio)");
-  dec->add_option("--max-error-mm", d->options.max_error_mm, "stop before moving the surface more, mm");
+  dec->add_option("--triangles", d->options.target_triangles,
+                  "target triangle count (overrides --ratio)");
+  dec->add_option("--max-error-mm", d->options.max_error_mm,
+                  "stop before moving the surface more, mm");
   dec->add_flag("--free-border", d->free_border, "let open borders move");
   dec->callback([=] {
     mesh::DecimationOptions o = d->options;
@@ -292,9 +306,10 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
     mesh::DecimationSummary s;
     const io::Mesh out = mesh::Decimate(io::ReadPly(d->in), o, &s);
     io::WritePly(d->out, out);
-    std::printf("{\"triangles_in\": %lld, \"triangles_out\": %lld, \"error_mm\": %s, \"seconds\": %s}\n",
-                (long long)s.triangles_in, (long long)s.triangles_out, Num(s.error_mm).c_str(),
-                Num(s.seconds).c_str());
+    std::printf(
+        "{\"triangles_in\": %lld, \"triangles_out\": %lld, \"error_mm\": %s, \"seconds\": %s}\n",
+        (long long)s.triangles_in, (long long)s.triangles_out, Num(s.error_mm).c_str(),
+        Num(s.seconds).c_str());
     *exit_code = 0;
   });
   struct TexArgs {
@@ -302,12 +317,14 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
     mesh::TextureOptions options;
   };
   auto t = std::make_shared<TexArgs>();
-  auto* tex = cmd->add_subcommand("texture", "Texture a mesh from an instant's images (OBJ+MTL+PNG)");
+  auto* tex =
+      cmd->add_subcommand("texture", "Texture a mesh from an instant's images (OBJ+MTL+PNG)");
   tex->add_option("TAKE", t->take, "take folder")->required();
   tex->add_option("INSTANT", t->instant, "instant HH-MM-SS-FF")->required();
   tex->add_option("IN", t->in, "mesh, PLY (world mm)")->required();
   tex->add_option("OUT", t->out, "textured mesh .obj (the .mtl and .png go beside it)")->required();
-  tex->add_option("--cell-px", t->options.atlas_cell_px, "atlas cell edge, texels")->capture_default_str();
+  tex->add_option("--cell-px", t->options.atlas_cell_px, "atlas cell edge, texels")
+      ->capture_default_str();
   tex->callback([=] {
     const take::Take take = take::OpenTake(t->take);
     io::Mesh m = io::ReadPly(t->in);

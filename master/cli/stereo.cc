@@ -32,7 +32,8 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--level-step", s.level_step_px,
                   "parallax per level in the widest-baseline neighbour, px")
       ->capture_default_str();
-  cmd->add_option("--windows", s.window_sizes_px, "SSD window sides, px (odd; one range image each)")
+  cmd->add_option("--windows", s.window_sizes_px,
+                  "SSD window sides, px (odd; one range image each)")
       ->capture_default_str();
   cmd->add_flag("--normalize-contrast", s.normalize_contrast,
                 "stretch each image's 1st..99th grey percentile to 0..255 (dark images)");

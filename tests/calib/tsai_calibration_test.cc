@@ -2,10 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
-
-#include <Eigen/Geometry>
 
 #include "geometry/tsai_camera.h"
 #include "testing/expect_error.h"
@@ -38,7 +37,8 @@ CameraPrior PriorOf(const geometry::TsaiCamera& cam) {
 }
 
 // Points on three orthogonal plates (like the synthetic object), projected exactly.
-std::vector<Correspondence> ObjectPoints(const geometry::TsaiCamera& cam, bool volume, double noise_px = 0) {
+std::vector<Correspondence> ObjectPoints(const geometry::TsaiCamera& cam, bool volume,
+                                         double noise_px = 0) {
   std::mt19937 rng(5);
   std::normal_distribution<double> n(0.0, noise_px);
   std::vector<Correspondence> out;
@@ -46,8 +46,9 @@ std::vector<Correspondence> ObjectPoints(const geometry::TsaiCamera& cam, bool v
   for (int plate = 0; plate < (volume ? 3 : 1); ++plate) {
     for (int j = 1; j <= 7; ++j) {
       for (int i = 1; i <= 7; ++i) {
-        Vector3d p = plate == 0 ? Vector3d(100 * i, 100 * j, 0)
-                                : plate == 1 ? Vector3d(100 * j, 0, 100 * i) : Vector3d(0, 100 * i, 100 * j);
+        Vector3d p = plate == 0   ? Vector3d(100 * i, 100 * j, 0)
+                     : plate == 1 ? Vector3d(100 * j, 0, 100 * i)
+                                  : Vector3d(0, 100 * i, 100 * j);
         Vector2d px;
         if (!cam.Project(p, &px)) continue;
         if (noise_px > 0) px += Vector2d(n(rng), n(rng));
@@ -63,7 +64,8 @@ TEST(TsaiInit, NonCoplanarExactWithoutDistortion) {
   truth.kappa1_per_mm2 = 0;
   // look at the object from the (1, 1, 1) side
   const Vector3d centre(2000, 1800, 1600), at(300, 300, 300);
-  const Vector3d z = (at - centre).normalized(), x = z.cross(Vector3d(0, 0, -1)).normalized(), y = z.cross(x);
+  const Vector3d z = (at - centre).normalized(), x = z.cross(Vector3d(0, 0, -1)).normalized(),
+                 y = z.cross(x);
   truth.rotation.row(0) = x;
   truth.rotation.row(1) = y;
   truth.rotation.row(2) = z;
@@ -79,7 +81,8 @@ TEST(TsaiInit, NonCoplanarExactWithoutDistortion) {
 TEST(TsaiRefine, RecoversAllElevenParametersFromNoisyObjectPoints) {
   geometry::TsaiCamera truth = TrueCamera();
   const Vector3d centre(1100, 1000, 900), at(300, 300, 300);
-  const Vector3d z = (at - centre).normalized(), x = z.cross(Vector3d(0, 0, -1)).normalized(), y = z.cross(x);
+  const Vector3d z = (at - centre).normalized(), x = z.cross(Vector3d(0, 0, -1)).normalized(),
+                 y = z.cross(x);
   truth.rotation.row(0) = x;
   truth.rotation.row(1) = y;
   truth.rotation.row(2) = z;
@@ -167,8 +170,9 @@ TEST(TsaiInit, NanPointIsRejected) {
   const auto truth = TrueCamera();
   auto pts = ObjectPoints(truth, true);
   pts[3].pixel.x() = std::nan("");
-  testing::ExpectInputError([&] { TsaiInitNonCoplanar(PriorOf(truth), 160, 122, pts, {}, "v.json"); },
-                            {"v.json", "point 3", "finite"});
+  testing::ExpectInputError(
+      [&] { TsaiInitNonCoplanar(PriorOf(truth), 160, 122, pts, {}, "v.json"); },
+      {"v.json", "point 3", "finite"});
 }
 
 TEST(TsaiRefine, TooFewResiduals) {

@@ -93,7 +93,8 @@ TEST(Cli, SynthBadOptionsNameTheFlag) {
   } cases[] = {
       {"--preset huge --out /tmp/dome_never_written", "--preset: unknown preset 'huge'"},
       {"--preset small --cameras 0 --out /tmp/dome_never_written", "--cameras: expected 1.."},
-      {"--preset small --width 0 --out /tmp/dome_never_written", "--width: expected an image width"},
+      {"--preset small --width 0 --out /tmp/dome_never_written",
+       "--width: expected an image width"},
       {"--preset small --out /proc/dome_take", "/proc/dome_take: cannot create the take folder"},
   };
   for (const auto& c : cases) {
@@ -111,7 +112,8 @@ TEST(Cli, SynthSmallTakePassesInfo) {
   ASSERT_EQ(synth.exit_code, 0) << synth.output;
   const Result info = RunDomeBinary("info " + take.string());
   EXPECT_EQ(info.exit_code, 0) << info.output;
-  EXPECT_NE(info.output.find("rig: 6 camera(s), source synthetic"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("rig: 6 camera(s), source synthetic"), std::string::npos)
+      << info.output;
   EXPECT_NE(info.output.find("truth: 1 instant(s)"), std::string::npos) << info.output;
 }
 

@@ -83,8 +83,8 @@ inline std::vector<fusion::RangeImage> RingImages(const std::vector<Sphere>& sph
     const double h = heights_mm[c % heights_mm.size()];
     const Eigen::Vector3d centre(1500 * std::cos(a), 1500 * std::sin(a), h);
     fusion::RangeImage image;
-    image.camera = LookAtCamera("c" + std::to_string(c), centre, Eigen::Vector3d(0, 0, h), width,
-                                height);
+    image.camera =
+        LookAtCamera("c" + std::to_string(c), centre, Eigen::Vector3d(0, 0, h), width, height);
     image.depth_mm = RenderSpheres(image.camera, spheres);
     image.where = "depth/c" + std::to_string(c) + ".tiff";
     images.push_back(image);

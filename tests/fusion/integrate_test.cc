@@ -246,7 +246,8 @@ namespace {
 
 // Block culling is a pure shortcut: with it off every voxel takes the per-voxel path.
 TEST(Integrate, BlockCullingChangesNothing) {
-  const std::vector<RangeImage> images = testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
+  const std::vector<RangeImage> images =
+      testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
   // A backdrop: every pixel has a surface (a far wall), so free space is everywhere.
   std::vector<RangeImage> walled = images;
   for (auto& im : walled) {
@@ -260,7 +261,8 @@ TEST(Integrate, BlockCullingChangesNothing) {
   g.ny = 37;
   g.nz = 300;
   g.origin_mm = Eigen::Vector3d(-230, -190, 0);
-  for (const std::vector<RangeImage>* set : {&images, const_cast<const std::vector<RangeImage>*>(&walled)}) {
+  for (const std::vector<RangeImage>* set :
+       {&images, const_cast<const std::vector<RangeImage>*>(&walled)}) {
     FusionOptions on, off;
     off.block_culling = false;
     const Slab a = Integrator(g, *set, on).IntegrateSlab(0, g.nz);

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <set>
 
@@ -73,8 +72,7 @@ TEST(MarchingCubes, UnobservedCellsAreSkipped) {
 // Slab invariance end to end: fusion in 1, 7 and 300 slabs, streamed into marching
 // cubes, gives byte-identical PLY files.
 TEST(MarchingCubes, OneSevenAndThreeHundredSlabsGiveIdenticalMeshes) {
-  const auto images =
-      testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
+  const auto images = testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
   fusion::VolumeGrid g;
   g.voxel_size_mm = 10;
   g.nx = g.ny = 32;

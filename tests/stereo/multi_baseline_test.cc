@@ -112,8 +112,7 @@ TEST(MultiBaselineTest, BadInputsGiveClearErrors) {
   opt.z_max_mm = 3000;
   dome::testing::ExpectInputError([&] { opt.Check(); }, {"z_max_mm", "greater than z_min_mm"});
   opt.z_max_mm = 1000;
-  dome::testing::ExpectInputError([&] { ComputeDepth(PlaneInput(2000, true), opt); },
-                                  {"z_max_mm"});
+  dome::testing::ExpectInputError([&] { ComputeDepth(PlaneInput(2000, true), opt); }, {"z_max_mm"});
   StereoOptions ok;
   StereoInput lonely = PlaneInput(2000, true);
   lonely.neighbours.clear();
