@@ -16,8 +16,7 @@ namespace {
 using testing::ExpectInputError;
 using testing::ScratchDir;
 using testing::TypicalCamera;
-
-void WriteFile(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+using testing::WriteFile;
 
 const std::string kCameras =
     "# Camera list with one line of data per camera:\n"

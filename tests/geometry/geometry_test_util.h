@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <initializer_list>
 #include <random>
 #include <string>
@@ -28,6 +29,22 @@ inline std::string DataDir() { return std::string(DOME_SHARED_DIR) + "/data"; }
 // Scratch folders and the InputError check are shared by every test (tests/testing/).
 using ScratchDir = dome::testing::TempDir;
 using dome::testing::ExpectInputError;
+
+// Writes `text` to `path` (test input files written by hand).
+inline void WriteFile(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// `text` with the first occurrence of `from` replaced by `to` (a test failure when
+// `from` is absent): for breaking one field of a valid file.
+inline std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) {
+    text.replace(at, from.size(), to);
+  }
+  return text;
+}
 
 // A camera like the EPFL terrace ones (720x576, 23 um pitch, f = 20 mm), with sx != 1
 // and ncx != nfx so that the x scale factors are exercised, looking at the world origin

@@ -17,8 +17,10 @@ namespace {
 
 using testing::DataDir;
 using testing::ExpectInputError;
+using testing::Replace;
 using testing::ScratchDir;
 using testing::TypicalCamera;
+using testing::WriteFile;
 
 const char* const kScenes[] = {"2016_10_24__17_43_02", "2016_10_24__17_44_40",
                                "2016_10_24__18_26_08", "2016_10_25__12_11_32"};
@@ -267,17 +269,6 @@ ImageHeight:imgh:	1024;
 
 // Camera -> world: 90 degrees about z, camera centre at (0.1, 0.2, -0.3) m.
 const std::string kExtrinsics = "0 -1 0 0.1 1 0 0 0.2 0 0 1 -0.3 ";
-
-void WriteFile(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) {
-    text.replace(at, from.size(), to);
-  }
-  return text;
-}
 
 TEST(Halcon, HandWrittenFilesMapAsDocumented) {
   ScratchDir dir;

@@ -16,6 +16,7 @@ using testing::DataDir;
 using testing::ExpectInputError;
 using testing::ScratchDir;
 using testing::TypicalCamera;
+using testing::WriteFile;
 
 MiddleburyReadOptions TempleOptions() {
   MiddleburyReadOptions options;
@@ -118,8 +119,6 @@ TEST(Middlebury, WriteReadRoundTrip) {
 const char* const kLine =
     "a.png 1520.4 0 302.32 0 1525.9 246.87 0 0 1 "
     "1 0 0 0 1 0 0 0 1 0.01 0.02 0.6";
-
-void WriteFile(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
 TEST(Middlebury, BadInput) {
   ScratchDir dir;

@@ -14,8 +14,10 @@ namespace {
 
 using testing::DataDir;
 using testing::ExpectInputError;
+using testing::Replace;
 using testing::ScratchDir;
 using testing::TypicalCamera;
+using testing::WriteFile;
 
 const std::string kGoodXml = R"(<?xml version="1.0" encoding="UTF-8"?>
 <!-- a comment with <Camera> inside -->
@@ -32,17 +34,6 @@ const std::string kGoodXml = R"(<?xml version="1.0" encoding="UTF-8"?>
 	ry="4.9730769727e-01" rz="1.8415452559e-01"/>
  </Camera>
 )";
-
-void WriteFile(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) {
-    text.replace(at, from.size(), to);
-  }
-  return text;
-}
 
 TEST(TsaiXml, ReadsTheFields) {
   ScratchDir dir;
