@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "brute_force_ray.h"
 #include "synth/noise.h"
 #include "synth/scene.h"
 
@@ -14,31 +15,12 @@ namespace {
 
 using Eigen::Vector3d;
 
-// Reference: Moller-Trumbore in double precision over every triangle.
 bool BruteForce(const SceneMesh& mesh, const Vector3d& o, const Vector3d& d, double* t_best,
                 int* face_best) {
-  *t_best = std::numeric_limits<double>::infinity();
-  *face_best = -1;
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
-    const Vector3d a = mesh.vertices[mesh.faces[f][0]].cast<double>();
-    const Vector3d b = mesh.vertices[mesh.faces[f][1]].cast<double>();
-    const Vector3d c = mesh.vertices[mesh.faces[f][2]].cast<double>();
-    const Vector3d e1 = b - a, e2 = c - a, p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-14) continue;
-    const Vector3d s = o - a;
-    const double u = s.dot(p) / det;
-    if (u < 0 || u > 1) continue;
-    const Vector3d q = s.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0 || u + v > 1) continue;
-    const double t = e2.dot(q) / det;
-    if (t > 1e-9 && t < *t_best) {
-      *t_best = t;
-      *face_best = static_cast<int>(f);
-    }
-  }
-  return *face_best >= 0;
+  const dome::testing::BruteForceHit hit = dome::testing::BruteForceIntersect(mesh, o, d);
+  *t_best = hit.t;
+  *face_best = hit.face;
+  return hit.hit();
 }
 
 TEST(RayCaster, AgreesWithBruteForceOnTheDomeScene) {

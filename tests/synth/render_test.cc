@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "brute_force_ray.h"
 #include "synth/batter.h"
 #include "synth/noise.h"
 #include "synth/scene.h"
@@ -17,33 +18,14 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-// Moller-Trumbore in double over every triangle: an intersection independent of Embree.
 bool BruteForce(const SceneMesh& mesh, const Vector3d& o, const Vector3d& d, double* t_best,
                 int* face_best, double* u_best, double* v_best) {
-  *t_best = std::numeric_limits<double>::infinity();
-  *face_best = -1;
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
-    const Vector3d a = mesh.vertices[mesh.faces[f][0]].cast<double>();
-    const Vector3d e1 = mesh.vertices[mesh.faces[f][1]].cast<double>() - a;
-    const Vector3d e2 = mesh.vertices[mesh.faces[f][2]].cast<double>() - a;
-    const Vector3d p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-14) continue;
-    const Vector3d s = o - a;
-    const double u = s.dot(p) / det;
-    if (u < 0 || u > 1) continue;
-    const Vector3d q = s.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0 || u + v > 1) continue;
-    const double t = e2.dot(q) / det;
-    if (t > 1e-9 && t < *t_best) {
-      *t_best = t;
-      *face_best = static_cast<int>(f);
-      *u_best = u;
-      *v_best = v;
-    }
-  }
-  return *face_best >= 0;
+  const dome::testing::BruteForceHit hit = dome::testing::BruteForceIntersect(mesh, o, d);
+  *t_best = hit.t;
+  *face_best = hit.face;
+  *u_best = hit.u;
+  *v_best = hit.v;
+  return hit.hit();
 }
 
 struct Fixture {

@@ -11,6 +11,7 @@
 #include <map>
 #include <sstream>
 
+#include "brute_force_ray.h"
 #include "calib.pb.h"
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
@@ -73,24 +74,9 @@ Message ReadJson(const fs::path& path) {
 }
 
 bool BruteForce(const io::Mesh& mesh, const Vector3d& o, const Vector3d& d, double* t_best) {
-  *t_best = std::numeric_limits<double>::infinity();
-  for (const auto& f : mesh.faces) {
-    const Vector3d a = mesh.vertices[f[0]].cast<double>();
-    const Vector3d e1 = mesh.vertices[f[1]].cast<double>() - a;
-    const Vector3d e2 = mesh.vertices[f[2]].cast<double>() - a;
-    const Vector3d p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-14) continue;
-    const Vector3d s = o - a;
-    const double u = s.dot(p) / det;
-    if (u < 0 || u > 1) continue;
-    const Vector3d q = s.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0 || u + v > 1) continue;
-    const double t = e2.dot(q) / det;
-    if (t > 1e-9 && t < *t_best) *t_best = t;
-  }
-  return std::isfinite(*t_best);
+  const dome::testing::BruteForceHit hit = dome::testing::BruteForceIntersect(mesh, o, d);
+  *t_best = hit.t;
+  return hit.hit();
 }
 
 TEST(Synth, SmallTakeIsValidAndComplete) {
