@@ -17,6 +17,15 @@ packages=(
   libembree-dev
   python3-open3d python3-scipy python3-numpy
   libmeshoptimizer-dev python3-skimage
+  ffmpeg  # readvitc: the independent VITC decoder the capture tests check our encoder against
+  libssl-dev  # SHA-256 content addresses of the runtime's blobs (libcrypto)
+  libcpp-httplib-dev  # the HTTP server of `dome view` (a kept library, not hand-written sockets)
+  libjs-three  # three.js r111 with its loaders and OrbitControls: the viewer page, offline
+  chromium  # headless browser of the viewer's end-to-end test and benchmark
+  python3-websocket  # the viewer test's DevTools-protocol client
+  systemd  # systemd-analyze verify: the test of deploy/systemd units
+  slurm-wlm munge  # a single-node Slurm for the test of deploy/slurm/dome-workers.sbatch
+  openssh-server openssh-client  # sshd on loopback for the test of deploy/ssh/dome-ssh-workers
 )
 
 missing=()

@@ -1,13 +1,45 @@
-// dome-worker: stateless job executor. The distributed runtime is not in this build
-// yet; the executable exists so deployment scripts and packaging can rely on it.
+// dome-worker: the stateless job executor (worker/worker.h).
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 
+#include "core/error.h"
+#include "core/logging.h"
+#include "worker/worker.h"
+
+namespace {
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+}  // namespace
+
 int main(int argc, char** argv) {
-  CLI::App app{"dome-worker: runs stereo and fusion jobs for a dome-master"};
-  std::string master;
-  app.add_option("--master", master, "master endpoint, e.g. tcp://host:5555");
+  CLI::App app{"dome-worker: runs stereo, fusion, decimation and texture jobs for a dome-master"};
+  dome::worker::WorkerOptions o;
+  std::string log_level = "info";
+  app.add_option("--master", o.master, "the master's worker endpoint, e.g. tcp://host:5555")
+      ->required();
+  app.add_option("--threads", o.threads, "threads per job (0: all)")->capture_default_str();
+  app.add_option("--cache-mb", o.cache_mb, "blob cache, MiB")->capture_default_str();
+  app.add_option("--heartbeat-ms", o.heartbeat_interval_ms, "heartbeat interval, ms")
+      ->capture_default_str();
+  app.add_option("--liveness", o.heartbeat_liveness, "silent intervals before reconnecting")
+      ->capture_default_str();
+  app.add_option("--reconnect-max-ms", o.reconnect_max_ms, "longest reconnect back-off, ms")
+      ->capture_default_str();
+  app.add_option("--name", o.name, "name in the master's logs (default host:pid)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off");
   CLI11_PARSE(app, argc, argv);
-  std::fprintf(stderr, "dome-worker: the distributed runtime is not available in this build\n");
-  return 2;
+  try {
+    dome::core::SetUpLogging(log_level);
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+    zmq::context_t context;
+    dome::worker::Worker worker(&context, o);
+    worker.Run(&g_stop);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dome-worker: %s\n", e.what());
+    return 1;
+  }
+  return 0;
 }

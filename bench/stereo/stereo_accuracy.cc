@@ -7,17 +7,34 @@
 //   stereo_accuracy robovision TAKE [WINDOWS...]   a `dome import halcon` take: each
 //       camera with its two ring neighbours against the reference cloud projected into
 //       it (median relative error, fraction within 1%).
+//   stereo_accuracy temple TAKE [WINDOWS...]    Middlebury templeSparseRing imported with
+//       `dome import middlebury`: each view with its two nearest ring neighbours, depth
+//       searched over 0.75..1.5 times the depth range of the published bounding box;
+//       per view the density (valid pixels / all pixels) and the fraction of valid depths
+//       whose back-projection falls inside the bounding box enlarged by 5% of its size
+//       on every side.
 //   stereo_accuracy aloe DIR                    Middlebury Aloe (DIR/aloeL.jpg, aloeR.jpg,
 //       aloeGT.png): bad-pixel rates (> 1 px, > 2 px) over ground-truth pixels given a
 //       value, and density, for dome's stereo, OpenCV StereoBM and StereoSGBM.
 //
-// Textured surface: truth has a surface inside the searched range z_min..z_max and the reference
-// image's 7x7 grey standard deviation is at least 4 grey levels. Discontinuity: a truth pixel whose
-// 4-neighbour is nearer by more than 5% (or has a surface where it has none). Fattening: pixels on
-// the far side within 10 px of a discontinuity that get a depth nearer than the truth
-// by more than 5%, per discontinuity pixel (so: a width in pixels). Thinning: pixels
-// on the near side within 10 px whose estimate is farther than the truth by more than
-// 5% or missing where the far side got the near depth, per discontinuity pixel.
+// Textured surface: truth has a surface inside the searched range z_min..z_max and the
+// reference image's 7x7 grey standard deviation is at least 4 grey levels.
+//
+// Fattening / thinning at depth discontinuities (seed Figure 4), in pixels, signed:
+//   * a discontinuity is a pair of 4-adjacent pixels p (near side) and q = p + d (far
+//     side) whose truths differ by more than 5% (t(p) < 0.95 t(q)), or where q has no
+//     surface; z_mid is the midpoint of t(p) and t(q) in inverse depth (2 t(p) when q
+//     has no surface);
+//   * fattening f: walking from q along d, the number of consecutive pixels (at most 10,
+//     while the truth stays on the far side) whose estimate is valid and nearer than
+//     z_mid: how far the near surface bleeds into the far region;
+//   * thinning t: when f = 0, walking from p along -d, the number of consecutive pixels
+//     (at most 10, while the truth stays within 5% of t(p)) whose estimate is valid and
+//     farther than z_mid: how far the far surface eats into the near region;
+//   * the boundary shift of the pair is f - t (> 0: fattened). A pixel without an
+//     estimate ends a walk: invalid is neither fat nor thin.
+// Reported per camera and window: the mean shift, the mean f and the mean t over all
+// pairs, and the fraction of pairs whose q has no estimate.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -58,7 +75,8 @@ void ApplyEnvOverrides(stereo::StereoOptions* o) {
 }
 
 struct SynthScore {
-  double median_abs_mm = NAN, within1 = NAN, density = NAN, fatten_px = NAN, thin_px = NAN;
+  double median_abs_mm = NAN, within1 = NAN, density = NAN;
+  double shift_px = NAN, fatten_px = NAN, thin_px = NAN, edge_invalid = NAN;
 };
 
 SynthScore ScoreSynth(const cv::Mat& est, const cv::Mat& truth, const cv::Mat& ref_grey,
@@ -86,44 +104,54 @@ SynthScore ScoreSynth(const cv::Mat& est, const cv::Mat& truth, const cv::Mat& r
   s.median_abs_mm = Median(errs);
   s.within1 = n_valid ? double(n_within) / n_valid : NAN;
   s.density = n_textured ? double(n_valid) / n_textured : NAN;
-  // Discontinuities.
+  // Discontinuities (definition at the top of the file).
   const int W = truth.cols, H = truth.rows;
-  cv::Mat near_edge(H, W, CV_8U, cv::Scalar(0)), far_edge(H, W, CV_8U, cv::Scalar(0));
-  auto nearer = [](float a, float b) {  // a is nearer than b by > 5% (0 = nothing = far)
-    return a > 0 && (b <= 0 || a < 0.95f * b);
-  };
+  auto inv = [](float z) { return z > 0 ? 1.0 / z : 0.0; };
+  int64_t pairs = 0, q_invalid = 0;
+  double sum_f = 0, sum_t = 0;
+  const int dxs[4] = {1, -1, 0, 0}, dys[4] = {0, 0, 1, -1};
   for (int y = 0; y < H; ++y) {
     for (int x = 0; x < W; ++x) {
-      const float t = truth.at<float>(y, x);
-      const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+      const float tp = truth.at<float>(y, x);
+      if (!(tp > 0)) continue;
       for (int k = 0; k < 4; ++k) {
-        const int xx = x + dx[k], yy = y + dy[k];
-        if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-        const float u = truth.at<float>(yy, xx);
-        if (nearer(t, u)) near_edge.at<uint8_t>(y, x) = 255;
-        if (nearer(u, t)) far_edge.at<uint8_t>(y, x) = 255;
+        const int qx = x + dxs[k], qy = y + dys[k];
+        if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+        const float tq = truth.at<float>(qy, qx);
+        if (tq > 0 && !(tp < 0.95f * tq)) continue;
+        ++pairs;
+        const double w_mid = 0.5 * (inv(tp) + inv(tq));  // inverse depth
+        q_invalid += !(est.at<float>(qy, qx) > 0);
+        int f = 0;
+        for (int i = 0; i < 10; ++i) {
+          const int xx = qx + i * dxs[k], yy = qy + i * dys[k];
+          if (xx < 0 || yy < 0 || xx >= W || yy >= H) break;
+          const float t = truth.at<float>(yy, xx), e = est.at<float>(yy, xx);
+          if (t > 0 && !(tp < 0.95f * t)) break;  // left the far side
+          if (!(e > 0) || !(1.0 / e > w_mid)) break;
+          ++f;
+        }
+        int th = 0;
+        if (f == 0) {
+          for (int i = 0; i < 10; ++i) {
+            const int xx = x - i * dxs[k], yy = y - i * dys[k];
+            if (xx < 0 || yy < 0 || xx >= W || yy >= H) break;
+            const float t = truth.at<float>(yy, xx), e = est.at<float>(yy, xx);
+            if (!(t > 0) || std::abs(t - tp) > 0.05f * tp) break;  // left the near side
+            if (!(e > 0) || !(1.0 / e < w_mid)) break;
+            ++th;
+          }
+        }
+        sum_f += f;
+        sum_t += th;
       }
     }
   }
-  const int n_edges = cv::countNonZero(near_edge);
-  if (n_edges == 0) return s;
-  cv::Mat dist_far, dist_near;
-  cv::distanceTransform(~far_edge, dist_far, cv::DIST_L2, 3);
-  cv::distanceTransform(~near_edge, dist_near, cv::DIST_L2, 3);
-  int64_t fat = 0, thin = 0;
-  for (int y = 0; y < H; ++y) {
-    for (int x = 0; x < W; ++x) {
-      const float t = truth.at<float>(y, x), e = est.at<float>(y, x);
-      const bool far_side =
-          dist_far.at<float>(y, x) <= 10 && dist_far.at<float>(y, x) < dist_near.at<float>(y, x);
-      const bool near_side =
-          dist_near.at<float>(y, x) <= 10 && dist_near.at<float>(y, x) <= dist_far.at<float>(y, x);
-      if (far_side && e > 0 && (t <= 0 || e < 0.95f * t)) ++fat;
-      if (near_side && t > 0 && e > 1.05f * t) ++thin;
-    }
-  }
-  s.fatten_px = double(fat) / n_edges;
-  s.thin_px = double(thin) / n_edges;
+  if (pairs == 0) return s;
+  s.fatten_px = sum_f / pairs;
+  s.thin_px = sum_t / pairs;
+  s.shift_px = (sum_f - sum_t) / pairs;
+  s.edge_invalid = double(q_invalid) / pairs;
   return s;
 }
 
@@ -136,7 +164,9 @@ int RunSynth(const std::string& take_dir, std::vector<int> windows) {
   ApplyEnvOverrides(&opt.stereo);
   const size_t nw = opt.stereo.window_sizes_px.size();
   std::vector<std::vector<SynthScore>> all(nw);
-  std::printf("camera window levels median_abs_mm within1%% density fatten_px thin_px match_ms\n");
+  std::printf(
+      "camera window levels median_abs_mm within1%% density shift_px fatten_px thin_px "
+      "edge_invalid match_ms\n");
   for (const auto& cam : take.rig.cameras) {
     const auto input = stereo::LoadStereoInput(take, instant, cam.model.id, opt.cluster);
     const auto r = stereo::ComputeDepth(input, opt.stereo);
@@ -150,14 +180,14 @@ int RunSynth(const std::string& take_dir, std::vector<int> windows) {
       const SynthScore s = ScoreSynth(r.range_images[k].depth_mm, truth, grey, opt.stereo.z_min_mm,
                                       opt.stereo.z_max_mm);
       all[k].push_back(s);
-      std::printf("%s %d %d %.2f %.4f %.4f %.2f %.2f %.1f\n", cam.model.id.c_str(),
+      std::printf("%s %d %d %.2f %.4f %.4f %.2f %.2f %.2f %.3f %.1f\n", cam.model.id.c_str(),
                   r.range_images[k].window_px, r.num_levels, s.median_abs_mm, s.within1, s.density,
-                  s.fatten_px, s.thin_px, 1e3 * r.match_seconds);
+                  s.shift_px, s.fatten_px, s.thin_px, s.edge_invalid, 1e3 * r.match_seconds);
     }
   }
   std::printf("\nsummary over %zu cameras (median of per-camera values)\n",
               take.rig.cameras.size());
-  std::printf("window median_abs_mm within1%% density fatten_px thin_px\n");
+  std::printf("window median_abs_mm within1%% density shift_px fatten_px thin_px edge_invalid\n");
   for (size_t k = 0; k < nw; ++k) {
     auto col = [&](auto f) {
       std::vector<double> v;
@@ -165,12 +195,14 @@ int RunSynth(const std::string& take_dir, std::vector<int> windows) {
         if (std::isfinite(f(s))) v.push_back(f(s));
       return Median(v);
     };
-    std::printf("%d %.2f %.4f %.4f %.2f %.2f\n", opt.stereo.window_sizes_px[k],
+    std::printf("%d %.2f %.4f %.4f %.2f %.2f %.2f %.3f\n", opt.stereo.window_sizes_px[k],
                 col([](const SynthScore& s) { return s.median_abs_mm; }),
                 col([](const SynthScore& s) { return s.within1; }),
                 col([](const SynthScore& s) { return s.density; }),
+                col([](const SynthScore& s) { return s.shift_px; }),
                 col([](const SynthScore& s) { return s.fatten_px; }),
-                col([](const SynthScore& s) { return s.thin_px; }));
+                col([](const SynthScore& s) { return s.thin_px; }),
+                col([](const SynthScore& s) { return s.edge_invalid; }));
   }
   return 0;
 }
@@ -231,26 +263,35 @@ int RunAloe(const std::string& dir, std::vector<int> windows) {
   stereo::StereoInput in;
   in.reference = {cam("left", 0), left};
   in.neighbours.push_back({cam("right", b), right});
-  stereo::StereoOptions opt;
-  opt.z_min_mm = f * b / num_disp;
-  opt.z_max_mm = f * b / 1.0;
-  opt.num_threads = 2;
-  opt.window_sizes_px = windows.empty() ? std::vector<int>{5, 9, 13} : windows;
-  ApplyEnvOverrides(&opt);
-  core::Stopwatch sw;
-  const auto r = stereo::ComputeDepth(in, opt);
-  const double ms = 1e3 * sw.ElapsedSeconds();
-  for (const auto& ri : r.range_images) {
-    cv::Mat disp(ri.depth_mm.size(), CV_32F, cv::Scalar(0));
-    for (int y = 0; y < disp.rows; ++y)
-      for (int x = 0; x < disp.cols; ++x) {
-        const float z = ri.depth_mm.at<float>(y, x);
-        if (z > 0) disp.at<float>(y, x) = float(f * b / z);
-      }
-    const BadPixels s = ScoreDisparity(disp, gt);
-    std::printf("dome_w%d(%d_levels) %.4f %.4f %.4f %.0f(all_windows)\n", ri.window_px,
-                r.num_levels, s.bad1, s.bad2, s.density, ms);
+  // Both profiles: the defaults and RealImageOptions() (multi_baseline.h).
+  for (const bool real : {false, true}) {
+    stereo::StereoOptions opt = real ? stereo::RealImageOptions() : stereo::StereoOptions{};
+    opt.z_min_mm = f * b / num_disp;
+    opt.z_max_mm = f * b / 1.0;
+    opt.num_threads = 2;
+    if (!windows.empty()) {
+      opt.window_sizes_px = windows;
+    } else if (!real) {
+      opt.window_sizes_px = {5, 9, 13};
+    }
+    ApplyEnvOverrides(&opt);
+    core::Stopwatch sw;
+    const auto r = stereo::ComputeDepth(in, opt);
+    const double ms = 1e3 * sw.ElapsedSeconds();
+    for (const auto& ri : r.range_images) {
+      cv::Mat disp(ri.depth_mm.size(), CV_32F, cv::Scalar(0));
+      for (int y = 0; y < disp.rows; ++y)
+        for (int x = 0; x < disp.cols; ++x) {
+          const float z = ri.depth_mm.at<float>(y, x);
+          if (z > 0) disp.at<float>(y, x) = float(f * b / z);
+        }
+      const BadPixels s = ScoreDisparity(disp, gt);
+      std::printf("dome_%s_w%d(%d_levels) %.4f %.4f %.4f %.0f(all_windows)\n",
+                  real ? "real" : "default", ri.window_px, r.num_levels, s.bad1, s.bad2, s.density,
+                  ms);
+    }
   }
+  core::Stopwatch sw;
   cv::setNumThreads(2);
   for (int block : {9, 15, 21}) {
     auto bm = cv::StereoBM::create(num_disp, block);
@@ -352,13 +393,88 @@ int RunRobovision(const std::string& take_dir, std::vector<int> windows) {
   return 0;
 }
 
+// templeSparseRing's published tight bounding box (its README), in the take's source
+// unit (metres).
+constexpr double kTempleBoxMin[3] = {-0.073568, 0.021728, -0.012445};
+constexpr double kTempleBoxMax[3] = {0.028855, 0.181892, 0.062736};
+
+int RunTemple(const std::string& take_dir, std::vector<int> windows) {
+  const take::Take take = take::OpenTake(take_dir);
+  const std::string instant = take.instants.front();
+  const double unit_mm = take.rig.source_unit_mm;
+  Eigen::Vector3d lo, hi;  // the box enlarged by 5% of its size on every side, mm
+  for (int a = 0; a < 3; ++a) {
+    const double size = kTempleBoxMax[a] - kTempleBoxMin[a];
+    lo[a] = (kTempleBoxMin[a] - 0.05 * size) * unit_mm;
+    hi[a] = (kTempleBoxMax[a] + 0.05 * size) * unit_mm;
+  }
+  stereo::TakeStereoOptions opt;
+  opt.stereo.window_sizes_px = windows.empty() ? std::vector<int>{9} : windows;
+  opt.stereo.num_threads = 2;
+  opt.cluster.max_neighbours = 2;
+  ApplyEnvOverrides(&opt.stereo);
+  std::printf("view window levels z_min_mm z_max_mm valid_px density inside_box match_s\n");
+  const size_t nw = opt.stereo.window_sizes_px.size();
+  std::vector<std::vector<double>> dens(nw), inside(nw);
+  std::vector<int64_t> total_valid(nw, 0), total_inside(nw, 0);
+  for (const auto& cam : take.rig.cameras) {
+    const auto& c = cam.model;
+    double zmin = 1e30, zmax = 0;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d corner((k & 1 ? kTempleBoxMax[0] : kTempleBoxMin[0]) * unit_mm,
+                                   (k & 2 ? kTempleBoxMax[1] : kTempleBoxMin[1]) * unit_mm,
+                                   (k & 4 ? kTempleBoxMax[2] : kTempleBoxMin[2]) * unit_mm);
+      const double z = c.WorldToCamera(corner).z();
+      zmin = std::min(zmin, z);
+      zmax = std::max(zmax, z);
+    }
+    stereo::TakeStereoOptions o = opt;
+    o.stereo.z_min_mm = 0.75 * zmin;
+    o.stereo.z_max_mm = 1.5 * zmax;
+    const auto input = stereo::LoadStereoInput(take, instant, c.id, o.cluster);
+    const auto r = stereo::ComputeDepth(input, o.stereo);
+    for (size_t k = 0; k < nw; ++k) {
+      const cv::Mat& d = r.range_images[k].depth_mm;
+      int64_t valid = 0, in_box = 0;
+      for (int y = 0; y < d.rows; ++y) {
+        for (int x = 0; x < d.cols; ++x) {
+          const float z = d.at<float>(y, x);
+          if (!(z > 0)) continue;
+          ++valid;
+          const Eigen::Vector3d p = c.BackProjectAtDepth(Eigen::Vector2d(x, y), z);
+          in_box += (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+        }
+      }
+      const double density = double(valid) / d.total();
+      const double frac = valid ? double(in_box) / valid : NAN;
+      dens[k].push_back(density);
+      inside[k].push_back(frac);
+      total_valid[k] += valid;
+      total_inside[k] += in_box;
+      std::printf("%s %d %d %.0f %.0f %lld %.4f %.4f %.1f\n", c.id.c_str(),
+                  r.range_images[k].window_px, r.num_levels, o.stereo.z_min_mm, o.stereo.z_max_mm,
+                  (long long)valid, density, frac, r.match_seconds);
+      std::fflush(stdout);
+    }
+  }
+  for (size_t k = 0; k < nw; ++k) {
+    std::printf(
+        "window %d over %zu views: median density %.4f, median inside_box %.4f, pooled "
+        "inside_box %.4f\n",
+        opt.stereo.window_sizes_px[k], dens[k].size(), Median(dens[k]), Median(inside[k]),
+        total_valid[k] ? double(total_inside[k]) / total_valid[k] : NAN);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
     if (argc < 3) {
-      std::fprintf(
-          stderr, "usage: stereo_accuracy synth TAKE | robovision TAKE | aloe DIR  [WINDOWS...]\n");
+      std::fprintf(stderr,
+                   "usage: stereo_accuracy synth TAKE | robovision TAKE | temple TAKE | aloe DIR "
+                   "[WINDOWS...]\n");
       return 2;
     }
     std::vector<int> windows;
@@ -367,6 +483,7 @@ int main(int argc, char** argv) {
     if (mode == "synth") return RunSynth(argv[2], windows);
     if (mode == "aloe") return RunAloe(argv[2], windows);
     if (mode == "robovision") return RunRobovision(argv[2], windows);
+    if (mode == "temple") return RunTemple(argv[2], windows);
     std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());
     return 2;
   } catch (const std::exception& e) {

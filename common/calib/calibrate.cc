@@ -27,6 +27,7 @@ void CalibrateOptions::Check() const {
   Require(flag_rms_px > 0 && flag_max_px > 0, "--flag-rms-px/--flag-max-px",
           "must be positive (pixels)");
   Require(worst_points >= 0, "worst_points", "must be >= 0");
+  Require(max_stage1_views >= 0, "max_stage1_views", "must be >= 0 (0 = all)");
 }
 
 namespace {
@@ -45,6 +46,7 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
   LoadedView out;
   out.where = view_path.string();
   std::vector<ImagePoint> points;
+  GridLayout layout;
   if (options.use_stored_points) {
     points = view.points;
     Require(fs::exists(view.image), view_path.string() + ": image",
@@ -53,7 +55,7 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
     Require(fs::exists(view.image), view_path.string() + ": image",
             fmt::format("calibration image {} does not exist", view.image.string()));
     const cv::Mat gray = io::ReadImage(view.image, io::ImageMode::kGray8);
-    const GridLayout layout = InferGridLayout(target);
+    layout = InferGridLayout(target);
     try {
       const DotDetection det =
           DetectDotTarget(gray, target, layout, options.detector, view.image.string());
@@ -68,7 +70,23 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
     const int i = target.Find(p.id);
     Require(i >= 0, view_path.string() + ": points",
             fmt::format("image point id {} is not in the target {}", p.id, target.path));
-    out.points.push_back({p.id, target.points[i].position_mm, p.pixel});
+    Correspondence c;
+    c.id = p.id;
+    c.target_mm = target.points[i].position_mm;
+    c.pixel = c.detected_px = p.pixel;
+    out.points.push_back(c);
+  }
+  // Detected dots: their plane and size, to undo the shift of their centroids.
+  if (options.correct_dot_centroids) {
+    for (const Grid& grid : layout.grids) {
+      for (size_t cell = 0; cell < grid.ids.size(); ++cell) {
+        for (auto& c : out.points) {
+          if (c.id != grid.ids[cell]) continue;
+          c.marker_normal = grid.normal;
+          c.marker_radius_mm = cell == 0 ? target.key_marker_radius_mm : target.marker_radius_mm;
+        }
+      }
+    }
   }
   out.report.detected = static_cast<int>(out.points.size());
   return out;
@@ -86,11 +104,30 @@ void Measure(const geometry::TsaiCamera& cam, const View& view, StageReport* rep
   report->max_px = mx;
 }
 
-// Removes points beyond the outlier bound; returns true when any was removed.
+// Over several views of one stage.
+void MeasureAll(const geometry::TsaiCamera& cam, const std::vector<View>& views,
+                StageReport* report) {
+  double sum = 0, mx = 0;
+  int count = 0;
+  for (const auto& view : views) {
+    StageReport one;
+    Measure(cam, view, &one);
+    sum += one.rms_px * one.rms_px * one.points;
+    mx = std::max(mx, one.max_px);
+    count += one.points;
+  }
+  report->points = count;
+  report->rms_px = count ? std::sqrt(sum / count) : 0.0;
+  report->max_px = mx;
+}
+
+// Removes points beyond the outlier bound (from the view's own RMS); returns true when
+// any was removed.
 bool RejectOutliers(const geometry::TsaiCamera& cam, View* view, double outlier_px,
                     StageReport* report) {
-  Measure(cam, *view, report);
-  const double bound = std::max(outlier_px, 4.0 * report->rms_px);
+  StageReport measured;
+  Measure(cam, *view, &measured);
+  const double bound = std::max(outlier_px, 4.0 * measured.rms_px);
   std::vector<Correspondence> kept;
   bool removed = false;
   for (const auto& c : view->points) {
@@ -115,34 +152,88 @@ RefineOptions Refine(const CalibrateOptions& o, bool intrinsics, bool centre) {
 
 }  // namespace
 
+std::vector<fs::path> ViewPaths(const fs::path& stage_dir, const std::string& camera) {
+  std::vector<fs::path> paths{stage_dir / (camera + ".json")};
+  for (int pose = 1;; ++pose) {
+    const fs::path p = stage_dir / (camera + "." + std::to_string(pose) + ".json");
+    std::error_code ec;
+    if (!fs::exists(p, ec)) break;
+    paths.push_back(p);
+  }
+  return paths;
+}
+
 CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage1_view,
                              const fs::path& stage2_view, const CalibrateOptions& options,
                              geometry::TsaiCamera* calibrated) {
+  return CalibrateCamera(prior, std::vector<fs::path>{stage1_view}, stage2_view, options,
+                         calibrated);
+}
+
+CameraReport CalibrateCamera(const take::RigCamera& prior,
+                             const std::vector<fs::path>& stage1_views, const fs::path& stage2_view,
+                             const CalibrateOptions& options, geometry::TsaiCamera* calibrated) {
   const geometry::TsaiCamera& known = prior.model;
   CameraReport report;
   report.id = known.id;
   CameraPrior cp{known.id, known.width_px, known.height_px, known.sensor};
+  Require(!stage1_views.empty(), known.id, "no stage-1 view");
 
-  // Stage 1: intrinsics from the 3D object.
-  LoadedView s1 = LoadView(stage1_view, options);
+  // Stage 1: intrinsics from the 3D object. The first view must calibrate on its own;
+  // the object's further poses add their points (each with its own pose) when their
+  // dots are found and Tsai's closed form accepts them, and are reported otherwise.
+  LoadedView s1 = LoadView(stage1_views[0], options);
   report.stage1 = s1.report;
   Require(s1.detector_error.empty(), s1.where,
           fmt::format("camera {}: no calibration points found ({})", known.id, s1.detector_error));
   geometry::TsaiCamera cam =
       TsaiInitNonCoplanar(cp, 0.5 * (known.width_px - 1), 0.5 * (known.height_px - 1), s1.points,
                           options.init, s1.where);
-  View v1{"stage1", s1.points, cam.rotation, cam.translation_mm};
-  std::vector<View> views1{v1};
+  std::vector<View> views1{View{"stage1", s1.points, cam.rotation, cam.translation_mm}};
   RefineCamera(&cam, &views1, Refine(options, true, false), s1.where);
   report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
-  for (int pass = 0;
-       pass < 3 && RejectOutliers(cam, &views1[0], options.outlier_px, &report.stage1); ++pass) {
-    Require(static_cast<int>(views1[0].points.size()) >= options.init.min_points_noncoplanar,
-            s1.where,
-            fmt::format("only {} points left after rejecting outliers", views1[0].points.size()));
+  for (size_t v = 1; v < stage1_views.size(); ++v) {
+    const std::string name = "stage1." + std::to_string(v);
+    try {
+      LoadedView extra = LoadView(stage1_views[v], options);
+      Require(extra.detector_error.empty(), extra.where, extra.detector_error);
+      geometry::TsaiCamera posed =
+          TsaiInitNonCoplanar(cp, cam.cx_px, cam.cy_px, extra.points, options.init, extra.where);
+      // The pose alone under the first view's intrinsics, before it joins them.
+      std::vector<View> one{View{name, extra.points, posed.rotation, posed.translation_mm}};
+      geometry::TsaiCamera fixed = cam;
+      RefineCamera(&fixed, &one, Refine(options, false, false), extra.where);
+      StageReport check;
+      Measure(fixed, one[0], &check);
+      Require(check.rms_px <= 4.0 * options.flag_rms_px, extra.where,
+              fmt::format("RMS {:.3f} px under the first view's intrinsics", check.rms_px));
+      report.stage1.detected += extra.report.detected;
+      report.stage1.blobs += extra.report.blobs;
+      views1.push_back(one[0]);
+    } catch (const core::InputError& e) {
+      report.stage1.skipped_views.push_back(fmt::format("{}: {}", name, e.what()));
+    }
+  }
+  report.stage1.views = static_cast<int>(views1.size());
+  if (views1.size() > 1) {
     report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
   }
-  Measure(cam, views1[0], &report.stage1);
+  if (options.correct_dot_centroids) {
+    for (auto& view : views1) CorrectDotCentroids(cam, &view);
+    report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
+  }
+  for (int pass = 0; pass < 3; ++pass) {
+    bool removed = false;
+    for (auto& view : views1) {
+      removed = RejectOutliers(cam, &view, options.outlier_px, &report.stage1) || removed;
+      Require(static_cast<int>(view.points.size()) >= options.init.min_points_noncoplanar, s1.where,
+              fmt::format("{}: only {} points left after rejecting outliers", view.name,
+                          view.points.size()));
+    }
+    if (!removed) break;
+    report.stage1.refine = RefineCamera(&cam, &views1, Refine(options, true, true), s1.where);
+  }
+  MeasureAll(cam, views1, &report.stage1);
   report.sigma = report.stage1.refine.sigma;
 
   // Stage 2: pose from the floor marks, intrinsics fixed.
@@ -156,6 +247,10 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
       TsaiInitCoplanar(cam, s2.points, /*fix_focal=*/true, options.init, s2.where);
   std::vector<View> views2{View{"stage2", s2.points, posed.rotation, posed.translation_mm}};
   report.stage2.refine = RefineCamera(&cam, &views2, Refine(options, false, false), s2.where);
+  if (options.correct_dot_centroids) {
+    CorrectDotCentroids(cam, &views2[0]);
+    report.stage2.refine = RefineCamera(&cam, &views2, Refine(options, false, false), s2.where);
+  }
   for (int pass = 0;
        pass < 3 && RejectOutliers(cam, &views2[0], options.outlier_px, &report.stage2); ++pass) {
     Require(static_cast<int>(views2[0].points.size()) >= options.min_stage2_points, s2.where,
@@ -168,27 +263,32 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
   report.sigma.rotation_deg = report.stage2.refine.sigma.rotation_deg;
   report.sigma.translation_mm = report.stage2.refine.sigma.translation_mm;
 
-  std::vector<View> both{views1[0], views2[0]};
+  std::vector<View> both = views1;
+  both.push_back(views2[0]);
   // A floor view that does not fit (misidentified marks) must not pull the intrinsics
   // away from stage 1: the joint refinement runs only when stage 2 is within bounds.
   if (options.joint_refinement && report.stage2.rms_px <= options.flag_rms_px) {
-    const RefineSummary joint = RefineCamera(&cam, &both, Refine(options, true, true), known.id);
+    RefineSummary joint = RefineCamera(&cam, &both, Refine(options, true, true), known.id);
+    if (options.correct_dot_centroids) {
+      for (auto& view : both) CorrectDotCentroids(cam, &view);
+      joint = RefineCamera(&cam, &both, Refine(options, true, true), known.id);
+    }
     report.sigma = joint.sigma;  // the last view is the floor: its pose is the camera's
   }
-  Measure(cam, both[0], &report.stage1);
-  Measure(cam, both[1], &report.stage2);
+  MeasureAll(cam, std::vector<View>(both.begin(), both.end() - 1), &report.stage1);
+  Measure(cam, both.back(), &report.stage2);
 
   // Final errors and the worst points.
   double sum = 0, mx = 0;
   int count = 0;
   std::vector<PointError> all;
-  for (int v = 0; v < 2; ++v) {
-    for (const auto& c : both[v].points) {
-      const double e = ReprojectionErrorPx(cam, both[v], c);
+  for (const auto& view : both) {
+    for (const auto& c : view.points) {
+      const double e = ReprojectionErrorPx(cam, view, c);
       sum += e * e;
       mx = std::max(mx, e);
       ++count;
-      all.push_back({v == 0 ? "stage1" : "stage2", c.id, e});
+      all.push_back({view.name, c.id, e});
     }
   }
   std::sort(all.begin(), all.end(),
@@ -209,8 +309,8 @@ CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage
   report.flagged = !reasons.empty();
   for (size_t i = 0; i < reasons.size(); ++i) report.flag_reason += (i ? "; " : "") + reasons[i];
 
-  cam.rotation = both[1].rotation;
-  cam.translation_mm = both[1].translation_mm;
+  cam.rotation = both.back().rotation;
+  cam.translation_mm = both.back().translation_mm;
   *calibrated = cam;
   return report;
 }
@@ -232,9 +332,14 @@ CalibrationResult CalibrateTake(const fs::path& take_dir, const take::Rig& prior
     for (int64_t i = begin; i < end; ++i) {
       const std::string& id = prior.cameras[i].model.id;
       try {
-        result.cameras[i] = CalibrateCamera(prior.cameras[i], calib / "stage1" / (id + ".json"),
-                                            calib / "stage2" / (id + ".json"), options,
-                                            &result.rig.cameras[i].model);
+        std::vector<fs::path> stage1 = ViewPaths(calib / "stage1", id);
+        if (options.max_stage1_views > 0 &&
+            static_cast<int>(stage1.size()) > options.max_stage1_views) {
+          stage1.resize(options.max_stage1_views);
+        }
+        result.cameras[i] =
+            CalibrateCamera(prior.cameras[i], stage1, calib / "stage2" / (id + ".json"), options,
+                            &result.rig.cameras[i].model);
       } catch (const core::InputError& e) {
         if (!options.keep_going) throw;
         CameraReport& r = result.cameras[i];
@@ -268,14 +373,19 @@ std::string IntList(const std::vector<int>& v) {
   for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
   return s + "]";
 }
+std::string StringList(const std::vector<std::string>& v) {
+  std::string s = "[";
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + eval::JsonQuote(v[i]);
+  return s + "]";
+}
 std::string StageJson(const StageReport& r) {
   using eval::JsonNumber;
   return fmt::format(
-      "{{\"points\": {}, \"detected\": {}, \"blobs\": {}, \"missing_ids\": {}, \"rejected_ids\": "
-      "{}, "
+      "{{\"views\": {}, \"points\": {}, \"detected\": {}, \"blobs\": {}, \"missing_ids\": {}, "
+      "\"rejected_ids\": {}, \"skipped_views\": {}, "
       "\"rms_px\": {}, \"max_px\": {}, \"lm_iterations\": {}, \"lm_converged\": {}}}",
-      r.points, r.detected, r.blobs, IntList(r.missing_ids), IntList(r.rejected_ids),
-      JsonNumber(r.rms_px), JsonNumber(r.max_px), r.refine.iterations,
+      r.views, r.points, r.detected, r.blobs, IntList(r.missing_ids), IntList(r.rejected_ids),
+      StringList(r.skipped_views), JsonNumber(r.rms_px), JsonNumber(r.max_px), r.refine.iterations,
       r.refine.converged ? "true" : "false");
 }
 }  // namespace

@@ -1,10 +1,11 @@
 // Tsai's two-stage calibration of a take's cameras (seed §2.2, SPEC pipeline step 2):
 //
-//  Stage 1 (intrinsics): each camera's image of the 3D calibration object
-//    (TAKE/calib/stage1/<camera>.json + image, target in the object frame): points
+//  Stage 1 (intrinsics): each camera's images of the 3D calibration object
+//    (TAKE/calib/stage1/<camera>.json + image, target in the object frame, and the
+//    object moved to further poses: <camera>.1.json, <camera>.2.json, ...): points
 //    detected (calib/detect.h), Tsai's non-coplanar closed form with the image centre
 //    at the middle of the image, then Levenberg-Marquardt over f, kappa1, cx, cy, sx
-//    and the object's pose.
+//    and the object's pose; then over the intrinsics and every view's pose.
 //  Stage 2 (pose): the camera's image of the floor marks (calib/stage2/, world frame,
 //    z = 0), intrinsics fixed: Tsai's coplanar closed form, then LM over the pose. The
 //    floor marks put every camera into one world frame.
@@ -34,12 +35,16 @@ struct CalibrateOptions {
   int max_function_evaluations = 4000;  // per LM run
   bool joint_refinement = true;         // the final joint refinement
   bool use_stored_points = false;       // use the views' stored points instead of detecting
-  int min_stage2_points = 6;            // floor marks a camera must see (Tsai: >= 5)
-  double outlier_px = 1.0;              // reject points beyond max(this, 4 x RMS), px
-  double flag_rms_px = 0.3;             // flag cameras whose RMS exceeds this, px
-  double flag_max_px = 1.0;             // flag cameras whose largest error exceeds this, px
-  int worst_points = 5;                 // per camera, in the report
-  int threads = 0;                      // 0 = all hardware threads
+  int max_stage1_views = 0;             // stage-1 images used per camera, 0 = all
+  // Fit the images of the dot centres, not the dots' centroids (which perspective and
+  // distortion shift, calib/tsai_calibration.h); detected dots only.
+  bool correct_dot_centroids = true;
+  int min_stage2_points = 6;  // floor marks a camera must see (Tsai: >= 5)
+  double outlier_px = 1.0;    // reject points beyond max(this, 4 x RMS), px
+  double flag_rms_px = 0.3;   // flag cameras whose RMS exceeds this, px
+  double flag_max_px = 1.0;   // flag cameras whose largest error exceeds this, px
+  int worst_points = 5;       // per camera, in the report
+  int threads = 0;            // 0 = all hardware threads
   // A camera that cannot be calibrated (its error) is flagged and keeps its prior
   // parameters instead of failing the whole take.
   bool keep_going = false;
@@ -53,11 +58,13 @@ struct PointError {
 };
 
 struct StageReport {
-  int points = 0;                 // used in the final fit
-  int detected = 0;               // identified in the image
-  int blobs = 0;                  // dark blobs in the image
-  std::vector<int> missing_ids;   // target points not found in the image
-  std::vector<int> rejected_ids;  // found, rejected as outliers
+  int views = 1;                           // images used (stage 1: the object's poses)
+  int points = 0;                          // used in the final fit, over the views
+  int detected = 0;                        // identified in the image
+  int blobs = 0;                           // dark blobs in the image
+  std::vector<int> missing_ids;            // target points not found in the image
+  std::vector<int> rejected_ids;           // found, rejected as outliers
+  std::vector<std::string> skipped_views;  // further stage-1 views left out, and why
   double rms_px = 0.0;
   double max_px = 0.0;
   RefineSummary refine;
@@ -90,9 +97,20 @@ struct CalibrationResult {
 CalibrationResult CalibrateTake(const std::filesystem::path& take_dir, const take::Rig& prior,
                                 const CalibrateOptions& options);
 
-// One camera, from its two views (what CalibrateTake runs per camera).
+// One camera, from its stage-1 views (the first required, the object's further poses
+// optional) and its stage-2 view (what CalibrateTake runs per camera).
+CameraReport CalibrateCamera(const take::RigCamera& prior,
+                             const std::vector<std::filesystem::path>& stage1_views,
+                             const std::filesystem::path& stage2_view,
+                             const CalibrateOptions& options, geometry::TsaiCamera* calibrated);
+// One stage-1 view.
 CameraReport CalibrateCamera(const take::RigCamera& prior, const std::filesystem::path& stage1_view,
                              const std::filesystem::path& stage2_view,
                              const CalibrateOptions& options, geometry::TsaiCamera* calibrated);
+
+// A camera's view files in a stage folder: <camera>.json, then <camera>.<k>.json for
+// k = 1, 2, ... as long as they exist (stage 1: the object moved to further poses).
+std::vector<std::filesystem::path> ViewPaths(const std::filesystem::path& stage_dir,
+                                             const std::string& camera);
 
 }  // namespace dome::calib

@@ -221,38 +221,50 @@ GridFit Grow(const std::vector<Blob>& blobs, int n, const int seed[4], double to
   return fit;
 }
 
-// The key marker is the grid corner heaviest relative to the mass its row and column
-// extrapolate to it (perspective makes near dots heavier, so a plain comparison with
-// the neighbours can pick a near corner). Relabels the grid by quarter turns (which
-// keep its handedness) so that the key is at (0, 0); returns the key's ratio.
+// The key marker is the grid corner heaviest relative to the dots around it, each
+// dot's mass divided by the area its grid cell covers in the image (the Jacobian
+// determinant of the grid's homography there): perspective makes near dots heavier and
+// far dots lighter, and at grazing views a plain comparison with the neighbours (or an
+// extrapolation along a row) can pick a near corner or miss a far key. Relabels the
+// grid by quarter turns (which keep its handedness) so that the key is at (0, 0);
+// returns the key's ratio.
 // When no corner stands out but the grid is complete save one corner that lies well
 // inside the image, that corner is taken as the key: a key marker that merged with its
 // surroundings (steep views shrink the white pad around it) is the likely reason.
 double PutKeyAtOrigin(const std::vector<Blob>& blobs, int n, const cv::Size& image,
                       double key_ratio, GridFit* fit) {
-  auto mass = [&](int i, int j) {
+  cv::Mat grid_h;
+  const bool have_h = FitHomography(blobs, *fit, n, &grid_h);
+  // Mass per unit of imaged cell area, 0 where unknown.
+  auto density = [&](int i, int j) {
     const int b = fit->blob_of_cell[n * j + i];
-    return b < 0 ? 0.0 : blobs[b].mass;
+    if (b < 0 || blobs[b].cut) return 0.0;
+    if (!have_h) return blobs[b].mass;
+    const Vector2d p = ApplyH(grid_h, i, j);
+    const Vector2d du = ApplyH(grid_h, i + 0.5, j) - ApplyH(grid_h, i - 0.5, j);
+    const Vector2d dv = ApplyH(grid_h, i, j + 0.5) - ApplyH(grid_h, i, j - 0.5);
+    const double area = std::abs(du.x() * dv.y() - du.y() * dv.x());
+    return p.allFinite() && area > 1e-9 ? blobs[b].mass / area : 0.0;
   };
   const int corner[4][2] = {{0, 0}, {n - 1, 0}, {n - 1, n - 1}, {0, n - 1}};
   double best_ratio = 0;
   int best = 0;
   for (int c = 0; c < 4; ++c) {
     const int ci = corner[c][0], cj = corner[c][1];
-    const int si = ci == 0 ? 1 : -1, sj = cj == 0 ? 1 : -1;
-    const double m = mass(ci, cj);
-    double pred = 0;
-    int k = 0;
-    for (int axis = 0; axis < 2; ++axis) {
-      const double m1 = axis == 0 ? mass(ci + si, cj) : mass(ci, cj + sj);
-      const double m2 = axis == 0 ? mass(ci + 2 * si, cj) : mass(ci, cj + 2 * sj);
-      if (m1 > 0 && m2 > 0) {
-        pred += m1 * m1 / m2;
-        ++k;
+    const double m = density(ci, cj);
+    if (m <= 0) continue;
+    // the dots within two cells of the corner: the same size and contrast as the key
+    std::vector<double> around;
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        if ((i == ci && j == cj) || std::abs(i - ci) > 2 || std::abs(j - cj) > 2) continue;
+        const double d = density(i, j);
+        if (d > 0) around.push_back(d);
       }
     }
-    if (m <= 0 || k == 0) continue;
-    const double ratio = m / (pred / k);
+    if (around.size() < 3) continue;
+    std::nth_element(around.begin(), around.begin() + around.size() / 2, around.end());
+    const double ratio = m / around[around.size() / 2];
     if (ratio > best_ratio) {
       best_ratio = ratio;
       best = c;

@@ -372,6 +372,46 @@ double ReprojectionErrorPx(const geometry::TsaiCamera& intrinsics, const View& v
   return (px - c.pixel).norm();
 }
 
+Vector2d DotCentroidOffsetPx(const geometry::TsaiCamera& intrinsics, const View& view,
+                             const Vector3d& centre_mm, const Vector3d& normal, double radius_mm) {
+  geometry::TsaiCamera cam = intrinsics;
+  cam.rotation = view.rotation;
+  cam.translation_mm = view.translation_mm;
+  Vector2d centre_px;
+  if (!cam.Project(centre_mm, &centre_px)) return Vector2d::Zero();
+  // The outline as a polygon; the area centroid of a fine regular polygon is that of
+  // the imaged disc to far below the detector's precision.
+  const Vector3d u = normal.unitOrthogonal();
+  const Vector3d v = normal.normalized().cross(u);
+  constexpr int kSides = 48;
+  Vector2d first, previous, sum = Vector2d::Zero();
+  double area2 = 0.0;
+  for (int k = 0; k <= kSides; ++k) {
+    const double a = 2.0 * M_PI * (k % kSides) / kSides;
+    Vector2d p;
+    if (!cam.Project(centre_mm + radius_mm * (std::cos(a) * u + std::sin(a) * v), &p)) {
+      return Vector2d::Zero();
+    }
+    p -= centre_px;  // relative, for precision
+    if (k > 0) {
+      const double cross = previous.x() * p.y() - p.x() * previous.y();
+      area2 += cross;
+      sum += cross * (previous + p);
+    }
+    previous = p;
+  }
+  if (std::abs(area2) < 1e-12) return Vector2d::Zero();
+  return sum / (3.0 * area2);
+}
+
+void CorrectDotCentroids(const geometry::TsaiCamera& intrinsics, View* view) {
+  for (auto& c : view->points) {
+    if (c.marker_radius_mm <= 0) continue;
+    c.pixel = c.detected_px - DotCentroidOffsetPx(intrinsics, *view, c.target_mm, c.marker_normal,
+                                                  c.marker_radius_mm);
+  }
+}
+
 namespace {
 
 // The parameter vector: the free intrinsics, then per view a rotation vector (applied

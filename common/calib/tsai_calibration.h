@@ -27,6 +27,12 @@ struct Correspondence {
   int id = 0;
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();  // target frame, mm
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();      // distorted pixel
+  // A detected dot marker (radius > 0): its plane's unit normal (target frame) and
+  // radius, mm, and its centroid as detected, px. The centroid of a dot's image is
+  // not the image of its centre; CorrectDotCentroids sets `pixel` from these.
+  Eigen::Vector3d marker_normal = Eigen::Vector3d::Zero();
+  double marker_radius_mm = 0.0;
+  Eigen::Vector2d detected_px = Eigen::Vector2d::Zero();
 };
 
 // What is known of a camera before calibration: its id, image size and sensor
@@ -113,6 +119,20 @@ struct RefineSummary {
 // core::InputError when there are fewer residuals than parameters.
 RefineSummary RefineCamera(geometry::TsaiCamera* camera, std::vector<View>* views,
                            const RefineOptions& options, const std::string& where);
+
+// Where the centroid of a dot's image lies relative to the image of its centre, px:
+// the dot (centre, unit normal and radius in the target frame, mm) imaged by
+// (intrinsics, view pose) -- perspective and lens distortion shift the centroid of
+// the imaged outline towards the dot's nearer, larger side. Zero when the dot is not
+// wholly in front of the camera.
+Eigen::Vector2d DotCentroidOffsetPx(const geometry::TsaiCamera& intrinsics, const View& view,
+                                    const Eigen::Vector3d& centre_mm, const Eigen::Vector3d& normal,
+                                    double radius_mm);
+
+// For every dot marker of `view` (marker_radius_mm > 0): pixel = detected_px minus
+// its centroid offset under (intrinsics, view pose), so that the refinement fits the
+// images of the dot centres.
+void CorrectDotCentroids(const geometry::TsaiCamera& intrinsics, View* view);
 
 // Reprojection error of one correspondence under (camera intrinsics, view pose), px;
 // infinity when the point is behind the camera.

@@ -4,7 +4,13 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <memory>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
 #include "core/error.h"
 #include "core/parallel_for.h"
@@ -62,15 +68,25 @@ void CheckRangeImage(const RangeImage& image) {
 struct Integrator::CameraTables {
   Eigen::Matrix3d rotation;
   Eigen::Vector3d translation_mm;
-  float fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;       // normalized -> pixel (times lambda)
-  float rn2_max = 0;                                      // largest tabulated (x/z)^2 + (y/z)^2
-  float lut_scale = 0;                                    // (kLutSize - 1) / rn2_max
-  std::vector<float> lambda;                              // distortion factor over rn^2
+  // Camera-frame centre of voxel (i, j, k) = q000 + i ex + j ey + k ez, mm.
+  Eigen::Vector3d q000, ex, ey, ez;
+  bool lambda_monotonic = true;  // lambda non-decreasing or non-increasing over rn^2
+  float fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;  // normalized -> pixel (times lambda)
+  float rn2_max = 0;                                 // largest tabulated (x/z)^2 + (y/z)^2
+  float lut_scale = 0;                               // (kLutSize - 1) / rn2_max
+  std::vector<float> lambda;  // distortion factor over rn^2, kLutSize entries
   double xn_min = 0, xn_max = 0, yn_min = 0, yn_max = 0;  // frustum, normalized coords
   int width = 0, height = 0;
   std::vector<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
   std::vector<float> weight;     // empty = uniform
-  std::vector<uint8_t> quad;     // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle
+  // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle (plus 3 unused entries
+  // at the end, the same count as quad_min/quad_max).
+  std::vector<uint8_t> quad;
+  // Per quad: least and largest of its valid depths (+inf / -inf if none), mm; any depth
+  // interpolated in a triangle of the quad lies between them. quad_min carries the
+  // quad's two triangle bits in the two low bits of its pattern, lowered first so that
+  // the value stays below the true least depth (one load gives both).
+  std::vector<float> quad_min, quad_max;
   // Min/max depth pyramid over the quads for block culling. Level 0: one cell per quad
   // (min over its 4 depths, +inf unless all valid; max over its valid depths, -inf if
   // none; connected = both triangles exist); level l + 1 merges 2x2 cells of level l.
@@ -147,109 +163,147 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
   grid_.Check();
   options_.Check();
   cameras_.resize(images.size());
-  for (size_t c = 0; c < images.size(); ++c) {
-    const RangeImage& image = images[c];
-    CheckRangeImage(image);
-    const geometry::TsaiCamera& cam = image.camera;
-    CameraTables& t = cameras_[c];
-    t.rotation = cam.rotation;
-    t.translation_mm = cam.translation_mm;
-    t.width = cam.width_px;
-    t.height = cam.height_px;
-    t.fx_px = static_cast<float>(cam.focal_mm * cam.sx / cam.sensor.dpx_mm());
-    t.fy_px = static_cast<float>(cam.focal_mm / cam.sensor.dpy_mm());
-    t.cx_px = static_cast<float>(cam.cx_px);
-    t.cy_px = static_cast<float>(cam.cy_px);
-    // Frustum and the largest radius: undistort the image border one pixel outside.
-    t.xn_min = t.yn_min = std::numeric_limits<double>::max();
-    t.xn_max = t.yn_max = std::numeric_limits<double>::lowest();
-    double rn2_max = 0.0;
-    const Eigen::Matrix3d k_inv = cam.K().inverse();
-    auto visit = [&](double x, double y) {
-      const Eigen::Vector2d u = cam.UndistortPixel(Eigen::Vector2d(x, y));
-      const Eigen::Vector3d n = k_inv * Eigen::Vector3d(u.x(), u.y(), 1.0);
-      t.xn_min = std::min(t.xn_min, n.x());
-      t.xn_max = std::max(t.xn_max, n.x());
-      t.yn_min = std::min(t.yn_min, n.y());
-      t.yn_max = std::max(t.yn_max, n.y());
-      rn2_max = std::max(rn2_max, n.x() * n.x() + n.y() * n.y());
-    };
-    const int w = t.width, h = t.height;
-    for (int x = -1; x <= w; ++x) {
-      visit(x, -1);
-      visit(x, h);
-    }
-    for (int y = -1; y <= h; ++y) {
-      visit(-1, y);
-      visit(w, y);
-    }
-    // lambda(rn^2): distorted / undistorted radius, tabulated in rn^2 (smooth, so a
-    // linear table of 1024 entries is accurate to far below a pixel).
-    t.rn2_max = static_cast<float>(rn2_max * 1.02);
-    t.lut_scale = (kLutSize - 1) / t.rn2_max;
-    t.lambda.resize(kLutSize);
-    for (int e = 0; e < kLutSize; ++e) {
-      const double rn2 = double(e) / (kLutSize - 1) * t.rn2_max;
-      const double ru = cam.focal_mm * std::sqrt(rn2);
-      double rd = ru;
-      geometry::DistortedRadiusMm(ru, cam.kappa1_per_mm2, &rd);
-      t.lambda[e] = ru > 0.0 ? static_cast<float>(rd / ru) : 1.0f;
-    }
-    // Inverse depths and the tessellation (seed §3: no triangle across a jump).
-    t.inv_depth.resize(size_t(w) * h);
-    for (int y = 0; y < h; ++y) {
-      const float* row = image.depth_mm.ptr<float>(y);
-      for (int x = 0; x < w; ++x)
-        t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
-    }
-    if (!image.weight.empty()) {
-      t.weight.resize(size_t(w) * h);
+  for (const RangeImage& image : images) CheckRangeImage(image);  // first bad one throws
+  // The tables of the cameras are independent: built in parallel.
+  const int threads = options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads();
+  core::ParallelFor(0, int64_t(images.size()), threads, [&](int64_t c_begin, int64_t c_end) {
+    for (int64_t c = c_begin; c < c_end; ++c) {
+      const RangeImage& image = images[c];
+      const geometry::TsaiCamera& cam = image.camera;
+      CameraTables& t = cameras_[c];
+      t.rotation = cam.rotation;
+      t.translation_mm = cam.translation_mm;
+      t.q000 = cam.rotation * grid_.VoxelCentreMm(0, 0, 0) + cam.translation_mm;
+      t.ex = cam.rotation.col(0) * grid_.voxel_size_mm;
+      t.ey = cam.rotation.col(1) * grid_.voxel_size_mm;
+      t.ez = cam.rotation.col(2) * grid_.voxel_size_mm;
+      t.width = cam.width_px;
+      t.height = cam.height_px;
+      t.fx_px = static_cast<float>(cam.focal_mm * cam.sx / cam.sensor.dpx_mm());
+      t.fy_px = static_cast<float>(cam.focal_mm / cam.sensor.dpy_mm());
+      t.cx_px = static_cast<float>(cam.cx_px);
+      t.cy_px = static_cast<float>(cam.cy_px);
+      // Frustum and the largest radius: undistort the image border one pixel outside.
+      t.xn_min = t.yn_min = std::numeric_limits<double>::max();
+      t.xn_max = t.yn_max = std::numeric_limits<double>::lowest();
+      double rn2_max = 0.0;
+      const Eigen::Matrix3d k_inv = cam.K().inverse();
+      auto visit = [&](double x, double y) {
+        const Eigen::Vector2d u = cam.UndistortPixel(Eigen::Vector2d(x, y));
+        const Eigen::Vector3d n = k_inv * Eigen::Vector3d(u.x(), u.y(), 1.0);
+        t.xn_min = std::min(t.xn_min, n.x());
+        t.xn_max = std::max(t.xn_max, n.x());
+        t.yn_min = std::min(t.yn_min, n.y());
+        t.yn_max = std::max(t.yn_max, n.y());
+        rn2_max = std::max(rn2_max, n.x() * n.x() + n.y() * n.y());
+      };
+      const int w = t.width, h = t.height;
+      for (int x = -1; x <= w; ++x) {
+        visit(x, -1);
+        visit(x, h);
+      }
+      for (int y = -1; y <= h; ++y) {
+        visit(-1, y);
+        visit(w, y);
+      }
+      // lambda(rn^2): distorted / undistorted radius, tabulated in rn^2 (smooth, so a
+      // linear table of 1024 entries is accurate to far below a pixel).
+      t.rn2_max = static_cast<float>(rn2_max * 1.02);
+      t.lut_scale = (kLutSize - 1) / t.rn2_max;
+      t.lambda.resize(kLutSize);
+      for (int e = 0; e < kLutSize; ++e) {
+        const double rn2 = double(e) / (kLutSize - 1) * t.rn2_max;
+        const double ru = cam.focal_mm * std::sqrt(rn2);
+        double rd = ru;
+        geometry::DistortedRadiusMm(ru, cam.kappa1_per_mm2, &rd);
+        t.lambda[e] = ru > 0.0 ? static_cast<float>(rd / ru) : 1.0f;
+      }
+      bool up = true, down = true;
+      for (int e = 1; e < kLutSize; ++e) {
+        up = up && t.lambda[e] >= t.lambda[e - 1];
+        down = down && t.lambda[e] <= t.lambda[e - 1];
+      }
+      t.lambda_monotonic = up || down;
+      // Inverse depths and the tessellation (seed §3: no triangle across a jump).
+      t.inv_depth.resize(size_t(w) * h);
       for (int y = 0; y < h; ++y) {
-        const float* row = image.weight.ptr<float>(y);
-        std::copy(row, row + w, t.weight.begin() + size_t(y) * w);
+        const float* row = image.depth_mm.ptr<float>(y);
+        for (int x = 0; x < w; ++x)
+          t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
       }
-    }
-    const float ratio = static_cast<float>(options_.max_depth_jump_ratio);
-    auto connected = [&](float a, float b, float c) {
-      if (!(a > 0 && b > 0 && c > 0)) return false;
-      const float lo = std::min(a, std::min(b, c)), hi = std::max(a, std::max(b, c));
-      return hi - lo <= ratio * lo;
-    };
-    t.quad.assign(size_t(std::max(w - 1, 0)) * std::max(h - 1, 0), 0);
-    for (int y = 0; y + 1 < h; ++y) {
-      const float* r0 = image.depth_mm.ptr<float>(y);
-      const float* r1 = image.depth_mm.ptr<float>(y + 1);
-      for (int x = 0; x + 1 < w; ++x) {
-        uint8_t q = 0;
-        if (connected(r0[x], r0[x + 1], r1[x + 1])) q |= 1;  // (0,0) (1,0) (1,1)
-        if (connected(r0[x], r1[x], r1[x + 1])) q |= 2;      // (0,0) (0,1) (1,1)
-        t.quad[size_t(y) * (w - 1) + x] = q;
+      if (!image.weight.empty()) {
+        t.weight.resize(size_t(w) * h);
+        for (int y = 0; y < h; ++y) {
+          const float* row = image.weight.ptr<float>(y);
+          std::copy(row, row + w, t.weight.begin() + size_t(y) * w);
+        }
       }
+      const float ratio = static_cast<float>(options_.max_depth_jump_ratio);
+      auto connected = [&](float a, float b, float c) {
+        if (!(a > 0 && b > 0 && c > 0)) return false;
+        const float lo = std::min(a, std::min(b, c)), hi = std::max(a, std::max(b, c));
+        return hi - lo <= ratio * lo;
+      };
+      t.quad.assign(size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3, 0);
+      t.quad_min.assign(t.quad.size(), std::numeric_limits<float>::infinity());
+      t.quad_max.assign(t.quad.size(), -std::numeric_limits<float>::infinity());
+      for (int y = 0; y + 1 < h; ++y) {
+        const float* r0 = image.depth_mm.ptr<float>(y);
+        const float* r1 = image.depth_mm.ptr<float>(y + 1);
+        for (int x = 0; x + 1 < w; ++x) {
+          uint8_t q = 0;
+          if (connected(r0[x], r0[x + 1], r1[x + 1])) q |= 1;  // (0,0) (1,0) (1,1)
+          if (connected(r0[x], r1[x], r1[x + 1])) q |= 2;      // (0,0) (0,1) (1,1)
+          t.quad[size_t(y) * (w - 1) + x] = q;
+          float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+          for (float d : {r0[x], r0[x + 1], r1[x], r1[x + 1]}) {
+            if (d > 0) {
+              lo = std::min(lo, d);
+              hi = std::max(hi, d);
+            }
+          }
+          uint32_t bits;
+          std::memcpy(&bits, &lo, 4);
+          bits = ((bits - 4) & ~3u) | q;  // lo > 0: the pattern orders like the value
+          std::memcpy(&t.quad_min[size_t(y) * (w - 1) + x], &bits, 4);
+          t.quad_max[size_t(y) * (w - 1) + x] = hi;
+        }
+      }
+      BuildPyramid(image.depth_mm, &t);
     }
-    BuildPyramid(image.depth_mm, &t);
-  }
+  });
 }
 
 Integrator::~Integrator() = default;
 
-// Blocks of kBlock^3 voxels aligned to the volume's absolute indices; a block's
-// classification depends only on its indices, never on the slab.
-constexpr int kBlock = 8;
+namespace {
 
+// Blocks of kBlock^3 voxels and super-blocks of kSuperXY x kSuperXY x kBlock voxels,
+// aligned to the volume's absolute indices; a (super-)block's classification depends
+// only on its indices, never on the slab.
+constexpr int kBlock = 8;
+constexpr int kSuperBlocks = 4;  // blocks per super-block along x and y
+constexpr int kSuperXY = kBlock * kSuperBlocks;
+constexpr int kSuperVoxels = kSuperXY * kSuperXY * kBlock;
+
+}  // namespace
+
+// Per thread: the accumulators of one super-block (k, j, i order). Contributions are
+// split so that every path adds the same thing per voxel: `count` holds the clamped
+// free-space contributions of weight 1 (uniform weights, d >= clamp), the float sums
+// everything else, in camera order. The result is (sum_wd + count * clamp) /
+// (sum_w + count), so a culled free-space (super-)block adds 1 to a counter instead of
+// touching every voxel.
 struct Integrator::Scratch {
-  std::vector<float> pu, pv, pz, ps;
-  std::vector<float> sum_wd, sum_w;  // the block: kBlock^3, (k, j, i) order
-  explicit Scratch(int nx)
-      : pu(nx),
-        pv(nx),
-        pz(nx),
-        ps(nx),
-        sum_wd(kBlock * kBlock * kBlock),
-        sum_w(kBlock * kBlock * kBlock) {}
+  alignas(32) float sum_wd[kSuperVoxels];
+  alignas(32) float sum_w[kSuperVoxels];
+  alignas(32) int32_t count[kSuperVoxels];
+  int32_t block_count[kSuperBlocks * kSuperBlocks];
+  int32_t super_count = 0;
 };
 
-// Conservative test of a whole block against one image (see FusionOptions::block_culling).
-// The block is the voxels [i0, i1] x [j0, j1] x [k0, k1] (inclusive, absolute).
+// Conservative test of the voxels [i0, i1] x [j0, j1] x [k0, k1] (inclusive, absolute)
+// against one image (see FusionOptions::block_culling).
 Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, int i1, int j0,
                                                  int j1, int k0, int k1) const {
   if (!options_.block_culling) return BlockClass::kExact;
@@ -261,9 +315,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
   // of them is outside.
   int outside[5] = {0, 0, 0, 0, 0};
   for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d p =
-        grid_.VoxelCentreMm(c & 1 ? i1 : i0, c & 2 ? j1 : j0, c & 4 ? k1 : k0);
-    q[c] = t.rotation * p + t.translation_mm;
+    q[c] = t.q000 + double(c & 1 ? i1 : i0) * t.ex + double(c & 2 ? j1 : j0) * t.ey +
+           double(c & 4 ? k1 : k0) * t.ez;
     zmin = std::min(zmin, q[c].z());
     zmax = std::max(zmax, q[c].z());
     outside[0] += q[c].z() <= near;
@@ -276,27 +329,43 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
     if (outside[h] == 8) return BlockClass::kSkip;
   }
   if (zmin <= near + 1.0) return BlockClass::kExact;
-  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
+  // With every corner in front of the camera the block's perspective image is the
+  // convex hull of the corners' images: a box [xa, xb] x [ya, yb] in normalized
+  // coordinates. Distortion scales by lambda(rn^2), bounded over the box's rn^2 range.
+  double xa = 1e300, xb = -1e300, ya = 1e300, yb = -1e300;
   for (int c = 0; c < 8; ++c) {
     const double xn = q[c].x() / q[c].z(), yn = q[c].y() / q[c].z();
-    const double rn2 = xn * xn + yn * yn;
-    if (!(rn2 <= t.rn2_max)) return BlockClass::kExact;  // partly beyond the field
-    const double e = rn2 * t.lut_scale;
-    const int ei = std::min(static_cast<int>(e), kLutSize - 2);
-    const double lambda = t.lambda[ei] + (e - ei) * (t.lambda[ei + 1] - t.lambda[ei]);
-    const double u = xn * lambda * t.fx_px + t.cx_px, v = yn * lambda * t.fy_px + t.cy_px;
-    umin = std::min(umin, u);
-    umax = std::max(umax, u);
-    vmin = std::min(vmin, v);
-    vmax = std::max(vmax, v);
+    xa = std::min(xa, xn);
+    xb = std::max(xb, xn);
+    ya = std::min(ya, yn);
+    yb = std::max(yb, yn);
   }
-  // The block's image lies in the corners' pixel box (it is convex and the distortion
-  // bends a block edge by far less than the 2-pixel pad).
-  constexpr double kPad = 2.0;
-  umin -= kPad;
-  vmin -= kPad;
-  umax += kPad;
-  vmax += kPad;
+  const double rhi = std::max(xa * xa, xb * xb) + std::max(ya * ya, yb * yb);
+  if (!(rhi <= t.rn2_max)) return BlockClass::kExact;  // partly beyond the field
+  const double dx = xa > 0 ? xa : (xb < 0 ? -xb : 0.0), dy = ya > 0 ? ya : (yb < 0 ? -yb : 0.0);
+  const double rlo = dx * dx + dy * dy;
+  // Table entries the voxels may interpolate between (one entry of slack each side for
+  // the float index).
+  const int e0 = std::max(0, static_cast<int>(rlo * t.lut_scale) - 1);
+  const int e1 = std::min(kLutSize - 1, static_cast<int>(rhi * t.lut_scale) + 2);
+  double lmin, lmax;
+  if (t.lambda_monotonic) {
+    lmin = std::min(t.lambda[e0], t.lambda[e1]);
+    lmax = std::max(t.lambda[e0], t.lambda[e1]);
+  } else {
+    lmin = 1e300;
+    lmax = -1e300;
+    for (int e = e0; e <= e1; ++e) {
+      lmin = std::min(lmin, double(t.lambda[e]));
+      lmax = std::max(lmax, double(t.lambda[e]));
+    }
+  }
+  // Pixel box: [xa, xb] * [lmin, lmax] * f + c, padded for float rounding.
+  constexpr double kPad = 0.5;
+  const double umin = std::min(xa * lmin, xa * lmax) * t.fx_px + t.cx_px - kPad;
+  const double umax = std::max(xb * lmin, xb * lmax) * t.fx_px + t.cx_px + kPad;
+  const double vmin = std::min(ya * lmin, ya * lmax) * t.fy_px + t.cy_px - kPad;
+  const double vmax = std::max(yb * lmin, yb * lmax) * t.fy_px + t.cy_px + kPad;
   const int w = t.width, h = t.height;
   if (umax < 0 || vmax < 0 || umin >= w - 1 || vmin >= h - 1) return BlockClass::kSkip;
   const bool inside = umin >= 0 && vmin >= 0 && umax < w - 1 && vmax < h - 1;
@@ -333,196 +402,291 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
   return BlockClass::kExact;
 }
 
-// Voxels [i0, i1) of row (j, k) against one camera: a vectorizable pass that projects
-// them (the camera-frame position is affine in i -- the incremental projection along
-// the row, evaluated from the row's start so that it does not depend on the span),
-// then a pass that samples the tessellated depth map (seed Figure 6).
-void Integrator::IntegrateSpan(const CameraTables& t, int j, int k, int i0, int i1, float* sum_wd,
-                               float* sum_w, Scratch* scratch) const {
-  const Eigen::Vector3d c0 = t.rotation * grid_.VoxelCentreMm(0, j, k) + t.translation_mm;
-  const Eigen::Vector3d s = t.rotation.col(0) * grid_.voxel_size_mm;
-  float* pu = scratch->pu.data();
-  float* pv = scratch->pv.data();
-  float* pz = scratch->pz.data();
-  float* ps = scratch->ps.data();
-  const float c0x = float(c0.x()), c0y = float(c0.y()), c0z = float(c0.z());
-  const float sx = float(s.x()), sy = float(s.y()), sz = float(s.z());
-  const float nearf = float(options_.min_depth_mm), rn2_max = t.rn2_max, lut_scale = t.lut_scale;
-  const float fx = t.fx_px, fy = t.fy_px, cx = t.cx_px, cy = t.cy_px;
-  const float* lut = t.lambda.data();
-  const int n = i1 - i0;
-  for (int m = 0; m < n; ++m) {
-    const float fi = static_cast<float>(i0 + m);
-    const float x = c0x + fi * sx, y = c0y + fi * sy, z = c0z + fi * sz;
+namespace {
+
+// One row of up to 8 voxels, i = ib + m for lanes m < lanes, against one camera: the
+// forward mapping of seed Figure 6 (project, sample the tessellated depth map, signed
+// distance along the ray). The camera-frame position is affine in i, evaluated from
+// the row's start (`c0`, voxel i = 0) so that it does not depend on where a span
+// starts. Every voxel of every path goes through this one function.
+struct RowParams {
+  const Integrator::CameraTables* t;
+  float sx, sy, sz;  // camera-frame step per voxel along i, mm
+  float near, truncation, clamp;
+};
+
+#if defined(__AVX2__) && defined(__FMA__)
+__attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y, float c0z, int ib,
+                                        int lanes, float* sum_wd, float* sum_w, int32_t* count) {
+  const Integrator::CameraTables& t = *p.t;
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 active = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), lane));
+  const __m256 fi = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(ib), lane));
+  const __m256 x = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sx), _mm256_set1_ps(c0x));
+  const __m256 y = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sy), _mm256_set1_ps(c0y));
+  const __m256 z = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sz), _mm256_set1_ps(c0z));
+  const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), z);
+  const __m256 xn = _mm256_mul_ps(x, inv_z), yn = _mm256_mul_ps(y, inv_z);
+  const __m256 rn2 = _mm256_fmadd_ps(xn, xn, _mm256_mul_ps(yn, yn));
+  __m256 ok = _mm256_and_ps(_mm256_cmp_ps(z, _mm256_set1_ps(p.near), _CMP_GT_OQ),
+                            _mm256_cmp_ps(rn2, _mm256_set1_ps(t.rn2_max), _CMP_LE_OQ));
+  ok = _mm256_and_ps(ok, active);
+  if (_mm256_movemask_ps(ok) == 0) return;
+  // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
+  const __m256 e = _mm256_min_ps(_mm256_mul_ps(rn2, _mm256_set1_ps(t.lut_scale)),
+                                 _mm256_set1_ps(float(kLutSize - 1) - 0.5f));
+  const __m256i ei = _mm256_cvttps_epi32(e);
+  const __m256 l0 = _mm256_i32gather_ps(t.lambda.data(), ei, 4);
+  const __m256 l1 = _mm256_i32gather_ps(t.lambda.data() + 1, ei, 4);
+  const __m256 lambda =
+      _mm256_fmadd_ps(_mm256_sub_ps(e, _mm256_cvtepi32_ps(ei)), _mm256_sub_ps(l1, l0), l0);
+  const __m256 u =
+      _mm256_fmadd_ps(_mm256_mul_ps(xn, lambda), _mm256_set1_ps(t.fx_px), _mm256_set1_ps(t.cx_px));
+  const __m256 v =
+      _mm256_fmadd_ps(_mm256_mul_ps(yn, lambda), _mm256_set1_ps(t.fy_px), _mm256_set1_ps(t.cy_px));
+  const __m256 zero = _mm256_setzero_ps();
+  __m256 in = _mm256_and_ps(ok, _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
+  in = _mm256_and_ps(in, _mm256_cmp_ps(u, _mm256_set1_ps(float(t.width - 1)), _CMP_LT_OQ));
+  in = _mm256_and_ps(in, _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
+  in = _mm256_and_ps(in, _mm256_cmp_ps(v, _mm256_set1_ps(float(t.height - 1)), _CMP_LT_OQ));
+  if (_mm256_movemask_ps(in) == 0) return;
+  const __m256i in_i = _mm256_castps_si256(in);
+  const __m256i x0 = _mm256_and_si256(_mm256_cvttps_epi32(u), in_i);
+  const __m256i y0 = _mm256_and_si256(_mm256_cvttps_epi32(v), in_i);
+  const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
+  const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
+  const __m256i qi = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width - 1)), x0);
+  const __m256 lo = _mm256_i32gather_ps(t.quad_min.data(), qi, 4);
+  const __m256i q = _mm256_and_si256(_mm256_castps_si256(lo), _mm256_set1_epi32(3));
+  // Upper triangle (bit 0) where ax >= ay, lower (bit 1) otherwise.
+  const __m256 upper = _mm256_cmp_ps(ax, ay, _CMP_GE_OQ);
+  const __m256i bit =
+      _mm256_blendv_epi8(_mm256_set1_epi32(2), _mm256_set1_epi32(1), _mm256_castps_si256(upper));
+  const __m256i has = _mm256_cmpeq_epi32(_mm256_and_si256(q, bit), bit);
+  __m256 valid = _mm256_and_ps(in, _mm256_castsi256_ps(has));
+  if (_mm256_movemask_ps(valid) == 0) return;
+  // Shortcut, decided per voxel and exactly as the full computation would: with the
+  // quad's depth range [lo, hi], D - z >= lo - z >= clamp (+ margins for rounding, ray
+  // scale >= 1) is clamped free space; hi - z < -truncation is untouched.
+  const __m256i qm = _mm256_and_si256(qi, _mm256_castps_si256(valid));
+  const __m256 free_fast = _mm256_and_ps(
+      valid, _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(lo, _mm256_set1_ps(1.0f - 1e-5f), z),
+                                         _mm256_set1_ps(0.01f)),
+                           _mm256_set1_ps(p.clamp), _CMP_GE_OQ));
+  __m256 rest = _mm256_andnot_ps(free_fast, valid);
+  if (_mm256_movemask_ps(rest) != 0) {
+    const __m256 hi = _mm256_i32gather_ps(t.quad_max.data(), qm, 4);
+    const __m256 behind = _mm256_cmp_ps(
+        _mm256_add_ps(_mm256_fmsub_ps(hi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
+        _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
+    rest = _mm256_andnot_ps(behind, rest);
+  }
+  if (_mm256_movemask_ps(rest) == 0) {
+    if (t.weight.empty()) {
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
+                          _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
+                                           _mm256_castps_si256(free_fast)));
+      return;
+    }
+    if (_mm256_movemask_ps(free_fast) == 0) return;  // all untouched
+  }
+  const __m256i p00 =
+      _mm256_and_si256(_mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width)), x0),
+                       _mm256_castps_si256(valid));
+  const float* id = t.inv_depth.data();
+  const __m256 i00 = _mm256_i32gather_ps(id, p00, 4);
+  const __m256 i10 = _mm256_i32gather_ps(id + 1, p00, 4);
+  const __m256 i01 = _mm256_i32gather_ps(id + t.width, p00, 4);
+  const __m256 i11 = _mm256_i32gather_ps(id + t.width + 1, p00, 4);
+  // Upper: i00 + ax (i10 - i00) + ay (i11 - i10); lower: i00 + ay (i01 - i00) + ax (i11 - i01).
+  const __m256 a = _mm256_blendv_ps(ay, ax, upper), b = _mm256_blendv_ps(ax, ay, upper);
+  const __m256 mid = _mm256_blendv_ps(i01, i10, upper);
+  const __m256 inv =
+      _mm256_fmadd_ps(b, _mm256_sub_ps(i11, mid), _mm256_fmadd_ps(a, _mm256_sub_ps(mid, i00), i00));
+  const __m256 scale = _mm256_sqrt_ps(_mm256_add_ps(_mm256_set1_ps(1.0f), rn2));
+  const __m256 d = _mm256_mul_ps(
+      _mm256_sub_ps(
+          _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_blendv_ps(_mm256_set1_ps(1.0f), inv, valid)),
+          z),
+      scale);
+  valid = _mm256_and_ps(valid, _mm256_cmp_ps(d, _mm256_set1_ps(-p.truncation), _CMP_GE_OQ));
+  const __m256 clamp = _mm256_set1_ps(p.clamp);
+  if (t.weight.empty()) {
+    const __m256 free = _mm256_and_ps(valid, _mm256_cmp_ps(d, clamp, _CMP_GE_OQ));
+    const __m256 add = _mm256_andnot_ps(free, valid);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
+                        _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
+                                         _mm256_castps_si256(free)));
+    _mm256_storeu_ps(sum_wd, _mm256_add_ps(_mm256_loadu_ps(sum_wd), _mm256_and_ps(add, d)));
+    _mm256_storeu_ps(
+        sum_w, _mm256_add_ps(_mm256_loadu_ps(sum_w), _mm256_and_ps(add, _mm256_set1_ps(1.0f))));
+  } else {
+    const float* wm = t.weight.data();
+    const __m256 w00 = _mm256_i32gather_ps(wm, p00, 4);
+    const __m256 w10 = _mm256_i32gather_ps(wm + 1, p00, 4);
+    const __m256 w01 = _mm256_i32gather_ps(wm + t.width, p00, 4);
+    const __m256 w11 = _mm256_i32gather_ps(wm + t.width + 1, p00, 4);
+    const __m256 wmid = _mm256_blendv_ps(w01, w10, upper);
+    const __m256 wt = _mm256_fmadd_ps(b, _mm256_sub_ps(w11, wmid),
+                                      _mm256_fmadd_ps(a, _mm256_sub_ps(wmid, w00), w00));
+    _mm256_storeu_ps(
+        sum_wd, _mm256_add_ps(_mm256_loadu_ps(sum_wd),
+                              _mm256_and_ps(valid, _mm256_mul_ps(wt, _mm256_min_ps(d, clamp)))));
+    _mm256_storeu_ps(sum_w, _mm256_add_ps(_mm256_loadu_ps(sum_w), _mm256_and_ps(valid, wt)));
+  }
+}
+#else
+__attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y, float c0z, int ib,
+                                        int lanes, float* sum_wd, float* sum_w, int32_t* count) {
+  const Integrator::CameraTables& t = *p.t;
+  const int w = t.width;
+  for (int m = 0; m < lanes; ++m) {
+    const float fi = static_cast<float>(ib + m);
+    const float x = c0x + fi * p.sx, y = c0y + fi * p.sy, z = c0z + fi * p.sz;
     const float inv_z = 1.0f / z;
     const float xn = x * inv_z, yn = y * inv_z;
     const float rn2 = xn * xn + yn * yn;
-    const float e_raw = rn2 * lut_scale;  // NaN (z = 0) falls to the guard below
-    const float e = e_raw < float(kLutSize - 1) - 0.5f ? e_raw : float(kLutSize - 1) - 0.5f;
+    if (!(z > p.near && rn2 <= t.rn2_max)) continue;
+    const float e = std::min(rn2 * t.lut_scale, float(kLutSize - 1) - 0.5f);
     const int ei = static_cast<int>(e);
-    const float lambda = lut[ei] + (e - float(ei)) * (lut[ei + 1] - lut[ei]);
-    const bool ok = z > nearf && rn2 <= rn2_max;
-    pu[m] = ok ? xn * lambda * fx + cx : -1.0f;
-    pv[m] = yn * lambda * fy + cy;
-    pz[m] = z;
-    ps[m] = std::sqrt(1.0f + rn2);
-  }
-  const float truncation = static_cast<float>(options_.truncation_mm);
-  const float clamp = static_cast<float>(options_.front_clamp_mm);
-  const float umax = float(t.width - 1), vmax = float(t.height - 1);
-  const int w = t.width;
-  const float* inv_depth = t.inv_depth.data();
-  const float* wmap = t.weight.empty() ? nullptr : t.weight.data();
-  for (int m = 0; m < n; ++m) {
-    const float u = pu[m], v = pv[m];
-    if (!(u >= 0.0f && u < umax && v >= 0.0f && v < vmax)) continue;
+    const float lambda = t.lambda[ei] + (e - float(ei)) * (t.lambda[ei + 1] - t.lambda[ei]);
+    const float u = xn * lambda * t.fx_px + t.cx_px, v = yn * lambda * t.fy_px + t.cy_px;
+    if (!(u >= 0.0f && u < float(t.width - 1) && v >= 0.0f && v < float(t.height - 1))) continue;
     const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
     const float ax = u - float(x0), ay = v - float(y0);
     const uint8_t q = t.quad[size_t(y0) * (w - 1) + x0];
-    if (q == 0) continue;
+    const bool upper = ax >= ay;
+    if (!(q & (upper ? 1 : 2))) continue;
     const size_t p00 = size_t(y0) * w + x0;
-    const size_t p10 = p00 + 1, p01 = p00 + w, p11 = p01 + 1;
-    float inv, wt = 1.0f;
-    if (ax >= ay) {
-      if (!(q & 1)) continue;
-      inv = inv_depth[p00] + ax * (inv_depth[p10] - inv_depth[p00]) +
-            ay * (inv_depth[p11] - inv_depth[p10]);
-      if (wmap) wt = wmap[p00] + ax * (wmap[p10] - wmap[p00]) + ay * (wmap[p11] - wmap[p10]);
+    const float a = upper ? ax : ay, b = upper ? ay : ax;
+    const size_t pm = upper ? p00 + 1 : p00 + w;
+    const float* id = t.inv_depth.data();
+    const float inv = id[p00] + a * (id[pm] - id[p00]) + b * (id[p00 + w + 1] - id[pm]);
+    const float d = (1.0f / inv - z) * std::sqrt(1.0f + rn2);
+    if (d < -p.truncation) continue;  // far behind the surface: untouched
+    if (t.weight.empty()) {
+      if (d >= p.clamp) {
+        ++count[m];
+      } else {
+        sum_wd[m] += d;
+        sum_w[m] += 1.0f;
+      }
     } else {
-      if (!(q & 2)) continue;
-      inv = inv_depth[p00] + ay * (inv_depth[p01] - inv_depth[p00]) +
-            ax * (inv_depth[p11] - inv_depth[p01]);
-      if (wmap) wt = wmap[p00] + ay * (wmap[p01] - wmap[p00]) + ax * (wmap[p11] - wmap[p01]);
+      const float* wm = t.weight.data();
+      const float wt = wm[p00] + a * (wm[pm] - wm[p00]) + b * (wm[p00 + w + 1] - wm[pm]);
+      sum_wd[m] += wt * std::min(d, p.clamp);
+      sum_w[m] += wt;
     }
-    const float d = (1.0f / inv - pz[m]) * ps[m];
-    if (d < -truncation) continue;  // far behind the surface: untouched
-    sum_wd[m] += wt * std::min(d, clamp);
-    sum_w[m] += wt;
   }
 }
+#endif
 
-// All blocks (bi, bj, bk) for bi along x, planes clipped to the slab [k0, k1). Per
-// voxel the cameras are visited in their given order whatever path each takes, and the
-// free-space shortcut adds exactly what the per-voxel path would (the clamp, weight 1).
-void Integrator::IntegrateBlockRow(int bj, int bk, int k0, int k1, Slab* slab,
-                                   Scratch* scratch) const {
-  const int nx = grid_.nx, ny = grid_.ny;
-  const int jb = bj * kBlock, je = std::min(ny, jb + kBlock);
-  const int kb = std::max(k0, bk * kBlock), ke = std::min(k1, bk * kBlock + kBlock);
-  const float clamp = static_cast<float>(options_.front_clamp_mm);
-  float* sum_wd = scratch->sum_wd.data();
-  float* sum_w = scratch->sum_w.data();
-  for (int bi = 0; bi * kBlock < nx; ++bi) {
-    const int ib = bi * kBlock, ie = std::min(nx, ib + kBlock), wi = ie - ib;
-    const int voxels = (ke - kb) * (je - jb) * wi;
-    std::fill(sum_wd, sum_wd + voxels, 0.0f);
-    std::fill(sum_w, sum_w + voxels, 0.0f);
-    // Whole block and sub-block extents are absolute (not clipped to the slab), so a
-    // voxel's path never depends on the slab.
-    const int bk_abs = bk * kBlock;
-    const int ke_abs = std::min(grid_.nz, bk_abs + kBlock);
-    for (const CameraTables& t : cameras_) {
-      const BlockClass cls = ClassifyBlock(t, ib, ie - 1, jb, je - 1, bk_abs, ke_abs - 1);
-      if (cls == BlockClass::kSkip) continue;
-      if (cls == BlockClass::kFreeSpace) {
-        for (int m = 0; m < voxels; ++m) {
-          sum_wd[m] += clamp;
-          sum_w[m] += 1.0f;
+}  // namespace
+
+// Super-block (si, sj, sk) clipped to the slab's planes [k0, k1): every camera in its
+// given order, classified per super-block, then per block, then voxel rows.
+void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Slab* slab,
+                                     Scratch* s) const {
+  const int nx = grid_.nx, ny = grid_.ny, nz = grid_.nz;
+  const int ib = si * kSuperXY, ie = std::min(nx, ib + kSuperXY);
+  const int jb = sj * kSuperXY, je = std::min(ny, jb + kSuperXY);
+  const int kb_abs = sk * kBlock, ke_abs = std::min(nz, kb_abs + kBlock);
+  const int kb = std::max(k0, kb_abs), ke = std::min(k1, ke_abs);
+  // Local layout: (k - kb, j - jb, i - ib), rows of kSuperXY.
+  const int planes = ke - kb;
+  const int local = planes * kSuperXY * kSuperXY;
+  std::fill(s->sum_wd, s->sum_wd + local, 0.0f);
+  std::fill(s->sum_w, s->sum_w + local, 0.0f);
+  std::fill(s->count, s->count + local, 0);
+  std::fill(std::begin(s->block_count), std::end(s->block_count), 0);
+  s->super_count = 0;
+  RowParams p;
+  p.near = static_cast<float>(options_.min_depth_mm);
+  p.truncation = static_cast<float>(options_.truncation_mm);
+  p.clamp = static_cast<float>(options_.front_clamp_mm);
+  for (const CameraTables& t : cameras_) {
+    const BlockClass cls = ClassifyBlock(t, ib, ie - 1, jb, je - 1, kb_abs, ke_abs - 1);
+    if (cls == BlockClass::kSkip) continue;
+    if (cls == BlockClass::kFreeSpace) {
+      ++s->super_count;
+      continue;
+    }
+    p.t = &t;
+    p.sx = static_cast<float>(t.ex.x());
+    p.sy = static_cast<float>(t.ex.y());
+    p.sz = static_cast<float>(t.ex.z());
+    for (int bj = 0; bj < kSuperBlocks && jb + bj * kBlock < je; ++bj) {
+      const int bj0 = jb + bj * kBlock, bj1 = std::min(je, bj0 + kBlock);
+      for (int bi = 0; bi < kSuperBlocks && ib + bi * kBlock < ie; ++bi) {
+        const int bi0 = ib + bi * kBlock, bi1 = std::min(ie, bi0 + kBlock);
+        const BlockClass bcls = ClassifyBlock(t, bi0, bi1 - 1, bj0, bj1 - 1, kb_abs, ke_abs - 1);
+        if (bcls == BlockClass::kSkip) continue;
+        if (bcls == BlockClass::kFreeSpace) {
+          ++s->block_count[bj * kSuperBlocks + bi];
+          continue;
         }
-        continue;
-      }
-      // Mixed: classify the eight half-size sub-blocks, sample voxel by voxel only in
-      // the mixed ones (neighbouring mixed sub-blocks along a row as one span).
-      constexpr int kHalf = kBlock / 2;
-      BlockClass sub[2][2][2];
-      for (int a = 0; a < 2; ++a) {
-        const int sk = bk_abs + a * kHalf, sk_end = std::min(ke_abs, sk + kHalf);
-        for (int b = 0; b < 2; ++b) {
-          const int sj = jb + b * kHalf, sj_end = std::min(je, sj + kHalf);
-          for (int c = 0; c < 2; ++c) {
-            const int si = ib + c * kHalf, si_end = std::min(ie, si + kHalf);
-            sub[a][b][c] = sk < sk_end && sj < sj_end && si < si_end && sk < ke &&
-                                   sk_end > kb  // meets the slab
-                               ? ClassifyBlock(t, si, si_end - 1, sj, sj_end - 1, sk, sk_end - 1)
-                               : BlockClass::kSkip;
-          }
-        }
-      }
-      for (int k = kb; k < ke; ++k) {
-        const int a = (k - bk_abs) / kHalf;
-        for (int j = jb; j < je; ++j) {
-          const int b = (j - jb) / kHalf;
-          const int row = ((k - kb) * (je - jb) + (j - jb)) * wi;
-          int c = 0;
-          while (c < 2) {
-            const int si = ib + c * kHalf;
-            if (si >= ie) break;
-            const BlockClass cls_c = sub[a][b][c];
-            if (cls_c == BlockClass::kSkip) {
-              ++c;
-              continue;
-            }
-            if (cls_c == BlockClass::kFreeSpace) {
-              const int si_end = std::min(ie, si + kHalf);
-              for (int m = si - ib; m < si_end - ib; ++m) {
-                sum_wd[row + m] += clamp;
-                sum_w[row + m] += 1.0f;
-              }
-              ++c;
-              continue;
-            }
-            int c_end = c + 1;
-            while (c_end < 2 && sub[a][b][c_end] == BlockClass::kExact) ++c_end;
-            const int si_end = std::min(ie, ib + c_end * kHalf);
-            IntegrateSpan(t, j, k, si, si_end, sum_wd + row + (si - ib), sum_w + row + (si - ib),
-                          scratch);
-            c = c_end;
+        for (int k = kb; k < ke; ++k) {
+          for (int j = bj0; j < bj1; ++j) {
+            const Eigen::Vector3d c0 = t.q000 + double(j) * t.ey + double(k) * t.ez;
+            const int o = ((k - kb) * kSuperXY + (j - jb)) * kSuperXY + (bi0 - ib);
+            ExactRow(p, float(c0.x()), float(c0.y()), float(c0.z()), bi0, bi1 - bi0, s->sum_wd + o,
+                     s->sum_w + o, s->count + o);
           }
         }
       }
     }
-    for (int k = kb; k < ke; ++k) {
-      for (int j = jb; j < je; ++j) {
-        const int row = ((k - kb) * (je - jb) + (j - jb)) * wi;
-        const size_t out = (size_t(k - k0) * ny + j) * nx + ib;
-        for (int m = 0; m < wi; ++m) {
-          const float w = sum_w[row + m];
-          slab->weight[out + m] = w;
-          slab->distance_mm[out + m] = w > 0.0f ? sum_wd[row + m] / w : 0.0f;
-        }
+  }
+  const float clamp = p.clamp;
+  for (int k = kb; k < ke; ++k) {
+    for (int j = jb; j < je; ++j) {
+      const int o = ((k - kb) * kSuperXY + (j - jb)) * kSuperXY;
+      const size_t out = (size_t(k - slab->k0) * ny + j) * nx + ib;
+      const int32_t* bc = s->block_count + ((j - jb) / kBlock) * kSuperBlocks;
+      for (int m = 0; m < ie - ib; ++m) {
+        const float n = float(s->super_count + bc[m / kBlock] + s->count[o + m]);
+        const float w = s->sum_w[o + m] + n;
+        slab->weight[out + m] = w;
+        slab->distance_mm[out + m] = w > 0.0f ? (s->sum_wd[o + m] + n * clamp) / w : 0.0f;
       }
     }
   }
 }
 
 Slab Integrator::IntegrateSlab(int k0, int k1) const {
-  grid_.CheckSlab(k0, k1);
   Slab slab;
-  slab.k0 = k0;
-  slab.k1 = k1;
-  slab.nx = grid_.nx;
-  slab.ny = grid_.ny;
+  IntegrateSlab(k0, k1, &slab);
+  return slab;
+}
+
+void Integrator::IntegrateSlab(int k0, int k1, Slab* slab) const {
+  grid_.CheckSlab(k0, k1);
+  slab->k0 = k0;
+  slab->k1 = k1;
+  slab->nx = grid_.nx;
+  slab->ny = grid_.ny;
   const size_t voxels = size_t(k1 - k0) * grid_.ny * grid_.nx;
-  slab.distance_mm.resize(voxels);
-  slab.weight.resize(voxels);
-  // Work items: rows of blocks (bj, bk) meeting the slab, handed out dynamically (work
-  // differs a lot between them); each voxel's value depends only on its indices, so the
+  slab->distance_mm.resize(voxels);  // every value is written below
+  slab->weight.resize(voxels);
+  // Work items: the super-blocks meeting the slab, handed out dynamically (work differs
+  // a lot between them); each voxel's value depends only on its indices, so the
   // schedule does not change the result.
-  const int bk0 = k0 / kBlock, bk1 = (k1 - 1) / kBlock + 1;
-  const int bjn = (grid_.ny + kBlock - 1) / kBlock;
-  const int64_t items = int64_t(bk1 - bk0) * bjn;
+  const int sk0 = k0 / kBlock, sk1 = (k1 - 1) / kBlock + 1;
+  const int sin = (grid_.nx + kSuperXY - 1) / kSuperXY;
+  const int sjn = (grid_.ny + kSuperXY - 1) / kSuperXY;
+  const int64_t per_layer = int64_t(sin) * sjn;
+  const int64_t items = int64_t(sk1 - sk0) * per_layer;
   const int threads = static_cast<int>(std::max<int64_t>(
       1, std::min<int64_t>(
              options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads(), items)));
   std::atomic<int64_t> next{0};
   core::ParallelFor(0, threads, threads, [&](int64_t, int64_t) {
-    Scratch scratch(grid_.nx);
+    auto scratch = std::make_unique<Scratch>();
     for (int64_t item; (item = next.fetch_add(1)) < items;) {
-      const int bk = bk0 + static_cast<int>(item / bjn), bj = static_cast<int>(item % bjn);
-      IntegrateBlockRow(bj, bk, k0, k1, &slab, &scratch);
+      const int sk = sk0 + static_cast<int>(item / per_layer);
+      const int rest = static_cast<int>(item % per_layer);
+      IntegrateSuperBlock(rest % sin, rest / sin, sk, k0, k1, slab, scratch.get());
     }
   });
-  return slab;
 }
 
 void FuseVolume(const VolumeGrid& grid, const std::vector<RangeImage>& images,

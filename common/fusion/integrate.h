@@ -21,9 +21,11 @@
 //    truncation_mm behind the surface are left untouched.
 //  * Weights: uniform (the seed: "we eliminated all weights") or a per-pixel
 //    reliability map interpolated like the depth.
-//  Accumulation (Curless-Levoy): W = sum w_c, D = sum w_c d_c / W, cameras in their
-//  given order; the arithmetic of one voxel depends only on its indices, so every
-//  slab partition and thread count gives bit-identical values.
+//  Accumulation (Curless-Levoy): W = sum w_c, D = sum w_c d_c / W. The clamped
+//  free-space contributions of uniform weight are counted (n) and the others summed in
+//  camera order: W = n + sum' w_c, D = (n * clamp + sum' w_c d_c) / W. The arithmetic of
+//  one voxel depends only on its indices, so every slab partition and thread count
+//  gives bit-identical values.
 //
 // Range images: z-depth along the optical axis in mm, 0 = none (io/depth_tiff.h),
 // exactly the camera's width_px x height_px.
@@ -52,10 +54,11 @@ struct FusionOptions {
   double min_depth_mm = 1.0;
   // Threads over the blocks of a slab; <= 0: all hardware threads.
   int num_threads = 0;
-  // Skip work with a conservative per-block test (8^3 voxel blocks against a min/max
-  // depth pyramid of each image): blocks wholly in clamped free space get the clamp
-  // without per-voxel sampling, blocks wholly far behind the surface or outside the
-  // image are skipped. The values are bit-identical with it off (tested).
+  // Skip work with a conservative test of 32x32x8 super-blocks, then 8^3 blocks, against
+  // each camera's frustum and a min/max depth pyramid of its image: (super-)blocks
+  // wholly in clamped free space get the clamp counted once instead of sampled per
+  // voxel, those wholly far behind the surface or outside the image are skipped. The
+  // values are bit-identical with it off (tested).
   bool block_culling = true;
 
   // Throws core::InputError naming the first option out of range.
@@ -87,8 +90,10 @@ class Integrator {
   Integrator& operator=(const Integrator&) = delete;
 
   // Fuses every image into planes [k0, k1); throws core::InputError when the slab is
-  // not inside the volume. Memory: the slab (8 bytes per voxel) plus per-thread rows.
+  // not inside the volume. Memory: the slab (8 bytes per voxel) plus ~100 KB per thread.
   Slab IntegrateSlab(int k0, int k1) const;
+  // The same into `slab`, reusing its buffers (no allocation when the size repeats).
+  void IntegrateSlab(int k0, int k1, Slab* slab) const;
 
   const VolumeGrid& grid() const { return grid_; }
 
@@ -99,10 +104,8 @@ class Integrator {
   enum class BlockClass { kExact, kSkip, kFreeSpace };
   BlockClass ClassifyBlock(const CameraTables& t, int i0, int i1, int j0, int j1, int k0,
                            int k1) const;
-  // Adds camera t's contributions to voxels i in [i0, i1) of row (j, k).
-  void IntegrateSpan(const CameraTables& t, int j, int k, int i0, int i1, float* sum_wd,
-                     float* sum_w, Scratch* scratch) const;
-  void IntegrateBlockRow(int bj, int bk, int k0, int k1, Slab* slab, Scratch* scratch) const;
+  void IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Slab* slab,
+                           Scratch* scratch) const;
 
   VolumeGrid grid_;
   FusionOptions options_;

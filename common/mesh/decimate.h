@@ -2,6 +2,11 @@
 // with little loss in structural accuracy"), by meshoptimizer's topology-preserving
 // edge-collapse simplifier (Debian libmeshoptimizer-dev): collapses never change the
 // topology (no holes opened, no separate parts welded), open borders are kept.
+// meshoptimizer keeps the surviving vertices where they were (on the input surface,
+// so the coarse triangles cut chords through curved parts); a second pass places each
+// surviving interior vertex at the quadric optimum of the input faces around it
+// (the input vertices nearest to it in edge hops), moving it only along the
+// directions those faces determine.
 // Units: the mesh's (mm for dome's meshes).
 #pragma once
 
@@ -20,6 +25,8 @@ struct DecimationOptions {
   double max_error_mm = 0.0;
   // Keep vertices on open borders in place (a slab or volume edge, unobserved parts).
   bool lock_border = true;
+  // Place surviving interior vertices at their quadric optimum (above).
+  bool relocate_vertices = true;
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;

@@ -3,18 +3,28 @@
 //
 // Work is cut into bands of reference rows; each thread takes contiguous bands. Per
 // band and per level, for every neighbour the homography is evaluated incrementally
-// along each row (q = q0 + x dq, one division per pixel), the neighbour sampled
+// along each row (q = q0 + x dq, one reciprocal per pixel), the neighbour sampled
 // bilinearly and the squared difference added to a band-sized SSD buffer; the window
 // sums come from a running vertical sum and a short horizontal sum (both vectorized
 // across x). The cost volume is never stored: per pixel the kernel keeps the running
 // minimum, the costs at the levels either side of it and the least cost outside them
 // (exact, see UpdateRow in cost_kernel.cc), so memory is O(band x width), not O(levels).
+//
+// Where the CPU has AVX-512 (F, BW) or AVX2 and FMA (checked at run time) the warp
+// runs sixteen or eight pixels at a time on a packed copy of each neighbour: one
+// 32-bit word per pixel holds its 2x2 bilinear quad as 8-bit greys (255 = no data),
+// so one gather gives a pixel's four taps and their validity. Otherwise (or with
+// max_simd = kNone) a scalar path on the float images runs; the paths agree up to
+// the rounding of the neighbour greys to integers (tests/stereo/cost_kernel_test.cc).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 namespace dome::stereo {
+
+// Instruction sets of the warp, in increasing order.
+enum class SimdLevel { kNone = 0, kAvx2 = 1, kAvx512 = 2 };
 
 struct KernelNeighbour {
   double a[3][3];  // x_n ~ a x_r + w b  (ideal pixels, w = 1/z in 1/mm)
@@ -32,7 +42,8 @@ struct KernelInput {
   float w_step = 0.0f;        // inverse depth per level, 1/mm
   float outside_cost = 0.0f;  // squared difference of a sample without data
   std::vector<KernelNeighbour> neighbours;
-  std::vector<int> half_windows;  // one per window size
+  std::vector<int> half_windows;            // one per window size
+  SimdLevel max_simd = SimdLevel::kAvx512;  // the best path the CPU has, up to this one
 };
 
 // Per pixel (row-major), per window size. Pixels whose window leaves the image get
@@ -44,6 +55,9 @@ struct KernelOutput {
   std::vector<float> best_cost;    // c(l)
   std::vector<float> second_cost;  // least c outside l-1..l+1
 };
+
+// The best path this CPU runs (AVX-512 needs F and BW; AVX2 needs FMA too).
+SimdLevel CostKernelSimd();
 
 // `outputs` has one entry per half window, each vector sized width x height.
 void RunCostKernel(const KernelInput& input, int num_threads, std::vector<KernelOutput>* outputs);

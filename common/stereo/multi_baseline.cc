@@ -118,6 +118,13 @@ void StereoOptions::Check() const {
   core::Require(num_threads >= 0, "num_threads", "must be >= 0 (0 = all)");
 }
 
+StereoOptions RealImageOptions() {
+  StereoOptions o;
+  o.min_uniqueness = 0.5;
+  o.window_sizes_px = {9, 13};
+  return o;
+}
+
 double LevelDepthMm(double level, int num_levels, double z_min_mm, double z_max_mm) {
   const double w_far = 1.0 / z_max_mm, w_near = 1.0 / z_min_mm;
   const double w = w_far + level * (w_near - w_far) / (num_levels - 1);

@@ -6,13 +6,20 @@
 namespace dome::synth {
 namespace {
 
-// Black dot of radius r on white, with a 4 mm linear edge ramp so that point
-// sampling does not alias the dot's outline into a jagged one.
-double Dot(double distance_mm, double radius_mm, double dark, double light) {
-  constexpr double kRampMm = 4.0;
-  const double a = std::clamp((distance_mm - radius_mm) / kRampMm + 0.5, 0.0, 1.0);
+// Black dot of radius r on white whose edge is a linear ramp `ramp_mm` wide: the dot
+// as seen through a box filter about a pixel's footprint wide. The renderer point
+// samples (synth/render.h); a sharp outline would alias into a jagged one whose
+// centroid is off by up to a tenth of a pixel, the same in every frame, while the
+// ramp keeps the dot's centre (and its darkness integral) where they are.
+double Dot(double distance_mm, double radius_mm, double ramp_mm, double dark, double light) {
+  const double a = std::clamp((distance_mm - radius_mm) / ramp_mm + 0.5, 0.0, 1.0);
   return dark + (light - dark) * a;
 }
+
+// Footprints of a take-image pixel: ~6 mm on the plates at the bench's ~1 m, ~18 mm
+// (more along a grazing view) on the floor from the dome's ~3 m.
+constexpr double kPlateRampMm = 8.0;
+constexpr double kFloorRampMm = 24.0;
 
 }  // namespace
 
@@ -55,7 +62,7 @@ double CalibPlateAlbedo(double x_mm, double y_mm) {
   if (i < 1 || i > kPlateDotsPerSide || j < 1 || j > kPlateDotsPerSide) return kWhite;
   const double d = std::hypot(x_mm - kPlateDotPitchMm * i, y_mm - kPlateDotPitchMm * j);
   const double radius = (i == 1 && j == 1) ? kPlateKeyDotRadiusMm : kPlateDotRadiusMm;
-  return Dot(d, radius, kBlack, kWhite);
+  return Dot(d, radius, kPlateRampMm, kBlack, kWhite);
 }
 
 std::vector<TargetPoint> FloorMarkPoints() {
@@ -82,10 +89,10 @@ double FloorMarksAlbedo(double x_mm, double y_mm, double floor_albedo) {
   }
   const double d = std::hypot(x_mm - (-half + kFloorMarkPitchMm * col),
                               y_mm - (-half + kFloorMarkPitchMm * row));
-  if (d > kFloorMarkPadRadiusMm + 2.0) return floor_albedo;
+  if (d > kFloorMarkPadRadiusMm + 0.5 * kFloorRampMm) return floor_albedo;
   const double radius = (row == 0 && col == 0) ? kFloorMarkKeyDotRadiusMm : kFloorMarkDotRadiusMm;
-  const double pad = Dot(d, kFloorMarkPadRadiusMm, kWhite, floor_albedo);
-  return d < radius + 2.0 ? Dot(d, radius, kBlack, kWhite) : pad;
+  const double pad = Dot(d, kFloorMarkPadRadiusMm, kFloorRampMm, kWhite, floor_albedo);
+  return d < radius + 0.5 * kFloorRampMm ? Dot(d, radius, kFloorRampMm, kBlack, kWhite) : pad;
 }
 
 }  // namespace dome::synth

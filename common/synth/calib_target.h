@@ -10,7 +10,7 @@
 // Each camera sees the object from inside the corner, filling much of its view.
 //
 // Stage 2 (extrinsics): floor marks -- black dots on white pads -- in a 5 x 5 grid,
-// 350 mm apart, centred on the dome's axis (world frame, z = 0), visible to every
+// 250 mm apart, centred on the dome's axis (world frame, z = 0), visible to every
 // camera of the dome. The mark at (-500, -500) is the larger key mark.
 #pragma once
 
@@ -46,7 +46,7 @@ inline constexpr int kFloorMarksPerSide = 5;
 inline constexpr double kFloorMarkPitchMm = 250.0;
 inline constexpr double kFloorMarkDotRadiusMm = 45.0;
 inline constexpr double kFloorMarkKeyDotRadiusMm = 60.0;
-inline constexpr double kFloorMarkPadRadiusMm = 100.0;
+inline constexpr double kFloorMarkPadRadiusMm = 110.0;
 
 // The floor marks, world frame (z = 0); id = 5 * row + column, x and y increasing.
 std::vector<TargetPoint> FloorMarkPoints();

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "calib.pb.h"
+#include "capture/tape.h"
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
@@ -294,7 +295,10 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
   }
   for (int k = 0; k < n; ++k) jobs.push_back({Job::kMesh, k, 0});
   if (options.write_calibration) {
-    for (int c = 0; c < scene.cameras; ++c) jobs.push_back({Job::kStage1, 0, c});
+    // (a stage-1 job's `instant` is the object's pose, synth/calibration.h)
+    for (int pose = 0; pose < kStage1Poses; ++pose) {
+      for (int c = 0; c < scene.cameras; ++c) jobs.push_back({Job::kStage1, pose, c});
+    }
     for (int c = 0; c < scene.cameras; ++c) jobs.push_back({Job::kStage2, 0, c});
   }
 
@@ -379,7 +383,8 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         const std::string& id = cam->rig.model.id;
         Eigen::Matrix3d r;
         Eigen::Vector3d t;
-        Stage1Pose(cam->rig.model, job.camera, &r, &t);
+        const int pose = job.instant;
+        Stage1Pose(cam->rig.model, job.camera, pose, &r, &t);
         const SceneMesh bench = BuildBenchScene(r, t);
         const RayCaster caster(bench);
         geometry::TsaiCamera camera_frame = cam->rig.model;  // the scene is in its frame
@@ -391,16 +396,20 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         request.first_field = &caster;
         request.second_field = &caster;
         request.lighting = &bench_lighting;
-        request.noise_key = NoiseKey(options.seed, kStage1View, 0, job.camera);
+        request.noise_key = NoiseKey(options.seed, kStage1View, pose, job.camera);
         request.depth = false;
         const RenderedView view = RenderView(request);
         std::vector<TargetPoint> points = CalibObjectPoints();
         for (auto& p : points) p.position_mm = r * p.position_mm + t;
         const auto truth = TrueImagePoints(camera_frame, points, kPlateDotRadiusMm, caster);
-        stage1_points[job.camera] = static_cast<int>(truth.size());
+        if (pose == 0) stage1_points[job.camera] = static_cast<int>(truth.size());
         const fs::path dir = out_dir / "calib" / "stage1";
-        io::WriteImage(dir / (id + ".png"), view.image);
-        io::WriteFileAtomically(dir / (id + ".json"), ToJson(ViewProto(id, r, t, truth)));
+        // pose 0: <camera>.json; the object moved: <camera>.<pose>.json
+        const std::string name = pose == 0 ? id : id + "." + std::to_string(pose);
+        proto::CalibView msg = ViewProto(id, r, t, truth);
+        msg.set_image(name + ".png");
+        io::WriteImage(dir / (name + ".png"), view.image);
+        io::WriteFileAtomically(dir / (name + ".json"), ToJson(msg));
         files += 2;
         break;
       }
@@ -441,6 +450,11 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
       }
     }
   });
+
+  // Tape videos from the tape frames just written (capture/tape.h).
+  if (options.write_tape && options.write_tape_video) {
+    files += capture::WriteTakeTapes(out_dir, capture::TapeLayout{}, options.threads);
+  }
 
   std::vector<double> visible;
   for (double b : bat_px) {

@@ -7,6 +7,11 @@
 //   TAKE/tape/<instant>/<camera>.png     8-bit grey 2W x 2H interlaced NTSC frames as taped:
 //                                        even rows = first field at t, odd rows = second
 //                                        field at t + 1/60 s (for the capture stage)
+//   TAKE/tape/<camera>.avi               with write_tape_video: the camera's tape, a lossless
+//                                        FFV1 video of its tape frames, one per instant in
+//                                        order, with the vertical interval and the instant's
+//                                        VITC (capture/tape.h); what `dome-capture --deck
+//                                        sim:` plays
 //   TAKE/truth/<instant>/mesh.ply        the scene mesh at t (world, mm; binary PLY with
 //                                        normals and albedo as grey vertex colours)
 //   TAKE/truth/<instant>/depth/<camera>.tiff  z-depth (mm) of the first field, 0 = no surface
@@ -53,6 +58,9 @@ struct SynthOptions {
                                   // rig.json, it and frames/, tape/, truth/ and calib/
                                   // are removed first
   bool write_tape = true;         // write tape/
+  bool write_tape_video = false;  // also write tape/<camera>.avi (off by default: a video's
+                                  // bytes depend on the noise seed, unlike every other
+                                  // non-image output; `dome-capture make-tapes` makes them later)
   bool write_calibration = true;  // write calib/
 
   static constexpr int kMaxInstants = 300;

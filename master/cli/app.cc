@@ -27,6 +27,13 @@ int RunDome(int argc, char** argv) {
   AddStereoCommand(&app, &exit_code);
   AddFuseCommand(&app, &exit_code);
   AddMeshCommand(&app, &exit_code);
+  AddRunCommand(&app, &exit_code);
+  AddSubmitCommand(&app, &exit_code);
+  AddStatusCommand(&app, &exit_code);
+  AddWatchCommand(&app, &exit_code);
+  AddCancelCommand(&app, &exit_code);
+  AddListCommand(&app, &exit_code);
+  AddViewCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

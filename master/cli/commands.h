@@ -16,4 +16,12 @@ void AddStereoCommand(CLI::App* app, int* exit_code);
 void AddFuseCommand(CLI::App* app, int* exit_code);
 void AddMeshCommand(CLI::App* app, int* exit_code);
 
+void AddRunCommand(CLI::App* app, int* exit_code);
+void AddSubmitCommand(CLI::App* app, int* exit_code);
+void AddStatusCommand(CLI::App* app, int* exit_code);
+void AddWatchCommand(CLI::App* app, int* exit_code);
+void AddCancelCommand(CLI::App* app, int* exit_code);
+void AddListCommand(CLI::App* app, int* exit_code);
+void AddViewCommand(CLI::App* app, int* exit_code);
+
 }  // namespace dome::cli

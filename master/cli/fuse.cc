@@ -6,12 +6,17 @@
 //   OUT/<instant>/mesh.ply             marching cubes, binary PLY, world mm
 //   OUT/<instant>/mesh_decimated.ply   quadric decimation, per-vertex colour
 //   OUT/<instant>/textured.obj/.mtl/.png  with --texture
+//   OUT/<instant>/textured.glb         with --texture --glb (else mesh_decimated.glb,
+//                                      vertex colours, with --glb)
+//   OUT/<instant>/preview_<camera>.png with --preview CAMERA: the decimated, coloured
+//                                      mesh ray cast from that rig camera (mesh/preview.h)
 // With --eval and a truth mesh: accuracy/completeness against truth/<instant>/mesh.ply
 // cropped to the box x, y in [-1500, 1500] mm, z in [30, 2600] mm (the batter, no floor)
 // (eval/cloud_eval.h) and, for the synthetic dome, how much of the bat is recovered.
 // One JSON line per instant on stdout.
 //
-// `dome mesh decimate IN OUT`, `dome mesh texture TAKE INSTANT IN OUT.obj`.
+// `dome mesh decimate IN OUT`, `dome mesh texture TAKE INSTANT IN OUT.obj|.glb`,
+// `dome mesh preview TAKE IN.ply OUT.png --preview CAMERA`.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -27,10 +32,13 @@
 #include "eval/cloud_eval.h"
 #include "fusion/integrate.h"
 #include "fusion/take_inputs.h"
+#include "io/file_util.h"
 #include "io/image_io.h"
 #include "io/ply.h"
 #include "mesh/decimate.h"
+#include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
+#include "mesh/preview.h"
 #include "mesh/texture.h"
 #include "synth/batter.h"
 #include "synth/synth.h"
@@ -50,6 +58,15 @@ std::vector<mesh::TextureView> LoadViews(const take::Take& take, const std::stri
     views.push_back(std::move(v));
   }
   return views;
+}
+
+const geometry::TsaiCamera& FindCamera(const take::Take& take, const std::string& id) {
+  for (const auto& rc : take.rig.cameras) {
+    if (rc.model.id == id) return rc.model;
+  }
+  std::string ids;
+  for (const auto& rc : take.rig.cameras) ids += (ids.empty() ? "" : ", ") + rc.model.id;
+  throw core::InputError("--preview", "no camera '" + id + "' in the rig (cameras: " + ids + ")");
 }
 
 std::string Num(double v) {
@@ -121,12 +138,14 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       "decimation, texture)");
   struct Args {
     std::string take, out, depth_dir;
+    std::vector<std::string> depth_subdirs;
     std::vector<std::string> instants;
     double noise_mm = 0.0, voxel_mm = 20.0, decimate_ratio = 0.1;
     std::vector<double> origin, dims;
     uint64_t seed = 1;
     int slab_planes = 16;
-    bool texture = false, evaluate = false;
+    bool texture = false, evaluate = false, glb = false;
+    std::string preview;
     fusion::FusionOptions fusion;
   };
   auto a = std::make_shared<Args>();
@@ -134,7 +153,11 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--out", a->out, "output folder")->required();
   cmd->add_option("--instant", a->instants, "instants to fuse (default: all)");
   cmd->add_option("--depth-dir", a->depth_dir,
-                  "stereo depth: DIR/<instant>/<camera>.tiff (default: the take's truth depth)");
+                  "stereo depth (dome stereo --out DIR): DIR/<instant>/depth/<camera>.tiff, or "
+                  "DIR/<instant>/<camera>.tiff (default: the take's truth depth)");
+  cmd->add_option("--depth-subdir", a->depth_subdirs,
+                  "with --depth-dir: the window folders to fuse, each map its own input (seed "
+                  "§5), e.g. --depth-subdir depth --depth-subdir depth-w13 (default: depth)");
   cmd->add_option("--noise-mm", a->noise_mm, "Gaussian noise added to truth depth, mm")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
@@ -156,6 +179,9 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--decimate-ratio", a->decimate_ratio, "decimation target, fraction of triangles")
       ->capture_default_str();
   cmd->add_flag("--texture", a->texture, "also write a textured OBJ (atlas)");
+  cmd->add_flag("--glb", a->glb, "also write binary glTF (textured with --texture)");
+  cmd->add_option("--preview", a->preview,
+                  "rig camera id: write preview_<camera>.png of the decimated mesh");
   cmd->add_flag("--eval", a->evaluate, "evaluate against truth/<instant>/mesh.ply");
   auto* truncation = cmd->get_option("--truncation-mm");
   auto* clamp = cmd->get_option("--clamp-mm");
@@ -178,6 +204,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
     if (clamp->count() == 0) options.front_clamp_mm = 3 * a->voxel_mm;
     options.Check();
     core::Require(a->slab_planes > 0, "--slab-planes", "must be positive");
+    if (!a->preview.empty()) FindCamera(take, a->preview);  // fail before any work
     std::vector<std::string> instants = a->instants.empty() ? take.instants : a->instants;
     for (const std::string& instant : instants) {
       const auto pos = std::find(take.instants.begin(), take.instants.end(), instant);
@@ -193,18 +220,25 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
         truth.seed = a->seed;
         images = fusion::LoadTruthRangeImages(take, instant, truth);
       } else {
-        images =
-            fusion::LoadRangeImagesFromDir(take, std::filesystem::path(a->depth_dir) / instant);
+        const std::filesystem::path base = std::filesystem::path(a->depth_dir) / instant;
+        const std::vector<std::string> subdirs =
+            a->depth_subdirs.empty() ? std::vector<std::string>{"depth"} : a->depth_subdirs;
+        for (const std::string& sub : subdirs) {
+          // The stereo layout, or the flat one for the default.
+          const bool flat = a->depth_subdirs.empty() && !std::filesystem::is_directory(base / sub);
+          auto more = fusion::LoadRangeImagesFromDir(take, flat ? base : base / sub);
+          for (auto& im : more) images.push_back(std::move(im));
+        }
       }
       const double t_load = total.ElapsedSeconds();
       core::Stopwatch w;
       fusion::Integrator integrator(grid, images, options);
       mesh::StreamingMarchingCubes mc(grid);
       double t_fusion = w.ElapsedSeconds(), t_mc = 0;
+      fusion::Slab slab;  // reused from slab to slab
       for (int k0 = 0; k0 < grid.nz; k0 += a->slab_planes) {
         w.Restart();
-        const fusion::Slab slab =
-            integrator.IntegrateSlab(k0, std::min(grid.nz, k0 + a->slab_planes));
+        integrator.IntegrateSlab(k0, std::min(grid.nz, k0 + a->slab_planes), &slab);
         t_fusion += w.ElapsedSeconds();
         w.Restart();
         mc.AddSlab(slab);
@@ -222,10 +256,23 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       mesh::TextureOptions tex;
       tex.num_threads = options.num_threads;
       mesh::ColorVertices(&decimated, views, tex);
-      if (a->texture)
-        mesh::WriteTexturedObj(dir / "textured.obj",
-                               mesh::BuildTextureAtlas(decimated, views, tex));
+      if (a->texture) {
+        const mesh::TexturedMesh textured = mesh::BuildTextureAtlas(decimated, views, tex);
+        mesh::WriteTexturedObj(dir / "textured.obj", textured);
+        if (a->glb) mesh::WriteGlb(dir / "textured.glb", textured);
+      } else if (a->glb) {
+        mesh::WriteGlb(dir / "mesh_decimated.glb", decimated);
+      }
       const double t_tex = w.ElapsedSeconds();
+      double t_preview = 0;
+      if (!a->preview.empty()) {
+        w.Restart();
+        mesh::PreviewOptions po;
+        po.num_threads = options.num_threads;
+        io::WriteImage(dir / ("preview_" + a->preview + ".png"),
+                       mesh::RenderPreview(decimated, FindCamera(take, a->preview), po));
+        t_preview = w.ElapsedSeconds();
+      }
       io::WritePly(dir / "mesh_decimated.ply", decimated,
                    {io::PlyFormat::kBinaryLittleEndian, {"units mm"}});
       std::string json =
@@ -236,7 +283,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
           ", \"decimated_triangles\": " + std::to_string(decimated.faces.size()) +
           ", \"seconds\": {\"load\": " + Num(t_load) + ", \"fusion\": " + Num(t_fusion) +
           ", \"marching_cubes\": " + Num(t_mc) + ", \"decimation\": " + Num(t_dec) +
-          ", \"texture\": " + Num(t_tex) + ", \"total\": " + Num(total.ElapsedSeconds()) + "}";
+          ", \"texture\": " + Num(t_tex) + ", \"preview\": " + Num(t_preview) +
+          ", \"total\": " + Num(total.ElapsedSeconds()) + "}";
       const auto truth_mesh = take.TruthMeshPath(instant);
       if (a->evaluate && std::filesystem::exists(truth_mesh)) {
         eval::CloudEvalOptions eo;
@@ -282,7 +330,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
 }
 
 void AddMeshCommand(CLI::App* app, int* exit_code) {
-  auto* cmd = app->add_subcommand("mesh", "Mesh tools: decimate, texture");
+  auto* cmd = app->add_subcommand("mesh", "Mesh tools: decimate, texture, preview");
   cmd->require_subcommand(1);
   struct DecArgs {
     std::string in, out;
@@ -322,14 +370,43 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   tex->add_option("TAKE", t->take, "take folder")->required();
   tex->add_option("INSTANT", t->instant, "instant HH-MM-SS-FF")->required();
   tex->add_option("IN", t->in, "mesh, PLY (world mm)")->required();
-  tex->add_option("OUT", t->out, "textured mesh .obj (the .mtl and .png go beside it)")->required();
+  tex->add_option("OUT", t->out,
+                  "textured mesh .obj (the .mtl and .png go beside it) or .glb (one file)")
+      ->required();
   tex->add_option("--cell-px", t->options.atlas_cell_px, "atlas cell edge, texels")
       ->capture_default_str();
   tex->callback([=] {
     const take::Take take = take::OpenTake(t->take);
     io::Mesh m = io::ReadPly(t->in);
     const auto views = LoadViews(take, t->instant);
-    mesh::WriteTexturedObj(t->out, mesh::BuildTextureAtlas(m, views, t->options));
+    const mesh::TexturedMesh textured = mesh::BuildTextureAtlas(m, views, t->options);
+    if (std::filesystem::path(t->out).extension() == ".glb") {
+      mesh::WriteGlb(t->out, textured);
+    } else {
+      mesh::WriteTexturedObj(t->out, textured);
+    }
+    *exit_code = 0;
+  });
+  struct PreviewArgs {
+    std::string take, in, out, camera;
+    mesh::PreviewOptions options;
+    bool grey = false;
+  };
+  auto pv = std::make_shared<PreviewArgs>();
+  auto* preview = cmd->add_subcommand(
+      "preview", "Ray-cast a PLY mesh from one rig camera into a PNG (vertex colours or grey)");
+  preview->add_option("TAKE", pv->take, "take folder (for the rig)")->required();
+  preview->add_option("IN", pv->in, "mesh, PLY (world mm)")->required();
+  preview->add_option("OUT", pv->out, "preview image, PNG")->required();
+  preview->add_option("--preview", pv->camera, "rig camera id")->required();
+  preview->add_flag("--grey", pv->grey, "grey shading even when the mesh has colours");
+  preview->add_option("--threads", pv->options.num_threads, "threads (0: all)");
+  preview->callback([=] {
+    const take::Take take = take::OpenTake(pv->take);
+    const geometry::TsaiCamera& camera = FindCamera(take, pv->camera);
+    mesh::PreviewOptions o = pv->options;
+    o.use_colors = !pv->grey;
+    io::WriteImage(pv->out, mesh::RenderPreview(io::ReadPly(pv->in), camera, o));
     *exit_code = 0;
   });
 }

@@ -1,11 +1,14 @@
-// `dome stereo TAKE [--camera ID] [--instant TC] --out DIR`: multi-baseline stereo
-// (common/stereo/multi_baseline.h) for one or every reference camera and instant;
-// the output layout is in common/stereo/take_stereo.h.
+// `dome stereo TAKE [--camera ID] [--instant TC] [--options FILE] --out DIR`:
+// multi-baseline stereo (common/stereo/multi_baseline.h) for one or every reference
+// camera and instant; the output layout is in common/stereo/take_stereo.h. Options come
+// from the profile (--profile), then the JSON file (common/stereo/options_json.h), then
+// the flags given on the command line.
 #include <cstdio>
 #include <memory>
 #include <string>
 
 #include "cli/commands.h"
+#include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
 
 namespace dome::cli {
@@ -14,7 +17,7 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
   auto* cmd = app->add_subcommand(
       "stereo", "Multi-baseline stereo: depth maps (float TIFF, mm) per reference camera");
   struct Args {
-    std::string take, camera, instant, out;
+    std::string take, camera, instant, out, options_file, profile = "default";
     stereo::TakeStereoOptions options;
     bool no_preview = false;
   };
@@ -25,6 +28,13 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       ->required();
   cmd->add_option("--camera", a->camera, "reference camera id (default: every camera)");
   cmd->add_option("--instant", a->instant, "instant HH-MM-SS-FF (default: every instant)");
+  cmd->add_option("--profile", a->profile,
+                  "starting options: default (synthetic dome) or real (photographs: stricter "
+                  "uniqueness, windows 9 and 13)")
+      ->check(CLI::IsMember({"default", "real"}))
+      ->capture_default_str();
+  cmd->add_option("--options", a->options_file,
+                  "stereo options as JSON (dome.runtime.StereoSettings; flags override it)");
   cmd->add_option("--z-min", s.z_min_mm, "nearest depth, mm")->capture_default_str();
   cmd->add_option("--z-max", s.z_max_mm, "farthest depth, mm")->capture_default_str();
   cmd->add_option("--levels", s.num_levels, "depth levels (0 = from the geometry)")
@@ -50,6 +60,26 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
   cmd->add_flag("--no-preview", a->no_preview, "do not write preview PNGs");
   cmd->callback([=] {
     stereo::TakeStereoOptions options = a->options;
+    if (!a->options_file.empty() || a->profile != "default") {
+      // The profile, then the file over it, then every flag that was given.
+      stereo::TakeStereoOptions base;
+      if (a->profile == "real") base.stereo = stereo::RealImageOptions();
+      options =
+          a->options_file.empty() ? base : stereo::ReadStereoOptionsJson(a->options_file, base);
+      const auto& f = a->options;
+      auto given = [&](const char* flag) { return cmd->count(flag) > 0; };
+      if (given("--z-min")) options.stereo.z_min_mm = f.stereo.z_min_mm;
+      if (given("--z-max")) options.stereo.z_max_mm = f.stereo.z_max_mm;
+      if (given("--levels")) options.stereo.num_levels = f.stereo.num_levels;
+      if (given("--level-step")) options.stereo.level_step_px = f.stereo.level_step_px;
+      if (given("--windows")) options.stereo.window_sizes_px = f.stereo.window_sizes_px;
+      if (given("--normalize-contrast")) options.stereo.normalize_contrast = true;
+      if (given("--min-curvature")) options.stereo.min_curvature = f.stereo.min_curvature;
+      if (given("--min-uniqueness")) options.stereo.min_uniqueness = f.stereo.min_uniqueness;
+      if (given("--min-texture")) options.stereo.min_texture_grey = f.stereo.min_texture_grey;
+      if (given("--max-neighbours")) options.cluster.max_neighbours = f.cluster.max_neighbours;
+      if (given("--threads")) options.stereo.num_threads = f.stereo.num_threads;
+    }
     options.write_previews = !a->no_preview;
     const auto results = stereo::RunTakeStereo(a->take, a->camera, a->instant, a->out, options);
     for (const auto& r : results) std::fputs(r.BriefReport().c_str(), stdout);

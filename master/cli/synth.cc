@@ -41,6 +41,9 @@ void AddSynthCommand(CLI::App* app, int* exit_code) {
       ->capture_default_str();
   cmd->add_flag("--overwrite", args->options.overwrite, "replace an existing take");
   cmd->add_flag("!--no-tape", args->options.write_tape, "do not write tape/ (interlaced frames)");
+  cmd->add_flag(
+      "--tape-video", args->options.write_tape_video,
+      "also write tape/<camera>.avi: lossless interlaced frames with VITC, for dome-capture");
   cmd->add_flag("!--no-calib", args->options.write_calibration, "do not write calib/");
   cmd->callback([=] {
     synth::SynthOptions options = args->options;

@@ -187,3 +187,118 @@ TEST(TsaiRefine, TooFewResiduals) {
 
 }  // namespace
 }  // namespace dome::calib
+
+namespace dome::calib {
+namespace {
+
+// The centroid of a dot's image against a brute-force one: the image plane sampled on
+// a fine grid, each sample's ray cut with the dot's plane (undistorting the sample
+// first), the samples inside the dot averaged.
+TEST(DotCentroid, OffsetMatchesTheCentroidOfTheImagedDisc) {
+  geometry::TsaiCamera cam;
+  cam.width_px = 320;
+  cam.height_px = 245;
+  cam.sensor = {640, 320, 0.01, 0.0196};
+  cam.focal_mm = 3.3;
+  cam.kappa1_per_mm2 = 1.8e-3;
+  cam.cx_px = 160.0;
+  cam.cy_px = 122.0;
+  cam.sx = 1.0;
+  View view;
+  view.rotation = Eigen::AngleAxisd(0.9, Vector3d(1, 0.3, 0).normalized()).toRotationMatrix();
+  view.translation_mm = Vector3d(-150, 80, 420);
+  const Vector3d centre(-60, 90, 0), normal(0, 0, 1);
+  const double radius = 30.0;
+  const Vector2d offset = DotCentroidOffsetPx(cam, view, centre, normal, radius);
+
+  geometry::TsaiCamera posed = cam;
+  posed.rotation = view.rotation;
+  posed.translation_mm = view.translation_mm;
+  Vector2d centre_px;
+  ASSERT_TRUE(posed.Project(centre, &centre_px));
+  const Vector3d origin = -view.rotation.transpose() * view.translation_mm;
+  double sx = 0, sy = 0;
+  long inside = 0;
+  constexpr double kStep = 0.02;  // px
+  for (double y = centre_px.y() - 25; y <= centre_px.y() + 25; y += kStep) {
+    for (double x = centre_px.x() - 25; x <= centre_px.x() + 25; x += kStep) {
+      const Vector2d u = cam.UndistortPixel(Vector2d(x, y));
+      const Vector3d ray_camera((u.x() - cam.cx_px) * cam.sensor.dpx_mm() / cam.sx / cam.focal_mm,
+                                (u.y() - cam.cy_px) * cam.sensor.dpy_mm() / cam.focal_mm, 1.0);
+      const Vector3d ray = view.rotation.transpose() * ray_camera;
+      const double t = -origin.z() / ray.z();  // the plane z = 0
+      if (t <= 0) continue;
+      if ((origin + t * ray - centre).norm() > radius) continue;
+      sx += x;
+      sy += y;
+      ++inside;
+    }
+  }
+  ASSERT_GT(inside, 100000);
+  const Vector2d brute = Vector2d(sx, sy) / static_cast<double>(inside) - centre_px;
+  // a visible shift, which the outline polygon reproduces to a few thousandths of a px
+  EXPECT_GT(offset.norm(), 0.05);
+  EXPECT_NEAR(offset.x(), brute.x(), 0.003);
+  EXPECT_NEAR(offset.y(), brute.y(), 0.003);
+}
+
+}  // namespace
+}  // namespace dome::calib
+
+namespace dome::calib {
+namespace {
+
+// The stage-1 object looks the same after a 120 deg turn about its diagonal, (x, y, z)
+// -> (z, x, y), so a detector may label a view's dots turned by it. The labelling is
+// then that of the object in another pose: each view has its own pose, so the
+// intrinsics come out the same; a mirrored labelling fits no pose.
+TEST(TsaiRefine, ObjectLabelledTurnedBy120DegreesGivesTheSameIntrinsics) {
+  const geometry::TsaiCamera truth = TrueCamera();
+  auto look = [&](const Vector3d& centre) {
+    geometry::TsaiCamera cam = truth;
+    const Vector3d at(300, 300, 300);
+    const Vector3d z = (at - centre).normalized(), x = z.cross(Vector3d(0, 0, -1)).normalized();
+    cam.rotation.row(0) = x;
+    cam.rotation.row(1) = z.cross(x);
+    cam.rotation.row(2) = z;
+    cam.translation_mm = -cam.rotation * centre;
+    return cam;
+  };
+  const geometry::TsaiCamera a = look(Vector3d(1100, 1000, 900));
+  const geometry::TsaiCamera b = look(Vector3d(900, 1200, 1000));
+  Eigen::Matrix3d turn;
+  turn << 0, 0, 1, 1, 0, 0, 0, 1, 0;  // (x, y, z) -> (z, x, y)
+  auto calibrate = [&](const Eigen::Matrix3d& relabel, double* rms) {
+    std::vector<Correspondence> pa = ObjectPoints(a, true), pb = ObjectPoints(b, true);
+    for (auto& c : pb) c.target_mm = relabel * c.target_mm;
+    std::vector<View> views;
+    geometry::TsaiCamera cam;
+    for (const auto* points : {&pa, &pb}) {
+      cam = TsaiInitNonCoplanar(PriorOf(truth), 159.5, 122.0, *points, {}, "test");
+      views.push_back(View{"v", *points, cam.rotation, cam.translation_mm});
+    }
+    const RefineSummary s = RefineCamera(&cam, &views, {}, "test");
+    *rms = s.final_rms_px;
+    return cam;
+  };
+  double rms = 0;
+  const geometry::TsaiCamera turned = calibrate(turn, &rms);
+  EXPECT_LT(rms, 1e-6);
+  EXPECT_NEAR(turned.focal_mm, truth.focal_mm, 1e-6);
+  EXPECT_NEAR(turned.kappa1_per_mm2, truth.kappa1_per_mm2, 1e-8);
+  EXPECT_NEAR(turned.cx_px, truth.cx_px, 1e-4);
+  EXPECT_NEAR(turned.cy_px, truth.cy_px, 1e-4);
+  EXPECT_NEAR(turned.sx, truth.sx, 1e-7);
+  Eigen::Matrix3d mirror;
+  mirror << 0, 1, 0, 1, 0, 0, 0, 0, 1;  // x <-> y: plates y = 0 and x = 0 swapped
+  bool rejected = false;                // by the closed form (points behind the camera), or
+  try {
+    calibrate(mirror, &rms);
+  } catch (const core::InputError&) {
+    rejected = true;
+  }
+  EXPECT_TRUE(rejected || rms > 1.0) << rms;  // by the refinement
+}
+
+}  // namespace
+}  // namespace dome::calib

@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Decimation quality, dome vs Open3D, on one mesh in one run.
+
+  /usr/bin/python3 bench/fusion/decimation_compare.py DOME MESH.ply OUT_DIR [--ratio 0.1]
+  /usr/bin/python3 bench/fusion/decimation_compare.py --ours DECIMATED.ply MESH.ply OUT_DIR
+
+Decimates MESH.ply with `DOME mesh decimate --ratio R` (or takes dome's result as
+given, e.g. fusion_bench's mesh_decimated.ply) and with Open3D's
+simplify_quadric_decimation to the same triangle count, then measures both against the
+original: mean and max unsigned distance (mm) of 300k uniform samples of the decimated
+surface to the original surface, and of the original to the decimated one. Prints JSON.
+"""
+import json, os, subprocess, sys, time
+
+import numpy as np
+import open3d as o3d
+
+args = sys.argv[1:]
+ratio = "0.1"
+if "--ratio" in args:
+    i = args.index("--ratio")
+    ratio = args[i + 1]
+    del args[i:i + 2]
+ours_path = None
+if "--ours" in args:
+    i = args.index("--ours")
+    ours_path = args[i + 1]
+    del args[i:i + 2]
+    mesh_path, out = args[:2]
+    dome_info = {"seconds": None}
+else:
+    dome, mesh_path, out = args[:3]
+os.makedirs(out, exist_ok=True)
+if ours_path is None:
+    ours_path = os.path.join(out, "dome_decimated.ply")
+    res = subprocess.run([dome, "mesh", "decimate", mesh_path, ours_path, "--ratio", ratio],
+                         check=True, capture_output=True, text=True)
+    dome_info = json.loads(res.stdout.strip().splitlines()[-1])
+orig = o3d.io.read_triangle_mesh(mesh_path)
+ours = o3d.io.read_triangle_mesh(ours_path)
+t0 = time.perf_counter()
+theirs = orig.simplify_quadric_decimation(target_number_of_triangles=len(ours.triangles))
+t_o3d = time.perf_counter() - t0
+o3d.io.write_triangle_mesh(os.path.join(out, "open3d_decimated.ply"), theirs)
+
+
+def distances(a, b, n=300000):
+    """Uniform samples on a, unsigned distance to b's surface (mm)."""
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(b))
+    pts = np.asarray(a.sample_points_uniformly(n).points, np.float32)
+    return scene.compute_distance(o3d.core.Tensor(pts)).numpy()
+
+
+def quality(m):
+    d1 = distances(m, orig)
+    d2 = distances(orig, m)
+    return {"triangles": len(m.triangles), "to_original_mean_mm": float(d1.mean()),
+            "to_original_max_mm": float(d1.max()), "from_original_mean_mm": float(d2.mean()),
+            "from_original_max_mm": float(d2.max())}
+
+
+o3d.utility.random.seed(1)
+print(json.dumps({"mesh": mesh_path, "original_triangles": len(orig.triangles),
+                  "dome": quality(ours), "dome_seconds": dome_info["seconds"],
+                  "open3d": quality(theirs), "open3d_seconds": t_o3d}, indent=1))

@@ -1,0 +1,193 @@
+// Runtime benchmarks (issue 8's scaling numbers). Prints one JSON line per mode.
+//
+//   runtime_bench dispatch OUT [--workers 32] [--jobs 4000]
+//     The master's dispatch rate: an in-process Master on loopback TCP, `--workers`
+//     dome-worker processes (bin/dome-worker beside this binary, one thread each), a
+//     session of no-op jobs; jobs/s from submit to the last result (journal fsyncs
+//     included, as in a real session).
+//   runtime_bench memory [--cameras 51] [--instants 1000] [--slabs 19]
+//     The master's bookkeeping for a session of that shape: the job graph and one blob
+//     reference per frame, as resident-memory growth of this process.
+//   runtime_bench e2e TAKE OUT [--workers N] [--instant TC]...
+//     `dome run` on the embedded cluster (N workers, one thread each); prints the
+//     session's report.json seconds per instant and bytes moved.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "client/client.h"
+#include "io/file_util.h"
+#include "scheduler/graph.h"
+#include "scheduler/master.h"
+
+using namespace dome;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (name == argv[i]) return argv[i + 1];
+  }
+  return fallback;
+}
+
+int64_t ResidentKiB() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stoll(line.substr(6));
+  }
+  return -1;
+}
+
+int Dispatch(const fs::path& out, int num_workers, int jobs, const fs::path& bin) {
+  zmq::context_t context;
+  scheduler::MasterOptions mo;
+  mo.worker_endpoint = mo.control_endpoint = mo.events_endpoint = "tcp://127.0.0.1:*";
+  scheduler::Master master(&context, mo);
+  std::atomic<bool> stop{false};
+  std::thread loop([&] { master.Run(&stop); });
+  std::vector<pid_t> children;
+  const std::string worker = (bin / "dome-worker").string();
+  for (int w = 0; w < num_workers; ++w) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      execl(worker.c_str(), worker.c_str(), "--master", master.endpoints().workers.c_str(),
+            "--threads", "1", "--cache-mb", "16", "--log-level", "warn", (char*)nullptr);
+      ::_exit(127);
+    }
+    children.push_back(pid);
+  }
+  // Wait until every worker said Hello.
+  runtime::ControlRequest list;
+  list.mutable_status();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  runtime::Session probe;
+  probe.set_out((out / "probe").string());
+  probe.set_noop_jobs(1);
+  int seen = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    runtime::ControlRequest req;
+    *req.mutable_submit()->mutable_session() = probe;
+    const auto reply = client::Request(&context, master.endpoints().control, req);
+    seen = reply.sessions(0).workers();
+    if (seen >= num_workers) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  runtime::Session session;
+  session.set_out((out / "noop").string());
+  session.set_noop_jobs(jobs);
+  runtime::ControlRequest req;
+  *req.mutable_submit()->mutable_session() = session;
+  const auto start = std::chrono::steady_clock::now();
+  const auto reply = client::Request(&context, master.endpoints().control, req);
+  const auto status = client::WaitForSession(&context, master.endpoints().control, "",
+                                             reply.session_id(), nullptr, 5);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (pid_t pid : children) ::kill(pid, SIGTERM);
+  for (pid_t pid : children) ::waitpid(pid, nullptr, 0);
+  stop = true;
+  loop.join();
+  std::printf(
+      "{\"mode\": \"dispatch\", \"workers\": %d, \"workers_seen\": %d, \"jobs\": %d, \"state\": "
+      "\"%s\", \"seconds\": %.3f, \"jobs_per_s\": %.1f}\n",
+      num_workers, seen, jobs, status.state().c_str(), seconds, jobs / seconds);
+  return status.state() == "done" ? 0 : 1;
+}
+
+int Memory(int cameras, int instants, int slabs) {
+  const int64_t before = ResidentKiB();
+  std::vector<std::string> ids, times;
+  for (int c = 0; c < cameras; ++c) ids.push_back("c" + std::to_string(c));
+  for (int t = 0; t < instants; ++t) times.push_back("00-00-" + std::to_string(t));
+  scheduler::JobGraph graph(times, ids, slabs);
+  std::vector<std::vector<runtime::BlobRef>> frames(instants);
+  for (int t = 0; t < instants; ++t) {
+    for (int c = 0; c < cameras; ++c) {
+      runtime::BlobRef ref;
+      ref.set_sha256(std::string(64, 'a' + c % 6));
+      ref.set_size(250000);
+      ref.set_name("frames/" + times[t] + "/" + ids[c] + ".png");
+      frames[t].push_back(std::move(ref));
+    }
+  }
+  const int64_t after = ResidentKiB();
+  std::printf(
+      "{\"mode\": \"memory\", \"cameras\": %d, \"instants\": %d, \"slabs\": %d, \"jobs\": %d, "
+      "\"master_bookkeeping_mib\": %.1f}\n",
+      cameras, instants, slabs, graph.size(), (after - before) / 1024.0);
+  return 0;
+}
+
+int EndToEnd(const fs::path& take, const fs::path& out, int workers,
+             const std::vector<std::string>& instants) {
+  runtime::Session s;
+  s.set_take(fs::absolute(take).string());
+  s.set_out(fs::absolute(out).string());
+  for (const auto& i : instants) s.add_instants(i);
+  client::EmbeddedOptions e;
+  e.workers = workers;
+  e.threads_per_worker = 1;
+  const auto st = client::RunEmbedded(s, e, nullptr);
+  const std::string report = io::ReadFileBytes(out / "report.json");
+  auto field = [&](const std::string& key) {
+    const auto p = report.find("\"" + key + "\": ");
+    return p == std::string::npos
+               ? std::string("null")
+               : report.substr(p + key.size() + 4, report.find_first_of(",\n", p + key.size() + 4) -
+                                                       (p + key.size() + 4));
+  };
+  std::printf(
+      "{\"mode\": \"e2e\", \"workers\": %d, \"state\": \"%s\", \"instants\": %s, \"seconds\": %s, "
+      "\"seconds_per_instant\": %s, \"bytes_to_workers\": %s, \"bytes_from_workers\": %s}\n",
+      workers, st.state().c_str(), field("instants").c_str(), field("seconds").c_str(),
+      field("seconds_per_instant").c_str(), field("bytes_to_workers").c_str(),
+      field("bytes_from_workers").c_str());
+  return st.state() == "done" ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: runtime_bench dispatch OUT | memory | e2e TAKE OUT [flags]\n");
+    return 2;
+  }
+  const std::string mode = argv[1];
+  const fs::path bin = fs::canonical("/proc/self/exe").parent_path();
+  try {
+    if (mode == "dispatch" && argc >= 3) {
+      return Dispatch(argv[2], std::stoi(Flag(argc, argv, "--workers", "32")),
+                      std::stoi(Flag(argc, argv, "--jobs", "4000")), bin);
+    }
+    if (mode == "memory") {
+      return Memory(std::stoi(Flag(argc, argv, "--cameras", "51")),
+                    std::stoi(Flag(argc, argv, "--instants", "1000")),
+                    std::stoi(Flag(argc, argv, "--slabs", "19")));
+    }
+    if (mode == "e2e" && argc >= 4) {
+      std::vector<std::string> instants;
+      for (int i = 4; i + 1 < argc; ++i) {
+        if (std::strcmp(argv[i], "--instant") == 0) instants.push_back(argv[i + 1]);
+      }
+      return EndToEnd(argv[2], argv[3], std::stoi(Flag(argc, argv, "--workers", "1")), instants);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "runtime_bench: %s\n", e.what());
+    return 1;
+  }
+  std::fprintf(stderr, "runtime_bench: unknown mode or missing arguments\n");
+  return 2;
+}

@@ -1,0 +1,105 @@
+#include "capture/agent.h"
+
+#include "capture/publish.h"
+#include "capture/sim_deck.h"
+#include "capture/sony9pin.h"
+#include "core/error.h"
+
+namespace dome::capture {
+
+VideoStandard ParseStandard(const std::string& name, const std::string& where) {
+  if (name == "525-ndf") return VideoStandard::k525NonDrop;
+  if (name == "525-df") return VideoStandard::k525DropFrame;
+  if (name == "625") return VideoStandard::k625;
+  throw core::InputError(where, "got '" + name + "'; expected 525-ndf, 525-df or 625");
+}
+
+AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
+  core::Require(!options.camera_id.empty(), "--camera",
+                "required: the camera id this tape recorded");
+  TapeLayout layout;
+  layout.standard = ParseStandard(options.standard, "--standard");
+
+  CaptureOptions capture;
+  capture.range = ParseRange(options.range, layout.standard, "--range");
+  capture.every = options.every;
+  capture.preroll_frames = options.preroll_frames;
+  capture.max_passes = options.max_passes;
+  capture.layout = layout;
+  capture.fields.upper_field_first = !options.lower_field_first;
+  capture.Check();
+
+  // The deck, and the signal a simulated digitizer watches.
+  std::unique_ptr<Deck> deck;
+  VideoSignal* signal = nullptr;
+  if (options.deck.rfind("sim:", 0) == 0) {
+    auto sim = std::make_unique<SimDeck>(options.deck.substr(4), layout);
+    signal = sim.get();
+    deck = std::move(sim);
+  } else if (options.deck.rfind("serial:", 0) == 0) {
+    Sony9PinOptions serial;
+    serial.drop_frame = layout.standard == VideoStandard::k525DropFrame;
+    deck = std::make_unique<Sony9PinDeck>(options.deck.substr(7), serial);
+  } else {
+    throw core::InputError("--deck",
+                           "got '" + options.deck + "'; expected serial:/dev/ttyXX or sim:TAPE");
+  }
+  std::unique_ptr<Digitizer> digitizer;
+  if (options.digitizer == "sim") {
+    core::Require(signal != nullptr, "--digitizer",
+                  "sim digitizes a simulated deck's signal; use it with --deck sim:TAPE");
+    SimDigitizerOptions sim;
+    sim.keep_per_second = options.keep_per_second;
+    sim.drop_probability = options.drop_probability;
+    sim.seed = options.seed;
+    digitizer = std::make_unique<SimDigitizer>(signal, sim);
+  } else {
+    digitizer = std::make_unique<OpenCvDigitizer>(options.digitizer);
+  }
+
+  PublisherOptions publish;
+  publish.endpoint = options.master;
+  publish.spool_dir = options.spool_dir;
+  publish.ack_timeout_ms = options.ack_timeout_ms;
+  FramePublisher publisher(options.camera_id, publish);
+
+  PassPlanner planner(deck.get(), digitizer.get(), capture);
+  for (const auto& tc : publisher.spooled_at_start()) planner.MarkCaptured(tc);
+  if (progress && !publisher.spooled_at_start().empty()) {
+    std::fprintf(progress, "[%s] %zu frames in the spool from an earlier run; sending them first\n",
+                 options.camera_id.c_str(), publisher.spooled_at_start().size());
+  }
+
+  int last_pass = 0;
+  const auto on_progress = [&](const PassReport& pass, int captured, int wanted, bool pass_done) {
+    publisher.Pump(0);
+    if (pass.pass != last_pass || pass_done)
+      publisher.SendProgress(pass.pass, captured, wanted, false);
+    last_pass = pass.pass;
+    if (!progress) return;
+    if (pass_done) {
+      std::fprintf(progress,
+                   "[%s] pass %d (cued to %s): %d new, %d repeats, %d not kept, %d without VITC; "
+                   "%d/%d frames captured, %zu awaiting acknowledgement\n",
+                   options.camera_id.c_str(), pass.pass, pass.cued_to.Text().c_str(),
+                   pass.new_frames, pass.repeats, pass.refused, pass.unreadable, captured, wanted,
+                   publisher.pending());
+      if (!pass.deck_error.empty()) {
+        std::fprintf(progress, "[%s]   deck error: %s\n", options.camera_id.c_str(),
+                     pass.deck_error.c_str());
+      }
+    }
+    std::fflush(progress);
+  };
+  AgentResult result;
+  result.summary =
+      planner.Run([&](const CapturedFrame& frame) { publisher.Publish(frame); }, on_progress);
+  publisher.SendProgress(last_pass, result.summary.captured, result.summary.wanted, true);
+  result.delivered = publisher.Flush(options.flush_timeout_ms);
+  result.acknowledged = publisher.acknowledged();
+  result.resent = publisher.resent();
+  result.reconnects = publisher.reconnects();
+  return result;
+}
+
+}  // namespace dome::capture

@@ -1,0 +1,50 @@
+// One capture agent (`dome-capture`): a deck, a digitizer, the pass planner and the
+// publisher, put together from command-line specs (seed §2.1: one agent per VCR and
+// digitizer).
+#pragma once
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "capture/deck.h"
+#include "capture/digitizer.h"
+#include "capture/pass_planner.h"
+
+namespace dome::capture {
+
+struct AgentOptions {
+  std::string camera_id;          // the camera this tape recorded
+  std::string deck;               // serial:/dev/ttyS0 | sim:TAPE
+  std::string digitizer = "sim";  // v4l2:/dev/video0 | file:PATH | sim (the sim deck's signal)
+  std::string range;              // TC-TC, first and last included
+  std::string master;             // the frame ingest, e.g. tcp://master:5570
+  std::filesystem::path spool_dir = "capture-spool";  // frames kept until acknowledged
+  std::string standard = "525-ndf";                   // 525-ndf | 525-df | 625
+  int every = 1;                                      // keep every n-th frame of the range, frames
+  int preroll_frames = 30;  // cue this far before the first missing frame, frames
+  int max_passes = 12;
+  bool lower_field_first = false;  // the odd rows are the first field in time
+  double keep_per_second = 0.0;    // sim digitizer: frames it can store per second; 0 = all
+  double drop_probability = 0.0;   // sim digitizer: chance of losing a frame it stores
+  uint64_t seed = 1;               // sim digitizer: of the drops
+  int ack_timeout_ms = 1000;       // resend frames not acknowledged within this, ms
+  int flush_timeout_ms = 60000;    // wait at the end for the last acknowledgements, ms
+};
+
+struct AgentResult {
+  CaptureSummary summary;
+  bool delivered = false;  // every captured frame acknowledged by the ingest
+  int64_t acknowledged = 0;
+  int64_t resent = 0;
+  int reconnects = 0;
+};
+
+VideoStandard ParseStandard(const std::string& name, const std::string& where);
+
+// Runs the agent; progress lines go to `progress` (nullptr: none). Throws
+// core::InputError naming the flag, file, device or peer at fault.
+AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress);
+
+}  // namespace dome::capture

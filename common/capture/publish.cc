@@ -1,0 +1,360 @@
+#include "capture/publish.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <fstream>
+#include <optional>
+#include <zmq.hpp>
+
+#include "capture.pb.h"
+#include "core/error.h"
+#include "io/file_util.h"
+#include "io/image_io.h"
+#include "take/timecode.h"
+
+namespace dome::capture {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+bool ValidCameraId(const std::string& id) {
+  if (id.empty() || id.size() > 64) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+  });
+}
+
+// A ZeroMQ routing id for logs: as text when printable (agents use their camera id),
+// else in hex (the ids ZeroMQ makes up for anonymous peers).
+std::string PeerName(const zmq::message_t& id) {
+  const std::string raw = id.to_string();
+  if (!raw.empty() && std::all_of(raw.begin(), raw.end(), [](char c) {
+        return std::isprint(static_cast<unsigned char>(c));
+      })) {
+    return raw;
+  }
+  static const char* kHex = "0123456789abcdef";
+  std::string hex = "0x";
+  for (unsigned char c : raw) {
+    hex += kHex[c >> 4];
+    hex += kHex[c & 15];
+  }
+  return hex;
+}
+
+// Waits for input on `socket` up to timeout_ms; a signal cuts the wait short (the
+// caller's loop decides whether to go on).
+void WaitForInput(zmq::socket_t& socket, int timeout_ms) {
+  zmq::pollitem_t items[] = {{socket.handle(), 0, ZMQ_POLLIN, 0}};
+  try {
+    zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+  }
+}
+
+// "HH:MM:SS:FF" -> the instant folder name, or nullopt.
+std::optional<take::Timecode> ParseWireTimecode(const std::string& text) {
+  if (text.size() != 11) return std::nullopt;
+  std::string name = text;
+  for (size_t i : {2u, 5u, 8u}) {
+    if (name[i] != ':' && name[i] != ';') return std::nullopt;
+    name[i] = '-';
+  }
+  return take::ParseInstantName(name);
+}
+
+}  // namespace
+
+// --- publisher -----------------------------------------------------------------------
+
+struct FramePublisher::Socket {
+  zmq::context_t context{1};
+  std::unique_ptr<zmq::socket_t> socket;
+};
+
+FramePublisher::FramePublisher(const std::string& camera_id, const PublisherOptions& options)
+    : camera_id_(camera_id), options_(options), socket_(std::make_unique<Socket>()) {
+  core::Require(ValidCameraId(camera_id), "--camera",
+                "expected letters, digits, '_' or '-', got '" + camera_id + "'");
+  core::Require(!options.endpoint.empty(), "--master",
+                "expected the ingest's address, e.g. tcp://host:5570");
+  std::error_code ec;
+  fs::create_directories(options.spool_dir, ec);
+  core::Require(fs::is_directory(options.spool_dir), options.spool_dir.string(),
+                "cannot create the spool folder: " + ec.message());
+  // Frames an earlier run spooled and never saw acknowledged.
+  const std::string prefix = camera_id + "_";
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(options.spool_dir)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".frame" && name.rfind(prefix, 0) == 0)
+      files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const auto& file : files) {
+    Pending p;
+    p.spool_file = file;
+    p.message = io::ReadFileBytes(file);
+    proto::CaptureMessage message;
+    if (!message.ParseFromString(p.message) || !message.has_frame()) {
+      spdlog::warn("capture: {}: not a spooled frame; left alone", file.string());
+      continue;
+    }
+    if (const auto tc = ParseWireTimecode(message.frame().timecode()))
+      spooled_at_start_.push_back(*tc);
+    pending_[message.frame().timecode()] = std::move(p);
+  }
+  Connect();
+}
+
+FramePublisher::~FramePublisher() = default;
+
+void FramePublisher::Connect() {
+  socket_->socket = std::make_unique<zmq::socket_t>(socket_->context, zmq::socket_type::dealer);
+  socket_->socket->set(zmq::sockopt::linger, 0);
+  socket_->socket->set(zmq::sockopt::reconnect_ivl, 100);
+  socket_->socket->set(zmq::sockopt::routing_id, camera_id_);
+  try {
+    socket_->socket->connect(options_.endpoint);
+  } catch (const zmq::error_t& e) {
+    throw core::InputError("--master " + options_.endpoint,
+                           std::string("cannot connect: ") + e.what());
+  }
+  last_heard_ = Clock::now();
+  for (auto& [tc, p] : pending_) p.sent = false;  // resend everything on the new socket
+}
+
+void FramePublisher::Publish(const CapturedFrame& frame) {
+  proto::CaptureMessage message;
+  message.set_protocol(kCaptureProtocol);
+  proto::CaptureFrame* f = message.mutable_frame();
+  f->set_camera_id(camera_id_);
+  f->set_timecode(frame.time.Text());
+  f->set_field(1);
+  f->set_width_px(frame.take_image.cols);
+  f->set_height_px(frame.take_image.rows);
+  const cv::Mat image =
+      frame.take_image.isContinuous() ? frame.take_image : frame.take_image.clone();
+  f->set_pixels(image.data, image.total());
+  f->set_pass(frame.pass);
+  Pending p;
+  p.message = message.SerializeAsString();
+  p.spool_file = options_.spool_dir / (camera_id_ + "_" + frame.time.FolderName() + ".frame");
+  io::WriteFileAtomically(p.spool_file, p.message);
+  pending_[f->timecode()] = std::move(p);
+  Pump(0);
+}
+
+void FramePublisher::SendProgress(int pass, int captured, int wanted, bool done) {
+  proto::CaptureMessage message;
+  message.set_protocol(kCaptureProtocol);
+  proto::CaptureProgress* p = message.mutable_progress();
+  p->set_camera_id(camera_id_);
+  p->set_pass(pass);
+  p->set_captured(captured);
+  p->set_wanted(wanted);
+  p->set_done(done);
+  const std::string bytes = message.SerializeAsString();
+  socket_->socket->send(zmq::buffer(bytes), zmq::send_flags::dontwait);
+}
+
+void FramePublisher::SendDue() {
+  const auto now = Clock::now();
+  const auto timeout = std::chrono::milliseconds(options_.ack_timeout_ms);
+  int in_flight = 0;
+  for (const auto& [tc, p] : pending_) in_flight += p.sent && now - p.sent_at < timeout;
+  for (auto& [tc, p] : pending_) {
+    if (in_flight >= options_.max_in_flight) break;
+    if (p.sent && now - p.sent_at < timeout) continue;
+    if (p.sent) ++resent_;
+    if (!socket_->socket->send(zmq::buffer(p.message), zmq::send_flags::dontwait)) break;
+    p.sent = true;
+    p.sent_at = now;
+    ++in_flight;
+  }
+}
+
+void FramePublisher::Receive(int timeout_ms) {
+  WaitForInput(*socket_->socket, timeout_ms);
+  zmq::message_t reply;
+  while (socket_->socket->recv(reply, zmq::recv_flags::dontwait)) {
+    last_heard_ = Clock::now();
+    proto::CaptureAck ack;
+    if (!ack.ParseFromArray(reply.data(), static_cast<int>(reply.size())) ||
+        ack.protocol() != kCaptureProtocol) {
+      spdlog::warn("capture: peer {}: a reply that is not a {} acknowledgement; ignored",
+                   options_.endpoint, kCaptureProtocol);
+      continue;
+    }
+    const auto it = pending_.find(ack.timecode());
+    if (it == pending_.end()) continue;  // a late acknowledgement of a resent frame
+    if (ack.status() == proto::CaptureAck::REJECTED) {
+      rejections_.push_back(ack.timecode() + ": " + ack.error());
+      spdlog::error("capture: peer {} rejected frame {}: {}", options_.endpoint, ack.timecode(),
+                    ack.error());
+      pending_.erase(it);  // kept in the spool for inspection; resending cannot help
+      continue;
+    }
+    std::error_code ec;
+    fs::remove(it->second.spool_file, ec);
+    pending_.erase(it);
+    ++acknowledged_;
+  }
+}
+
+void FramePublisher::Pump(int timeout_ms) {
+  const auto end = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  do {
+    // Silence for a whole time-out with frames outstanding: the ingest went away or
+    // restarted; a fresh socket drops whatever the old one still queued.
+    const bool outstanding =
+        std::any_of(pending_.begin(), pending_.end(), [](const auto& e) { return e.second.sent; });
+    if (outstanding &&
+        Clock::now() - last_heard_ > std::chrono::milliseconds(options_.ack_timeout_ms)) {
+      ++reconnects_;
+      Connect();
+    }
+    SendDue();
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count();
+    Receive(static_cast<int>(std::clamp<int64_t>(left, 0, 50)));
+  } while (Clock::now() < end && !pending_.empty());
+}
+
+bool FramePublisher::Flush(int timeout_ms) {
+  Pump(timeout_ms);
+  return pending_.empty();
+}
+
+// --- ingest --------------------------------------------------------------------------
+
+struct FrameIngest::Socket {
+  zmq::context_t context{1};
+  zmq::socket_t socket{context, zmq::socket_type::router};
+};
+
+FrameIngest::FrameIngest(const IngestOptions& options)
+    : options_(options), socket_(std::make_unique<Socket>()) {
+  std::error_code ec;
+  fs::create_directories(options.take_dir / "frames", ec);
+  core::Require(fs::is_directory(options.take_dir / "frames"), options.take_dir.string(),
+                "cannot create the take's frames/ folder: " + ec.message());
+  socket_->socket.set(zmq::sockopt::linger, 0);
+  socket_->socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.max_message_bytes));
+  // An agent that rebuilt its socket comes back under the same identity (its camera).
+  socket_->socket.set(zmq::sockopt::router_handover, 1);
+  try {
+    socket_->socket.bind(options.bind);
+  } catch (const zmq::error_t& e) {
+    throw core::InputError("--bind " + options.bind, std::string("cannot bind: ") + e.what());
+  }
+}
+
+FrameIngest::~FrameIngest() = default;
+
+std::string FrameIngest::endpoint() const {
+  return socket_->socket.get(zmq::sockopt::last_endpoint);
+}
+
+void FrameIngest::Poll(int timeout_ms) {
+  WaitForInput(socket_->socket, timeout_ms);
+  while (true) {
+    zmq::message_t identity, body;
+    if (!socket_->socket.recv(identity, zmq::recv_flags::dontwait)) return;
+    std::string bytes;
+    bool extra = false;
+    if (identity.more() && socket_->socket.recv(body, zmq::recv_flags::none))
+      bytes = body.to_string();
+    while (body.more()) {  // a well-behaved agent sends one part; drain the rest
+      zmq::message_t part;
+      if (!socket_->socket.recv(part, zmq::recv_flags::none)) break;
+      extra = true;
+      body = std::move(part);
+    }
+    const std::string peer = PeerName(identity);
+    std::string reply;
+    if (extra) {
+      ++rejected_;
+      proto::CaptureAck ack;
+      ack.set_protocol(kCaptureProtocol);
+      ack.set_status(proto::CaptureAck::REJECTED);
+      ack.set_error("expected one message part per frame");
+      reply = ack.SerializeAsString();
+    } else {
+      try {
+        reply = Handle(peer, bytes);
+      } catch (const std::exception& e) {  // e.g. the take folder became unwritable
+        ++rejected_;
+        proto::CaptureAck ack;
+        ack.set_protocol(kCaptureProtocol);
+        ack.set_status(proto::CaptureAck::REJECTED);
+        ack.set_error(std::string("cannot store the frame: ") + e.what());
+        spdlog::error("ingest: peer {}: {}", peer, ack.error());
+        reply = ack.SerializeAsString();
+      }
+    }
+    if (reply.empty()) continue;
+    socket_->socket.send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
+    socket_->socket.send(zmq::buffer(reply), zmq::send_flags::dontwait);
+  }
+}
+
+std::string FrameIngest::Handle(const std::string& peer, const std::string& bytes) {
+  proto::CaptureAck ack;
+  ack.set_protocol(kCaptureProtocol);
+  auto reject = [&](const std::string& why) {
+    ++rejected_;
+    ack.set_status(proto::CaptureAck::REJECTED);
+    ack.set_error(why);
+    spdlog::warn("ingest: peer {}: {}", peer, why);
+    return ack.SerializeAsString();
+  };
+  proto::CaptureMessage message;
+  if (!message.ParseFromString(bytes))
+    return reject("not a CaptureMessage (protobuf parse failed)");
+  if (message.protocol() != kCaptureProtocol) {
+    return reject("protocol '" + message.protocol() + "', expected '" + kCaptureProtocol + "'");
+  }
+  if (message.has_progress()) {
+    const auto& p = message.progress();
+    progress_[p.camera_id()] = {p.pass(), p.captured(), p.wanted(), p.done()};
+    spdlog::info("ingest: {} pass {}: {}/{} frames{}", p.camera_id(), p.pass(), p.captured(),
+                 p.wanted(), p.done() ? " (done)" : "");
+    return "";
+  }
+  if (!message.has_frame()) return reject("a message with neither frame nor progress");
+  const proto::CaptureFrame& f = message.frame();
+  ack.set_camera_id(f.camera_id());
+  ack.set_timecode(f.timecode());
+  if (!ValidCameraId(f.camera_id()))
+    return reject("camera_id '" + f.camera_id() + "': expected letters, digits, '_' or '-'");
+  const auto tc = ParseWireTimecode(f.timecode());
+  if (!tc) return reject("timecode '" + f.timecode() + "': expected HH:MM:SS:FF");
+  if (f.field() != 1)
+    return reject("field " + std::to_string(f.field()) + ": only the first field (1) is stored");
+  if (f.width_px() <= 0 || f.height_px() <= 0 || f.width_px() > 8192 || f.height_px() > 8192 ||
+      f.pixels().size() != static_cast<size_t>(f.width_px()) * static_cast<size_t>(f.height_px())) {
+    return reject("frame " + f.timecode() + ": " + std::to_string(f.pixels().size()) +
+                  " pixel bytes for " + std::to_string(f.width_px()) + " x " +
+                  std::to_string(f.height_px()) + " (expected width * height)");
+  }
+  const fs::path path = options_.take_dir / "frames" / tc->FolderName() / (f.camera_id() + ".png");
+  if (fs::exists(path)) {
+    ++duplicates_;
+    ack.set_status(proto::CaptureAck::DUPLICATE);
+    return ack.SerializeAsString();
+  }
+  fs::create_directories(path.parent_path());
+  const cv::Mat image(f.height_px(), f.width_px(), CV_8UC1, const_cast<char*>(f.pixels().data()));
+  io::WriteFileAtomically(path, io::EncodePng(image));
+  ++stored_;
+  ack.set_status(proto::CaptureAck::STORED);
+  return ack.SerializeAsString();
+}
+
+}  // namespace dome::capture

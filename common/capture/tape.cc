@@ -1,0 +1,127 @@
+#include "capture/tape.h"
+
+#include <algorithm>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "io/image_io.h"
+#include "take/timecode.h"
+
+namespace dome::capture {
+
+VitcDecoderOptions TapeLayout::DecoderOptions() const {
+  VitcDecoderOptions options;
+  options.standard = standard;
+  options.first_row = 0;
+  options.last_row = VbiRows() - 1;
+  return options;
+}
+
+cv::Mat ComposeTapeFrame(const cv::Mat& picture, VitcWord word, const TapeLayout& layout) {
+  DOME_CHECK(picture.type() == CV_8UC1 && picture.rows % 2 == 0, "interlaced 8-bit grey picture");
+  cv::Mat frame(picture.rows + layout.VbiRows(), picture.cols, CV_8UC1,
+                cv::Scalar(layout.blanking_level));
+  picture.copyTo(frame.rowRange(layout.VbiRows(), frame.rows));
+  VitcLineOptions line;
+  line.black_level = layout.blanking_level;
+  for (int field = 0; field < 2; ++field) {
+    word.field_mark = field == 1;
+    const VitcBits bits = EncodeVitc(word, layout.standard);
+    for (int l : layout.vitc_field_lines) {
+      DOME_CHECK(l >= 0 && l < layout.vbi_field_lines, "VITC line outside the vertical interval");
+      DrawVitcLine(bits, frame.ptr<uint8_t>(2 * l + field), frame.cols, line);
+    }
+  }
+  return frame;
+}
+
+cv::Mat TapePicture(const cv::Mat& tape_frame, const TapeLayout& layout) {
+  return tape_frame.rowRange(layout.VbiRows(), tape_frame.rows);
+}
+
+struct TapeWriter::Impl {
+  cv::VideoWriter writer;
+  std::filesystem::path path;
+  cv::Size size;
+};
+
+TapeWriter::TapeWriter(const std::filesystem::path& path, cv::Size frame_size,
+                       VideoStandard standard)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->path = path;
+  impl_->size = frame_size;
+  impl_->writer.open(path.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'),
+                     FramesPerSecond(standard), frame_size, /*isColor=*/false);
+  core::Require(impl_->writer.isOpened(), path.string(),
+                "cannot open for writing an FFV1 video (OpenCV with FFmpeg, writable folder)");
+}
+
+TapeWriter::~TapeWriter() = default;
+
+void TapeWriter::Write(const cv::Mat& frame) {
+  DOME_CHECK(frame.type() == CV_8UC1 && frame.size() == impl_->size, "tape frame size and type");
+  impl_->writer.write(frame);
+}
+
+void TapeWriter::Close() { impl_->writer.release(); }
+
+int WriteTakeTapes(const std::filesystem::path& take_dir, const TapeLayout& layout, int threads) {
+  namespace fs = std::filesystem;
+  const fs::path tape_dir = take_dir / "tape";
+  core::Require(fs::is_directory(tape_dir), tape_dir.string(),
+                "no tape/ folder of interlaced frames");
+  std::vector<std::pair<take::Timecode, fs::path>> instants;
+  std::vector<std::string> cameras;
+  for (const auto& entry : fs::directory_iterator(tape_dir)) {
+    if (!entry.is_directory()) continue;
+    const auto tc = take::ParseInstantName(entry.path().filename().string());
+    if (tc) instants.emplace_back(*tc, entry.path());
+  }
+  std::sort(instants.begin(), instants.end());
+  core::Require(!instants.empty(), tape_dir.string(), "no instant folders HH-MM-SS-FF");
+  for (const auto& entry : fs::directory_iterator(instants.front().second)) {
+    if (entry.path().extension() == ".png") cameras.push_back(entry.path().stem().string());
+  }
+  std::sort(cameras.begin(), cameras.end());
+  core::ParallelFor(0, static_cast<int64_t>(cameras.size()), threads, [&](int64_t b, int64_t e) {
+    for (int64_t c = b; c < e; ++c) {
+      std::unique_ptr<TapeWriter> writer;
+      for (const auto& [tc, dir] : instants) {
+        const cv::Mat picture = io::ReadImage(dir / (cameras[c] + ".png"), io::ImageMode::kGray8);
+        VitcWord word;
+        word.time = tc;
+        const cv::Mat frame = ComposeTapeFrame(picture, word, layout);
+        if (!writer)
+          writer = std::make_unique<TapeWriter>(tape_dir / (cameras[c] + ".avi"), frame.size(),
+                                                layout.standard);
+        writer->Write(frame);
+      }
+      writer->Close();
+    }
+  });
+  return static_cast<int>(cameras.size());
+}
+
+std::vector<cv::Mat> ReadTapeFrames(const std::filesystem::path& path) {
+  core::Require(std::filesystem::is_regular_file(path), path.string(), "no such tape file");
+  cv::VideoCapture capture(path.string(), cv::CAP_FFMPEG);
+  core::Require(capture.isOpened(), path.string(),
+                "cannot open as a video (expected FFV1 grey video)");
+  std::vector<cv::Mat> frames;
+  cv::Mat frame;
+  while (capture.read(frame)) {
+    cv::Mat grey;
+    if (frame.channels() == 3) {
+      cv::extractChannel(frame, grey, 0);  // grey video comes back as equal B, G, R
+    } else {
+      grey = frame.clone();
+    }
+    frames.push_back(grey);
+  }
+  core::Require(!frames.empty(), path.string(), "the video holds no frames");
+  return frames;
+}
+
+}  // namespace dome::capture

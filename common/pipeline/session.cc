@@ -1,0 +1,163 @@
+#include "pipeline/session.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "io/file_util.h"
+
+namespace dome::pipeline {
+
+void SessionOptions::Check() const {
+  stereo.Check();
+  grid.Check("session: volume");
+  fusion.Check();
+  core::Require(slab_planes > 0, "session: slab_planes",
+                "must be positive, got " + std::to_string(slab_planes));
+  core::Require(decimate_ratio > 0 && decimate_ratio <= 1, "session: decimate_ratio",
+                "must be in (0, 1], got " + std::to_string(decimate_ratio));
+}
+
+runtime::Session ReadSessionJson(const std::filesystem::path& path) {
+  const std::string text = io::ReadFileBytes(path);
+  runtime::Session session;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  const auto status = google::protobuf::util::JsonStringToMessage(text, &session, options);
+  if (!status.ok()) {
+    throw core::InputError(path.string(), "not a session (" + std::string(status.message()) + ")");
+  }
+  return session;
+}
+
+runtime::StereoSettings ToStereoSettings(const stereo::TakeStereoOptions& o) {
+  runtime::StereoSettings s;
+  s.set_z_min_mm(o.stereo.z_min_mm);
+  s.set_z_max_mm(o.stereo.z_max_mm);
+  s.set_num_levels(o.stereo.num_levels);
+  s.set_level_step_px(o.stereo.level_step_px);
+  for (int w : o.stereo.window_sizes_px) s.add_window_sizes_px(w);
+  s.set_normalize_contrast(o.stereo.normalize_contrast);
+  s.set_outside_difference_grey(o.stereo.outside_difference_grey);
+  s.set_min_curvature(o.stereo.min_curvature);
+  s.set_min_uniqueness(o.stereo.min_uniqueness);
+  s.set_min_texture_grey(o.stereo.min_texture_grey);
+  s.set_max_neighbours(o.cluster.max_neighbours);
+  s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
+  return s;
+}
+
+stereo::TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s,
+                                             const std::string& where) {
+  stereo::TakeStereoOptions o;
+  auto& st = o.stereo;
+  if (s.has_z_min_mm()) st.z_min_mm = s.z_min_mm();
+  if (s.has_z_max_mm()) st.z_max_mm = s.z_max_mm();
+  if (s.has_num_levels()) st.num_levels = s.num_levels();
+  if (s.has_level_step_px()) st.level_step_px = s.level_step_px();
+  if (s.window_sizes_px_size() > 0) {
+    st.window_sizes_px.assign(s.window_sizes_px().begin(), s.window_sizes_px().end());
+  }
+  if (s.has_normalize_contrast()) st.normalize_contrast = s.normalize_contrast();
+  if (s.has_outside_difference_grey()) st.outside_difference_grey = s.outside_difference_grey();
+  if (s.has_min_curvature()) st.min_curvature = s.min_curvature();
+  if (s.has_min_uniqueness()) st.min_uniqueness = s.min_uniqueness();
+  if (s.has_min_texture_grey()) st.min_texture_grey = s.min_texture_grey();
+  if (s.has_max_neighbours()) o.cluster.max_neighbours = s.max_neighbours();
+  if (s.has_max_axis_angle_deg()) o.cluster.max_axis_angle_deg = s.max_axis_angle_deg();
+  try {
+    o.Check();
+  } catch (const core::InputError& e) {
+    throw core::InputError(where + ": stereo", e.what());
+  }
+  return o;
+}
+
+runtime::Volume ToVolume(const fusion::VolumeGrid& g) {
+  runtime::Volume v;
+  for (int a = 0; a < 3; ++a) v.add_origin_mm(g.origin_mm[a]);
+  v.set_voxel_size_mm(g.voxel_size_mm);
+  v.add_dims(g.nx);
+  v.add_dims(g.ny);
+  v.add_dims(g.nz);
+  return v;
+}
+
+fusion::VolumeGrid FromVolume(const runtime::Volume& v, const std::string& where) {
+  fusion::VolumeGrid g;
+  if (v.has_voxel_size_mm()) g.voxel_size_mm = v.voxel_size_mm();
+  core::Require(std::isfinite(g.voxel_size_mm) && g.voxel_size_mm > 0,
+                where + ": volume.voxel_size_mm", "must be positive");
+  g.nx = g.ny = g.nz = int(std::lround(6000.0 / g.voxel_size_mm));
+  if (v.origin_mm_size() > 0) {
+    core::Require(v.origin_mm_size() == 3, where + ": volume.origin_mm",
+                  "expected 3 values (x y z, mm), got " + std::to_string(v.origin_mm_size()));
+    g.origin_mm = Eigen::Vector3d(v.origin_mm(0), v.origin_mm(1), v.origin_mm(2));
+  }
+  if (v.dims_size() > 0) {
+    core::Require(v.dims_size() == 3, where + ": volume.dims",
+                  "expected 3 counts (x y z), got " + std::to_string(v.dims_size()));
+    g.nx = v.dims(0);
+    g.ny = v.dims(1);
+    g.nz = v.dims(2);
+  }
+  g.Check(where + ": volume");
+  return g;
+}
+
+runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& o) {
+  runtime::FusionSettings s;
+  s.set_truncation_mm(o.truncation_mm);
+  s.set_front_clamp_mm(o.front_clamp_mm);
+  s.set_max_depth_jump_ratio(o.max_depth_jump_ratio);
+  s.set_min_depth_mm(o.min_depth_mm);
+  return s;
+}
+
+fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& s, double voxel_size_mm,
+                                         const std::string& where) {
+  fusion::FusionOptions o;
+  o.truncation_mm = s.has_truncation_mm() ? s.truncation_mm() : 3 * voxel_size_mm;
+  o.front_clamp_mm = s.has_front_clamp_mm() ? s.front_clamp_mm() : 3 * voxel_size_mm;
+  if (s.has_max_depth_jump_ratio()) o.max_depth_jump_ratio = s.max_depth_jump_ratio();
+  if (s.has_min_depth_mm()) o.min_depth_mm = s.min_depth_mm();
+  try {
+    o.Check();
+  } catch (const core::InputError& e) {
+    throw core::InputError(where + ": fusion", e.what());
+  }
+  return o;
+}
+
+SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::string& where) {
+  SessionOptions o;
+  o.stereo = FromStereoSettings(s.stereo(), where);
+  o.stereo.write_previews = s.has_write_previews() ? s.write_previews() : true;
+  o.grid = FromVolume(s.volume(), where);
+  o.fusion = FromFusionSettings(s.fusion(), o.grid.voxel_size_mm, where);
+  if (s.has_slab_planes()) o.slab_planes = s.slab_planes();
+  if (s.has_decimate_ratio()) o.decimate_ratio = s.decimate_ratio();
+  if (s.has_texture()) o.texture = s.texture();
+  core::Require(o.slab_planes > 0, where + ": slab_planes",
+                "must be positive, got " + std::to_string(o.slab_planes));
+  core::Require(o.decimate_ratio > 0 && o.decimate_ratio <= 1, where + ": decimate_ratio",
+                "must be in (0, 1]");
+  return o;
+}
+
+std::vector<std::string> SessionInstants(const runtime::Session& session, const take::Take& take) {
+  if (session.instants_size() == 0) return take.instants;
+  std::vector<std::string> out;
+  for (const std::string& instant : session.instants()) {
+    core::Require(
+        std::find(take.instants.begin(), take.instants.end(), instant) != take.instants.end(),
+        "session: instants", "no instant '" + instant + "' in " + take.dir.string());
+    if (std::find(out.begin(), out.end(), instant) == out.end()) out.push_back(instant);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace dome::pipeline

@@ -1,0 +1,212 @@
+// The runtime's client commands (client/client.h, scheduler/master.h):
+//   dome run TAKE|SESSION.json --out OUT [--workers N] [--master ADDR]
+//   dome submit TAKE|SESSION.json [--out OUT] --master ADDR   prints the session id
+//   dome status [ID] --master ADDR                            instant answer
+//   dome watch ID --master ADDR [--events ADDR]               live progress
+//   dome cancel ID --master ADDR
+//   dome list --master ADDR
+// ADDR is the master's control endpoint (dome-master --control, default port 5556);
+// the status events are read from the next port unless --events names them. Without
+// --master, `dome run` starts an embedded master with N in-process workers.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "client/client.h"
+#include "core/error.h"
+#include "pipeline/session.h"
+
+namespace dome::cli {
+namespace {
+
+struct SessionArgs {
+  std::string source, out;
+  std::vector<std::string> instants;
+  double voxel_mm = 0, decimate_ratio = 0;
+  int slab_planes = 0, levels = -1;
+  std::vector<int> windows;
+  bool no_texture = false, no_preview = false;
+};
+
+void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
+  cmd->add_option("TAKE", a->source, "take folder, or SESSION.json (proto/runtime.proto Session)")
+      ->required();
+  auto* out =
+      cmd->add_option("--out", a->out, "output folder (OUT/<instant>/..., OUT/report.json)");
+  if (out_required) out->required();
+  cmd->add_option("--instant", a->instants, "instants HH-MM-SS-FF (default: all)");
+  cmd->add_option("--voxel-mm", a->voxel_mm, "voxel edge, mm (default 20: the seed's volume)");
+  cmd->add_option("--slab-planes", a->slab_planes, "voxel planes per fusion job (default 16)");
+  cmd->add_option("--levels", a->levels, "stereo depth levels (0: from the geometry)");
+  cmd->add_option("--windows", a->windows, "stereo SSD window sides, px");
+  cmd->add_option("--decimate-ratio", a->decimate_ratio,
+                  "fraction of triangles kept (default 0.1)");
+  cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
+  cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
+}
+
+// A Session from a take folder and flags, or from SESSION.json with flags overriding.
+runtime::Session MakeSession(const SessionArgs& a) {
+  namespace fs = std::filesystem;
+  runtime::Session s;
+  if (fs::is_regular_file(a.source)) {
+    s = pipeline::ReadSessionJson(a.source);
+  } else {
+    s.set_take(a.source);
+  }
+  if (!a.out.empty()) s.set_out(a.out);
+  core::Require(!s.out().empty(), "--out", "names no output folder (nor does the session file)");
+  // The master may run elsewhere, but the usual case is this machine: absolute paths.
+  if (!s.take().empty()) s.set_take(fs::absolute(s.take()).lexically_normal().string());
+  s.set_out(fs::absolute(s.out()).lexically_normal().string());
+  if (!a.instants.empty()) {
+    s.clear_instants();
+    for (const auto& i : a.instants) s.add_instants(i);
+  }
+  if (a.voxel_mm > 0) s.mutable_volume()->set_voxel_size_mm(a.voxel_mm);
+  if (a.slab_planes > 0) s.set_slab_planes(a.slab_planes);
+  if (a.levels >= 0) s.mutable_stereo()->set_num_levels(a.levels);
+  if (!a.windows.empty()) {
+    s.mutable_stereo()->clear_window_sizes_px();
+    for (int w : a.windows) s.mutable_stereo()->add_window_sizes_px(w);
+  }
+  if (a.decimate_ratio > 0) s.set_decimate_ratio(a.decimate_ratio);
+  if (a.no_texture) s.set_texture(false);
+  if (a.no_preview) s.set_write_previews(false);
+  pipeline::ResolveSessionOptions(s, "session");  // bad options fail here, not remotely
+  return s;
+}
+
+struct MasterArgs {
+  std::string master = "tcp://localhost:5556", events;
+  std::string Events() const { return events.empty() ? client::EventsEndpointFor(master) : events; }
+};
+
+void AddMasterFlags(CLI::App* cmd, MasterArgs* m) {
+  cmd->add_option("--master", m->master, "the master's control endpoint")->capture_default_str();
+  cmd->add_option("--events", m->events,
+                  "the master's status endpoint (default: control port + 1)");
+}
+
+int ExitCodeFor(const runtime::SessionStatus& st) {
+  std::fputs(client::FormatStatus(st).c_str(), stdout);
+  return st.state() == "done" ? 0 : 1;
+}
+
+}  // namespace
+
+void AddRunCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand(
+      "run", "Reconstruct a take: stereo, fusion, marching cubes, decimation, texture per instant");
+  auto a = std::make_shared<SessionArgs>();
+  auto m = std::make_shared<MasterArgs>();
+  auto e = std::make_shared<client::EmbeddedOptions>();
+  AddSessionFlags(cmd, a.get(), false);
+  cmd->add_option("--workers", e->workers, "in-process workers when no --master")
+      ->capture_default_str();
+  cmd->add_option("--threads", e->threads_per_worker, "threads per in-process worker (0: share)")
+      ->capture_default_str();
+  auto* master = cmd->add_option("--master", m->master,
+                                 "a dome-master's control endpoint (default: embedded master)");
+  cmd->add_option("--events", m->events,
+                  "the master's status endpoint (default: control port + 1)");
+  cmd->callback([=] {
+    const runtime::Session session = MakeSession(*a);
+    if (master->count() == 0) {
+      *exit_code = ExitCodeFor(client::RunEmbedded(session, *e, stdout));
+      return;
+    }
+    zmq::context_t context;
+    runtime::ControlRequest req;
+    *req.mutable_submit()->mutable_session() = session;
+    const auto reply = client::Request(&context, m->master, req);
+    std::printf("session %s\n", reply.session_id().c_str());
+    *exit_code = ExitCodeFor(
+        client::WaitForSession(&context, m->master, m->Events(), reply.session_id(), stdout));
+  });
+}
+
+void AddSubmitCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand("submit", "Submit a session to a dome-master; prints its id");
+  auto a = std::make_shared<SessionArgs>();
+  auto m = std::make_shared<MasterArgs>();
+  AddSessionFlags(cmd, a.get(), false);
+  AddMasterFlags(cmd, m.get());
+  cmd->callback([=] {
+    zmq::context_t context;
+    runtime::ControlRequest req;
+    *req.mutable_submit()->mutable_session() = MakeSession(*a);
+    std::printf("%s\n", client::Request(&context, m->master, req).session_id().c_str());
+    *exit_code = 0;
+  });
+}
+
+void AddStatusCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand("status", "A session's progress (every session without ID)");
+  auto id = std::make_shared<std::string>();
+  auto m = std::make_shared<MasterArgs>();
+  cmd->add_option("ID", *id, "session id");
+  AddMasterFlags(cmd, m.get());
+  cmd->callback([=] {
+    zmq::context_t context;
+    runtime::ControlRequest req;
+    req.mutable_status()->set_session_id(*id);
+    const runtime::ControlReply reply = client::Request(&context, m->master, req);
+    for (const auto& s : reply.sessions()) {
+      std::fputs(client::FormatStatus(s).c_str(), stdout);
+    }
+    *exit_code = 0;
+  });
+}
+
+void AddWatchCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand("watch", "Live progress of a session until it ends");
+  auto id = std::make_shared<std::string>();
+  auto m = std::make_shared<MasterArgs>();
+  cmd->add_option("ID", *id, "session id")->required();
+  AddMasterFlags(cmd, m.get());
+  cmd->callback([=] {
+    zmq::context_t context;
+    *exit_code = ExitCodeFor(client::WaitForSession(&context, m->master, m->Events(), *id, stdout));
+  });
+}
+
+void AddCancelCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand("cancel", "Cancel a session");
+  auto id = std::make_shared<std::string>();
+  auto m = std::make_shared<MasterArgs>();
+  cmd->add_option("ID", *id, "session id")->required();
+  AddMasterFlags(cmd, m.get());
+  cmd->callback([=] {
+    zmq::context_t context;
+    runtime::ControlRequest req;
+    req.mutable_cancel()->set_session_id(*id);
+    const runtime::ControlReply reply = client::Request(&context, m->master, req);
+    for (const auto& s : reply.sessions()) {
+      std::fputs(client::FormatStatus(s).c_str(), stdout);
+    }
+    *exit_code = 0;
+  });
+}
+
+void AddListCommand(CLI::App* app, int* exit_code) {
+  auto* cmd = app->add_subcommand("list", "The master's sessions, one line each");
+  auto m = std::make_shared<MasterArgs>();
+  AddMasterFlags(cmd, m.get());
+  cmd->callback([=] {
+    zmq::context_t context;
+    runtime::ControlRequest req;
+    req.mutable_list();
+    const runtime::ControlReply reply = client::Request(&context, m->master, req);
+    for (const auto& s : reply.sessions()) {
+      std::printf("%s  %-9s  %d/%d jobs  %.1f s  %s\n", s.id().c_str(), s.state().c_str(),
+                  s.jobs_done(), s.jobs_total(), s.elapsed_s(), s.out().c_str());
+    }
+    *exit_code = 0;
+  });
+}
+
+}  // namespace dome::cli

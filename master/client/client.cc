@@ -1,0 +1,205 @@
+#include "client/client.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "net/wire.h"
+#include "worker/worker.h"
+
+namespace dome::client {
+using Clock = std::chrono::steady_clock;
+
+runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoint,
+                              const runtime::ControlRequest& request, int timeout_ms) {
+  const std::string where = "master " + endpoint;
+  zmq::socket_t socket(*context, zmq::socket_type::req);
+  net::ConfigureSocket(&socket, net::SocketOptions{});
+  try {
+    socket.connect(endpoint);
+  } catch (const zmq::error_t& e) {
+    throw core::InputError(where, std::string("cannot connect: ") + e.what());
+  }
+  runtime::Envelope env;
+  *env.mutable_control() = request;
+  const std::string bytes = net::EncodeEnvelope(env);
+  socket.send(zmq::buffer(bytes), zmq::send_flags::none);
+  zmq::pollitem_t items[] = {{socket.handle(), 0, ZMQ_POLLIN, 0}};
+  zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
+  zmq::message_t reply;
+  if (!(items[0].revents & ZMQ_POLLIN) || !socket.recv(reply, zmq::recv_flags::dontwait)) {
+    throw core::InputError(where, "no answer within " + std::to_string(timeout_ms) +
+                                      " ms (is dome-master running there?)");
+  }
+  const runtime::Envelope answer =
+      net::DecodeEnvelope(reply.to_string_view(), where, net::SocketOptions{}.max_message_bytes);
+  if (answer.has_refusal()) throw core::InputError(where, "refused: " + answer.refusal().reason());
+  core::Require(answer.has_control_reply(), where, "answered with something else than a reply");
+  if (!answer.control_reply().ok()) throw core::InputError(where, answer.control_reply().error());
+  return answer.control_reply();
+}
+
+std::string EventsEndpointFor(const std::string& control) {
+  const auto colon = control.rfind(':');
+  if (colon == std::string::npos || control.compare(0, 6, "tcp://") != 0) return "";
+  try {
+    const int port = std::stoi(control.substr(colon + 1));
+    return control.substr(0, colon + 1) + std::to_string(port + 1);
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
+std::string FormatStatus(const runtime::SessionStatus& s) {
+  char head[512];
+  std::snprintf(head, sizeof head, "session %s  %s  %d/%d jobs  %.1f s  %d workers  out %s\n",
+                s.id().c_str(), s.state().c_str(), s.jobs_done(), s.jobs_total(), s.elapsed_s(),
+                s.workers(), s.out().c_str());
+  std::string text = head;
+  if (!s.error().empty()) text += "  error: " + s.error() + "\n";
+  for (const auto& in : s.instants()) {
+    text += "  " + in.instant() + (in.done() ? "  done " : "       ");
+    for (const auto& st : in.stages()) {
+      text +=
+          "  " + st.stage() + " " + std::to_string(st.done()) + "/" + std::to_string(st.total());
+    }
+    text += "\n";
+  }
+  return text;
+}
+
+namespace {
+
+runtime::SessionStatus QueryStatus(zmq::context_t* context, const std::string& control,
+                                   const std::string& id) {
+  runtime::ControlRequest req;
+  req.mutable_status()->set_session_id(id);
+  const runtime::ControlReply reply = Request(context, control, req);
+  core::Require(reply.sessions_size() == 1, "master " + control, "status without the session");
+  return reply.sessions(0);
+}
+
+}  // namespace
+
+runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string& control,
+                                      const std::string& events, const std::string& id,
+                                      std::FILE* out, int poll_ms) {
+  std::unique_ptr<zmq::socket_t> sub;
+  if (!events.empty()) {
+    sub = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::sub);
+    net::ConfigureSocket(sub.get(), net::SocketOptions{});
+    sub->set(zmq::sockopt::subscribe, "");
+    sub->connect(events);
+  }
+  const auto start = Clock::now();
+  auto next_poll = start;
+  int first_done = -1;
+  while (true) {
+    if (Clock::now() >= next_poll) {
+      const runtime::SessionStatus st = QueryStatus(context, control, id);
+      if (st.state() != "running") return st;
+      if (first_done < 0) first_done = st.jobs_done();
+      next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);
+    }
+    if (!sub) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
+      continue;
+    }
+    zmq::pollitem_t items[] = {{sub->handle(), 0, ZMQ_POLLIN, 0}};
+    zmq::poll(items, 1, std::chrono::milliseconds(poll_ms));
+    zmq::message_t m;
+    while (sub->recv(m, zmq::recv_flags::dontwait)) {
+      runtime::Envelope env;
+      try {
+        env = net::DecodeEnvelope(m.to_string_view(), "status " + events,
+                                  net::SocketOptions{}.max_message_bytes);
+      } catch (const core::InputError&) {
+        continue;
+      }
+      if (!env.has_status() || env.status().session_id() != id || out == nullptr) continue;
+      const auto& ev = env.status();
+      if (ev.stage().empty()) {
+        std::fprintf(out, "[%7.1f s] session %s %s %s\n", ev.elapsed_s(), id.c_str(),
+                     ev.state().c_str(), ev.message().c_str());
+        continue;
+      }
+      // Rate over the jobs finished since we started watching; ETA from it.
+      const double watched = std::chrono::duration<double>(Clock::now() - start).count();
+      const int since = ev.jobs_done() - std::max(first_done, 0);
+      const double rate = watched > 0 ? since / watched : 0;
+      char eta[64] = "?";
+      if (rate > 0)
+        std::snprintf(eta, sizeof eta, "%.0f s", (ev.jobs_total() - ev.jobs_done()) / rate);
+      const int width = 20;
+      const int filled = ev.total() > 0 ? width * ev.done() / ev.total() : 0;
+      std::fprintf(out, "[%7.1f s] %s %-8s [%s%s] %3d/%-3d  jobs %d/%d  %.2f jobs/s  ETA %s\n",
+                   ev.elapsed_s(), ev.instant().c_str(), ev.stage().c_str(),
+                   std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
+                   ev.done(), ev.total(), ev.jobs_done(), ev.jobs_total(), rate, eta);
+      std::fflush(out);
+    }
+  }
+}
+
+runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& options,
+                                   std::FILE* out) {
+  core::Require(options.workers >= 1, "--workers", "must be at least 1");
+  zmq::context_t context;
+  scheduler::MasterOptions mo = options.master;
+  const std::string tag =
+      std::to_string(::getpid()) + "-" + std::to_string(Clock::now().time_since_epoch().count());
+  mo.worker_endpoint = "inproc://dome-workers-" + tag;
+  mo.control_endpoint = "inproc://dome-control-" + tag;
+  mo.events_endpoint = "inproc://dome-events-" + tag;
+  scheduler::Master master(&context, mo);
+  std::atomic<bool> stop_master{false}, stop_workers{false};
+  std::thread master_thread([&] { master.Run(&stop_master); });
+  std::vector<std::unique_ptr<worker::Worker>> workers;
+  std::vector<std::thread> worker_threads;
+  const int threads = options.threads_per_worker > 0
+                          ? options.threads_per_worker
+                          : std::max(1, core::HardwareThreads() / options.workers);
+  for (int w = 0; w < options.workers; ++w) {
+    worker::WorkerOptions wo;
+    wo.master = mo.worker_endpoint;
+    wo.threads = threads;
+    wo.cache_mb = options.cache_mb;
+    wo.heartbeat_interval_ms = mo.heartbeat_interval_ms;
+    wo.heartbeat_liveness = mo.heartbeat_liveness;
+    wo.name = "embedded-" + std::to_string(w);
+    workers.push_back(std::make_unique<worker::Worker>(&context, wo));
+  }
+  for (auto& w : workers) {
+    worker::Worker* raw = w.get();
+    worker_threads.emplace_back([raw, &stop_workers] { raw->Run(&stop_workers); });
+  }
+  auto shut_down = [&] {
+    stop_workers = true;
+    for (auto& t : worker_threads) t.join();
+    stop_master = true;
+    master_thread.join();
+  };
+  runtime::SessionStatus status;
+  try {
+    runtime::ControlRequest req;
+    *req.mutable_submit()->mutable_session() = session;
+    const runtime::ControlReply reply = Request(&context, mo.control_endpoint, req);
+    if (out) std::fprintf(out, "session %s\n", reply.session_id().c_str());
+    status = WaitForSession(&context, mo.control_endpoint, mo.events_endpoint, reply.session_id(),
+                            out, 200);
+  } catch (...) {
+    shut_down();
+    throw;
+  }
+  shut_down();
+  return status;
+}
+
+}  // namespace dome::client

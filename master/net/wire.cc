@@ -1,0 +1,78 @@
+#include "net/wire.h"
+
+#include <vector>
+
+#include "core/error.h"
+
+namespace dome::net {
+
+void SocketOptions::Check() const {
+  core::Require(max_message_bytes >= 1024, "max_message_bytes",
+                "must be at least 1024 bytes, got " + std::to_string(max_message_bytes));
+  core::Require(linger_ms >= 0, "linger_ms", "must not be negative");
+}
+
+void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options) {
+  socket->set(zmq::sockopt::linger, options.linger_ms);
+  socket->set(zmq::sockopt::maxmsgsize, 2 * options.max_message_bytes);
+  // Queues bounded in messages; a peer that stops reading does not grow us forever.
+  socket->set(zmq::sockopt::sndhwm, 10000);
+  socket->set(zmq::sockopt::rcvhwm, 10000);
+}
+
+std::string BoundEndpoint(const zmq::socket_t& socket) {
+  return socket.get(zmq::sockopt::last_endpoint);
+}
+
+std::string EncodeEnvelope(runtime::Envelope envelope) {
+  envelope.set_version(kProtocolVersion);
+  std::string bytes;
+  envelope.SerializeToString(&bytes);
+  return bytes;
+}
+
+runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer,
+                                 int64_t max_bytes) {
+  if (int64_t(bytes.size()) > max_bytes) {
+    throw core::InputError(peer, "message of " + std::to_string(bytes.size()) +
+                                     " bytes is over the cap of " + std::to_string(max_bytes));
+  }
+  runtime::Envelope envelope;
+  if (!envelope.ParseFromArray(bytes.data(), int(bytes.size()))) {
+    throw core::InputError(peer, "message of " + std::to_string(bytes.size()) +
+                                     " bytes is not a dome runtime envelope");
+  }
+  if (envelope.version() != kProtocolVersion) {
+    throw core::InputError(peer, "speaks protocol version " + std::to_string(envelope.version()) +
+                                     ", this side speaks version " +
+                                     std::to_string(kProtocolVersion));
+  }
+  if (envelope.body_case() == runtime::Envelope::BODY_NOT_SET) {
+    throw core::InputError(peer, "envelope without a message body");
+  }
+  return envelope;
+}
+
+std::string PeerName(std::string_view id) {
+  static const char* kHex = "0123456789abcdef";
+  std::string s = "peer 0x";
+  for (unsigned char c : id) {
+    s += kHex[c >> 4];
+    s += kHex[c & 15];
+  }
+  return s;
+}
+
+bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> frames) {
+  size_t i = 0;
+  for (std::string_view f : frames) {
+    const bool last = ++i == frames.size();
+    const auto flags =
+        (last ? zmq::send_flags::none : zmq::send_flags::sndmore) | zmq::send_flags::dontwait;
+    auto sent = socket->send(zmq::buffer(f.data(), f.size()), flags);
+    if (!sent) return false;
+  }
+  return true;
+}
+
+}  // namespace dome::net

@@ -1,0 +1,53 @@
+// The runtime's wire layer (proto/runtime.proto over ZeroMQ): one place that sets
+// socket options (where CURVE keys and ZAP will be applied), envelope framing with the
+// protocol version and the message size cap, and peer names for logs.
+//
+// Framing: every message's payload is one frame holding a serialized Envelope. A
+// ROUTER sees [routing id, payload] from DEALER peers and [routing id, empty,
+// payload] from REQ peers. Nothing here asserts on network input: bad bytes, a wrong
+// version or an oversized payload throw core::InputError naming the peer.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <zmq.hpp>
+
+#include "runtime.pb.h"
+
+namespace dome::net {
+
+inline constexpr uint32_t kProtocolVersion = runtime::PROTOCOL_VERSION;
+
+struct SocketOptions {
+  // Largest payload accepted, in bytes; larger ones are refused with a log line. The
+  // transport drops peers sending frames over twice this (ZMQ_MAXMSGSIZE).
+  int64_t max_message_bytes = int64_t{256} << 20;
+  // How long unsent messages are kept after close, in ms.
+  int linger_ms = 0;
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
+};
+
+// Applies `options` to a socket before it binds or connects (every runtime socket goes
+// through here).
+void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options);
+
+// The endpoint a socket actually bound (resolves "tcp://127.0.0.1:*" to the port).
+std::string BoundEndpoint(const zmq::socket_t& socket);
+
+// Serializes with the protocol version set.
+std::string EncodeEnvelope(runtime::Envelope envelope);
+
+// Parses one payload. Throws core::InputError naming `peer` when it is over
+// `max_bytes`, not an Envelope, of another protocol version, or has no body.
+runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer,
+                                 int64_t max_bytes);
+
+// A printable name for a ROUTER routing id ("peer 0x0080000001").
+std::string PeerName(std::string_view routing_id);
+
+// Sends a multipart message; false when the socket would block (peer gone, HWM).
+bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> frames);
+
+}  // namespace dome::net

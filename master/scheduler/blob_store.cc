@@ -1,0 +1,91 @@
+#include "scheduler/blob_store.h"
+
+#include "core/error.h"
+#include "io/file_util.h"
+#include "pipeline/content_hash.h"
+
+namespace dome::scheduler {
+namespace fs = std::filesystem;
+
+runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& name) {
+  const std::string bytes = io::ReadFileBytes(path);
+  runtime::BlobRef ref;
+  ref.set_sha256(pipeline::Sha256Hex(bytes));
+  ref.set_size(bytes.size());
+  ref.set_name(name);
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_.try_emplace(ref.sha256(), Entry{path, bytes.size(), name, false});
+  return ref;
+}
+
+runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& bytes,
+                                     const std::string& name) {
+  runtime::BlobRef ref;
+  ref.set_sha256(pipeline::Sha256Hex(bytes));
+  ref.set_size(bytes.size());
+  ref.set_name(name);
+  const fs::path path = dir / ref.sha256();
+  std::error_code ec;
+  if (!fs::exists(path, ec) || fs::file_size(path, ec) != bytes.size()) {
+    fs::create_directories(dir, ec);
+    io::WriteFileAtomically(path, bytes);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_[ref.sha256()] = Entry{path, bytes.size(), name, true};
+  return ref;
+}
+
+bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
+  const fs::path path = dir / sha256;
+  std::error_code ec;
+  if (!pipeline::IsSha256Hex(sha256) || !fs::exists(path, ec)) return false;
+  std::string bytes;
+  try {
+    bytes = io::ReadFileBytes(path);
+  } catch (const core::InputError&) {
+    return false;
+  }
+  if (pipeline::Sha256Hex(bytes) != sha256) return false;
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_[sha256] = Entry{path, bytes.size(), sha256, true};
+  return true;
+}
+
+std::optional<std::string> BlobStore::Read(const std::string& sha256) const {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = entries_.find(sha256);
+    if (it == entries_.end()) return std::nullopt;
+    path = it->second.path;
+  }
+  try {
+    return io::ReadFileBytes(path);
+  } catch (const core::InputError&) {
+    return std::nullopt;
+  }
+}
+
+std::optional<runtime::BlobRef> BlobStore::Find(const std::string& sha256) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = entries_.find(sha256);
+  if (it == entries_.end()) return std::nullopt;
+  runtime::BlobRef ref;
+  ref.set_sha256(sha256);
+  ref.set_size(it->second.size);
+  ref.set_name(it->second.name);
+  return ref;
+}
+
+void BlobStore::Drop(const std::string& sha256) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = entries_.find(sha256);
+  if (it == entries_.end()) return;
+  if (it->second.owned) {
+    std::error_code ec;
+    fs::remove(it->second.path, ec);
+  }
+  entries_.erase(it);
+}
+
+}  // namespace dome::scheduler

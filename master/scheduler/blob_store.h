@@ -1,0 +1,43 @@
+// The master's blobs by content address (SHA-256 hex): take files are served from
+// where they lie; job outputs are kept under OUT/.blobs/<sha256> so a restarted master
+// finds them again (journal.h). Thread-safe (the surface stage runs beside the loop).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "runtime.pb.h"
+
+namespace dome::scheduler {
+
+class BlobStore {
+ public:
+  // Hashes the file and remembers its path. Throws core::InputError naming the file.
+  runtime::BlobRef AddFile(const std::filesystem::path& path, const std::string& name);
+  // Writes the bytes to dir/<sha256> (atomically, unless already there) and remembers.
+  runtime::BlobRef AddBytes(const std::filesystem::path& dir, const std::string& bytes,
+                            const std::string& name);
+  // Remembers dir/<sha256> written by an earlier master (journal resume); false when
+  // the file is not there or does not hash to `sha256`.
+  bool Adopt(const std::filesystem::path& dir, const std::string& sha256);
+  // The bytes, or nothing when unknown or unreadable.
+  std::optional<std::string> Read(const std::string& sha256) const;
+  std::optional<runtime::BlobRef> Find(const std::string& sha256) const;
+  // Forgets a blob; removes its file when the store wrote it under an output folder.
+  void Drop(const std::string& sha256);
+
+ private:
+  struct Entry {
+    std::filesystem::path path;
+    uint64_t size = 0;
+    std::string name;
+    bool owned = false;  // written by AddBytes: removed by Drop
+  };
+  mutable std::mutex mutex_;
+  std::map<std::string, Entry> entries_;
+};
+
+}  // namespace dome::scheduler

@@ -1,0 +1,1008 @@
+#include "scheduler/master.h"
+
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <optional>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "core/error.h"
+#include "io/file_util.h"
+#include "io/ply.h"
+#include "pipeline/content_hash.h"
+#include "pipeline/session.h"
+#include "pipeline/stages.h"
+#include "scheduler/blob_store.h"
+#include "scheduler/graph.h"
+#include "scheduler/journal.h"
+#include "stereo/cluster.h"
+#include "stereo/take_stereo.h"
+#include "take/take.h"
+
+namespace dome::scheduler {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+void MasterOptions::Check() const {
+  core::Require(heartbeat_interval_ms > 0, "heartbeat_interval_ms",
+                "must be positive, got " + std::to_string(heartbeat_interval_ms));
+  core::Require(heartbeat_liveness > 0, "heartbeat_liveness",
+                "must be positive, got " + std::to_string(heartbeat_liveness));
+  core::Require(max_job_losses > 0, "max_job_losses", "must be positive");
+  socket.Check();
+}
+
+namespace {
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+std::string Num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+std::string NewSessionId() {
+  static std::mt19937_64 rng(std::random_device{}());
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%08llx", (unsigned long long)(rng() & 0xffffffffULL));
+  return buf;
+}
+
+struct WorkerRec {
+  std::string id;    // routing id
+  std::string name;  // from Hello
+  int threads = 1;
+  int64_t cache_mb = 0;
+  Clock::time_point expiry;
+  std::string job;  // wire id of the running job, empty when idle
+};
+
+struct StageStats {
+  double job_seconds = 0;                   // summed over jobs
+  double first_start = -1, last_done = -1;  // seconds since the session started
+};
+
+struct InstantStats {
+  double first_start = -1, done = -1;
+};
+
+struct SessionRec {
+  std::string id;
+  int seq = 0;
+  runtime::Session spec;
+  pipeline::SessionOptions options;
+  take::Take take;
+  std::vector<std::string> cameras;
+  std::unique_ptr<JobGraph> graph;
+  std::unique_ptr<Journal> journal;
+  std::map<int, std::vector<runtime::BlobRef>> outputs;  // node -> output blobs (by name order)
+  std::map<int, std::string> running_on;                 // node -> worker id
+  std::map<int, int> losses;                             // node -> workers lost with it
+  std::map<int, double> dispatched_at;
+  std::string state = "running";
+  std::string error;
+  Clock::time_point start = Clock::now();
+  double finished_s = -1;
+  std::array<StageStats, kNumStages> stage_stats;
+  std::vector<InstantStats> instant_stats;
+  int num_slabs = 0;
+  runtime::BlobRef rig;
+  std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera]
+  int64_t bytes_to_workers = 0, bytes_from_workers = 0;
+  int requeued = 0, duplicates = 0, resumed = 0;
+  // The surface stage of one instant, running beside the loop.
+  std::map<int, std::future<runtime::BlobRef>> surface;
+
+  fs::path out() const { return spec.out(); }
+  fs::path blob_dir() const { return out() / ".blobs"; }
+  double Now() const { return Seconds(Clock::now() - start); }
+};
+
+}  // namespace
+
+struct Master::Impl {
+  zmq::context_t* context;
+  MasterOptions options;
+  MasterEndpoints endpoints;
+  zmq::socket_t workers_socket, control_socket, events_socket;
+  std::map<std::string, WorkerRec> workers;
+  std::map<std::string, std::unique_ptr<SessionRec>> sessions;
+  std::vector<std::string> session_order;
+  BlobStore blobs;
+  int next_seq = 0;
+  Clock::time_point next_heartbeat = Clock::now();
+
+  Impl(zmq::context_t* ctx, const MasterOptions& o)
+      : context(ctx),
+        options(o),
+        workers_socket(*ctx, zmq::socket_type::router),
+        control_socket(*ctx, zmq::socket_type::router),
+        events_socket(*ctx, zmq::socket_type::pub) {
+    options.Check();
+    Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
+    Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
+    Bind(&events_socket, options.events_endpoint, "--events", &endpoints.events);
+  }
+
+  void Bind(zmq::socket_t* s, const std::string& endpoint, const std::string& flag,
+            std::string* bound) {
+    net::ConfigureSocket(s, options.socket);
+    if (s == &workers_socket) s->set(zmq::sockopt::router_mandatory, 1);
+    try {
+      s->bind(endpoint);
+    } catch (const zmq::error_t& e) {
+      throw core::InputError(flag + " " + endpoint, std::string("cannot bind: ") + e.what());
+    }
+    *bound = net::BoundEndpoint(*s);
+  }
+
+  // ---- sending ----------------------------------------------------------------------
+
+  void SendToWorker(const std::string& id, const runtime::Envelope& env) {
+    const std::string bytes = net::EncodeEnvelope(env);
+    try {
+      if (!net::SendFrames(&workers_socket, {id, bytes})) {
+        spdlog::warn("{}: send would block; message dropped", net::PeerName(id));
+      }
+    } catch (const zmq::error_t& e) {
+      // router_mandatory: the peer is gone. Its expiry will re-queue its job.
+      spdlog::debug("{}: cannot send ({})", net::PeerName(id), e.what());
+    }
+  }
+
+  void Refuse(zmq::socket_t* s, const std::string& id, const std::string& reason, bool req) {
+    runtime::Envelope env;
+    env.mutable_refusal()->set_reason(reason);
+    const std::string bytes = net::EncodeEnvelope(env);
+    try {
+      if (req) {
+        net::SendFrames(s, {id, "", bytes});
+      } else {
+        net::SendFrames(s, {id, bytes});
+      }
+    } catch (const zmq::error_t&) {
+    }
+  }
+
+  void Publish(const SessionRec& s, int instant, Stage stage, const std::string& message) {
+    runtime::Envelope env;
+    auto* ev = env.mutable_status();
+    ev->set_session_id(s.id);
+    ev->set_state(s.state);
+    ev->set_elapsed_s(s.finished_s >= 0 ? s.finished_s : s.Now());
+    if (s.graph) {
+      ev->set_jobs_done(s.graph->done());
+      ev->set_jobs_total(s.graph->size());
+      if (instant >= 0) {
+        ev->set_instant(s.graph->instants()[instant]);
+        ev->set_stage(StageName(stage));
+        const StageCount c = s.graph->Count(instant, stage);
+        ev->set_done(c.done);
+        ev->set_total(c.total);
+      }
+    }
+    ev->set_message(message);
+    const std::string bytes = net::EncodeEnvelope(env);
+    net::SendFrames(&events_socket, {bytes});
+  }
+
+  // ---- sessions -----------------------------------------------------------------------
+
+  // The digest the journal is keyed on: the take, the instants and every resolved
+  // option (not the session id, not the output folder).
+  static std::string SessionDigest(const SessionRec& s) {
+    runtime::Session canon;
+    canon.set_take(fs::absolute(s.take.dir).lexically_normal().string());
+    for (const auto& in : s.graph->instants()) canon.add_instants(in);
+    *canon.mutable_stereo() = pipeline::ToStereoSettings(s.options.stereo);
+    *canon.mutable_volume() = pipeline::ToVolume(s.options.grid);
+    *canon.mutable_fusion() = pipeline::ToFusionSettings(s.options.fusion);
+    canon.set_slab_planes(s.options.slab_planes);
+    canon.set_decimate_ratio(s.options.decimate_ratio);
+    canon.set_texture(s.options.texture);
+    canon.set_write_previews(s.options.stereo.write_previews);
+    canon.set_noop_jobs(s.spec.noop_jobs());
+    std::string bytes;
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::io::CodedOutputStream coded(&stream);
+    coded.SetSerializationDeterministic(true);
+    canon.SerializeToCodedStream(&coded);
+    coded.Trim();
+    return pipeline::Sha256Hex(bytes);
+  }
+
+  std::string Submit(const runtime::Session& spec) {
+    auto s = std::make_unique<SessionRec>();
+    s->id = NewSessionId();
+    while (sessions.count(s->id) != 0) s->id = NewSessionId();
+    s->seq = next_seq++;
+    s->spec = spec;
+    core::Require(!spec.out().empty(), "session: out", "names no output folder");
+    s->options = pipeline::ResolveSessionOptions(spec, "session");
+    std::error_code ec;
+    fs::create_directories(s->out(), ec);
+    core::Require(!ec, s->out().string(), "cannot create the output folder: " + ec.message());
+    if (spec.noop_jobs() > 0) {
+      s->graph = std::make_unique<JobGraph>(JobGraph::Noop(spec.noop_jobs()));
+      s->instant_stats.resize(1);
+    } else {
+      core::Require(!spec.take().empty(), "session: take", "names no take folder");
+      s->take = take::OpenTake(spec.take());
+      const std::vector<std::string> instants = pipeline::SessionInstants(spec, s->take);
+      core::Require(!instants.empty(), spec.take(), "has no instants");
+      for (const auto& rc : s->take.rig.cameras) s->cameras.push_back(rc.model.id);
+      s->num_slabs = (s->options.grid.nz + s->options.slab_planes - 1) / s->options.slab_planes;
+      s->graph = std::make_unique<JobGraph>(instants, s->cameras, s->num_slabs);
+      s->instant_stats.resize(instants.size());
+      // Stereo clusters now, so that a bad rig fails the submit, not a worker.
+      for (const auto& c : s->cameras) {
+        stereo::SelectCluster(s->take.rig, c, s->options.stereo.cluster);
+      }
+      s->rig = blobs.AddFile(s->take.RigPath(), "rig.json");
+      for (const auto& in : instants) {
+        std::vector<runtime::BlobRef> row;
+        for (const auto& c : s->cameras) {
+          row.push_back(blobs.AddFile(s->take.FramePath(in, c), "frames/" + in + "/" + c + ".png"));
+        }
+        s->frames.push_back(std::move(row));
+      }
+    }
+    s->journal = std::make_unique<Journal>(s->out() / "journal.log", SessionDigest(*s));
+    Resume(s.get());
+    const std::string id = s->id;
+    spdlog::info(
+        "session {}: {} instants x {} cameras, {} slabs each, {} jobs ({} already done), "
+        "out {}",
+        id, s->graph->instants().size(), s->cameras.size(), s->num_slabs, s->graph->size(),
+        s->graph->done(), s->out().string());
+    session_order.push_back(id);
+    SessionRec* raw = s.get();
+    sessions[id] = std::move(s);
+    Publish(*raw, -1, Stage::kStereo, "submitted");
+    Advance(raw);
+    return id;
+  }
+
+  // Marks the jobs the journal records as done, when their outputs are still there.
+  void Resume(SessionRec* s) {
+    // Slab outputs are dropped once their instant's surface is done; a journal's
+    // fusion records then stand on the surface record.
+    std::set<int> surfaced;
+    for (const auto& [key, entry] : s->journal->done()) {
+      const int node = s->graph->Find(key);
+      if (node >= 0 && s->graph->node(node).stage == Stage::kSurface) {
+        surfaced.insert(s->graph->node(node).instant);
+      }
+    }
+    for (const auto& [key, entry] : s->journal->done()) {
+      const int node = s->graph->Find(key);
+      if (node < 0) continue;
+      const JobNode& n = s->graph->node(node);
+      std::vector<runtime::BlobRef> outs;
+      bool ok = true;
+      for (const auto& [name, sha] : entry.outputs) {
+        if (n.stage == Stage::kFusion && surfaced.count(n.instant) != 0) break;
+        if (!blobs.Adopt(s->blob_dir(), sha)) {
+          ok = false;
+          break;
+        }
+        auto ref = *blobs.Find(sha);
+        ref.set_name(name);
+        outs.push_back(ref);
+      }
+      if (!ok) {
+        spdlog::warn("session {}: journal names {} but its output is gone; redoing it", s->id, key);
+        continue;
+      }
+      s->outputs[node] = outs;
+      s->graph->MarkDone(node);
+      ++s->resumed;
+    }
+    if (s->resumed > 0) {
+      spdlog::info("session {}: resumed from {}: {} jobs already done", s->id,
+                   (s->out() / "journal.log").string(), s->resumed);
+    }
+  }
+
+  // Fills in a ready job's inputs (the outputs of the jobs it depends on).
+  runtime::Job MakeJob(SessionRec* s, int node, const WorkerRec& w) {
+    const JobNode& n = s->graph->node(node);
+    runtime::Job job;
+    job.set_id(s->id + "/" + n.key);
+    job.set_session_id(s->id);
+    job.set_instant(s->graph->instants()[n.instant]);
+    job.set_threads(w.threads);
+    auto add = [&](const runtime::BlobRef& b) { *job.add_blobs() = b; };
+    switch (n.stage) {
+      case Stage::kStereo: {
+        auto* sj = job.mutable_stereo();
+        sj->set_camera(s->cameras[n.part]);
+        *sj->mutable_stereo() = pipeline::ToStereoSettings(s->options.stereo);
+        const auto& frames = s->frames[n.instant];
+        add(s->rig);
+        add(frames[n.part]);
+        for (int j :
+             stereo::SelectCluster(s->take.rig, s->cameras[n.part], s->options.stereo.cluster)) {
+          sj->add_neighbours(s->cameras[j]);
+          add(frames[j]);
+        }
+        break;
+      }
+      case Stage::kFusion: {
+        auto* fj = job.mutable_fusion();
+        fj->set_k0(n.part * s->options.slab_planes);
+        fj->set_k1(std::min(s->options.grid.nz, (n.part + 1) * s->options.slab_planes));
+        *fj->mutable_volume() = pipeline::ToVolume(s->options.grid);
+        *fj->mutable_fusion() = pipeline::ToFusionSettings(s->options.fusion);
+        add(s->rig);
+        for (int c = 0; c < int(s->cameras.size()); ++c) {
+          add(s->outputs.at(
+              s->graph->Find(s->graph->instants()[n.instant] + "/stereo/" + s->cameras[c]))[0]);
+        }
+        break;
+      }
+      case Stage::kDecimate:
+        job.mutable_decimate()->set_ratio(s->options.decimate_ratio);
+        add(s->outputs.at(node - 1)[0]);  // the surface
+        break;
+      case Stage::kTexture:
+        job.mutable_texture()->set_atlas(s->options.texture);
+        add(s->rig);
+        add(s->outputs.at(node - 1)[0]);  // the decimated mesh
+        for (const auto& f : s->frames[n.instant]) add(f);
+        break;
+      case Stage::kNoop:
+        job.mutable_noop();
+        break;
+      case Stage::kSurface:
+        DOME_CHECK(false, "the surface is the master's stage");
+    }
+    return job;
+  }
+
+  // Starts master-side stages that became ready and finishes instants and sessions.
+  void Advance(SessionRec* s) {
+    if (s->state != "running") return;
+    for (int node : std::vector<int>(s->graph->ready().begin(), s->graph->ready().end())) {
+      const JobNode& n = s->graph->node(node);
+      if (n.stage != Stage::kSurface || s->surface.count(node) != 0) continue;
+      s->graph->MarkRunning(node);
+      StartSurface(s, node);
+    }
+    if (s->graph->AllDone()) Finish(s);
+  }
+
+  void StartSurface(SessionRec* s, int node) {
+    const JobNode& n = s->graph->node(node);
+    std::vector<runtime::BlobRef> slabs;
+    for (int k = 0; k < s->num_slabs; ++k) {
+      slabs.push_back(s->outputs.at(
+          s->graph->Find(s->graph->instants()[n.instant] + "/fusion/" + std::to_string(k)))[0]);
+    }
+    const fs::path dir = s->out() / s->graph->instants()[n.instant];
+    const fs::path blob_dir = s->blob_dir();
+    const fusion::VolumeGrid grid = s->options.grid;
+    Touch(s, node);
+    BlobStore* store = &blobs;
+    s->surface[node] = std::async(std::launch::async, [=]() {
+      const io::Mesh mesh = pipeline::ExtractSurface(grid, int(slabs.size()), [&](int k) {
+        auto bytes = store->Read(slabs[k].sha256());
+        core::Require(bytes.has_value(), "slab " + slabs[k].name(), "is not in the blob store");
+        return *bytes;
+      });
+      const std::string ply = pipeline::EncodeMeshPly(mesh);
+      fs::create_directories(dir);
+      io::WriteFileAtomically(dir / "mesh.ply", ply);
+      return store->AddBytes(blob_dir, ply, "mesh.ply");
+    });
+  }
+
+  void PollSurfaces() {
+    for (const auto& id : session_order) {
+      SessionRec* s = sessions[id].get();
+      for (auto it = s->surface.begin(); it != s->surface.end();) {
+        if (it->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+          ++it;
+          continue;
+        }
+        const int node = it->first;
+        try {
+          runtime::BlobRef mesh = it->second.get();
+          mesh.set_name("mesh.ply");
+          if (s->state == "running") Completed(s, node, {mesh}, 0.0);
+        } catch (const std::exception& e) {
+          Fail(s, "surface of " + s->graph->node(node).key + ": " + e.what());
+        }
+        it = s->surface.erase(it);
+      }
+    }
+  }
+
+  void Touch(SessionRec* s, int node) {
+    const JobNode& n = s->graph->node(node);
+    const double now = s->Now();
+    auto& st = s->stage_stats[int(n.stage)];
+    if (st.first_start < 0) st.first_start = now;
+    auto& is = s->instant_stats[n.instant];
+    if (is.first_start < 0) is.first_start = now;
+    s->dispatched_at[node] = now;
+  }
+
+  // A job's outputs are in: journal them, write the files they make, free what is no
+  // longer needed, and move the graph on.
+  void Completed(SessionRec* s, int node, const std::vector<runtime::BlobRef>& outs,
+                 double job_seconds) {
+    const JobNode& n = s->graph->node(node);
+    JournalEntry entry;
+    for (const auto& o : outs) entry.outputs.emplace_back(o.name(), o.sha256());
+    s->journal->RecordDone(n.key, entry);
+    s->outputs[node] = outs;
+    s->running_on.erase(node);
+    s->graph->MarkDone(node);
+    const double now = s->Now();
+    auto& st = s->stage_stats[int(n.stage)];
+    st.job_seconds += job_seconds > 0
+                          ? job_seconds
+                          : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
+    st.last_done = now;
+    if (n.stage == Stage::kSurface) {
+      // The slabs are in the mesh now; the journal's surface record stands for them.
+      for (int k = 0; k < s->num_slabs; ++k) {
+        const int f =
+            s->graph->Find(s->graph->instants()[n.instant] + "/fusion/" + std::to_string(k));
+        for (const auto& b : s->outputs[f]) blobs.Drop(b.sha256());
+        s->outputs[f].clear();
+      }
+    }
+    if (s->graph->InstantDone(n.instant)) {
+      s->instant_stats[n.instant].done = now;
+      spdlog::info("session {}: instant {} done ({:.2f} s)", s->id, s->graph->instants()[n.instant],
+                   now - s->instant_stats[n.instant].first_start);
+    }
+    Publish(*s, n.instant, n.stage, "");
+    Advance(s);
+  }
+
+  // Writes what a finished job makes in OUT; throws core::InputError on bad outputs.
+  std::vector<runtime::BlobRef> StoreOutputs(SessionRec* s, int node, const runtime::JobResult& r,
+                                             const std::string& peer) {
+    const JobNode& n = s->graph->node(node);
+    const std::string& instant = s->graph->instants()[n.instant];
+    const fs::path dir = s->out() / instant;
+    auto find = [&](const std::string& name) -> const std::string& {
+      for (const auto& o : r.outputs()) {
+        if (o.name() == name) return o.data();
+      }
+      throw core::InputError(peer, "result of " + r.job_id() + " lacks output '" + name + "'");
+    };
+    std::vector<runtime::BlobRef> outs;
+    switch (n.stage) {
+      case Stage::kStereo: {
+        const std::string& bytes = find(pipeline::kStereoOutput);
+        stereo::StereoResult result = pipeline::DecodeStereoOutput(bytes, peer + " " + r.job_id());
+        core::Require(result.camera == s->cameras[n.part], peer,
+                      "result of " + r.job_id() + " is for camera '" + result.camera + "'");
+        stereo::WriteStereoResult(result, instant, s->out(), s->options.stereo.write_previews);
+        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kStereoOutput));
+        break;
+      }
+      case Stage::kFusion: {
+        const std::string& bytes = find(pipeline::kSlabOutput);
+        const fusion::Slab slab = fusion::DecodeSlab(bytes, peer + " " + r.job_id());
+        core::Require(slab.k0 == n.part * s->options.slab_planes && slab.nx == s->options.grid.nx &&
+                          slab.ny == s->options.grid.ny,
+                      peer, "result of " + r.job_id() + " is not the slab asked for");
+        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kSlabOutput));
+        break;
+      }
+      case Stage::kDecimate: {
+        const std::string& bytes = find(pipeline::kDecimatedOutput);
+        io::ParsePly(bytes, peer + " " + r.job_id());
+        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kDecimatedOutput));
+        break;
+      }
+      case Stage::kTexture: {
+        fs::create_directories(dir);
+        const std::string& ply = find(pipeline::kDecimatedOutput);
+        io::ParsePly(ply, peer + " " + r.job_id());
+        std::vector<std::string> names = {pipeline::kDecimatedOutput};
+        if (s->options.texture) {
+          for (const char* name :
+               {pipeline::kTexturedObj, pipeline::kTexturedMtl, pipeline::kTexturedPng}) {
+            names.push_back(name);
+          }
+        }
+        for (const std::string& name : names) {
+          const std::string& bytes = find(name);
+          io::WriteFileAtomically(dir / name, bytes);
+          outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, name));
+        }
+        break;
+      }
+      case Stage::kNoop:
+        break;
+      case Stage::kSurface:
+        throw core::InputError(peer, "sent a result for the master's own stage " + r.job_id());
+    }
+    for (auto& o : outs) {
+      s->bytes_from_workers += int64_t(o.size());
+    }
+    return outs;
+  }
+
+  void Fail(SessionRec* s, const std::string& error) {
+    if (s->state != "running") return;
+    s->state = "failed";
+    s->error = error;
+    s->finished_s = s->Now();
+    spdlog::error("session {} failed: {}", s->id, error);
+    DropQueued(s);
+    Publish(*s, -1, Stage::kStereo, error);
+  }
+
+  void DropQueued(SessionRec* s) {
+    for (auto& [node, worker] : s->running_on) {
+      auto it = workers.find(worker);
+      if (it != workers.end()) it->second.job.clear();
+    }
+    s->running_on.clear();
+  }
+
+  void Finish(SessionRec* s) {
+    s->state = "done";
+    s->finished_s = s->Now();
+    WriteReport(*s);
+    spdlog::info(
+        "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
+        s->finished_s, s->graph->size(), s->requeued, s->duplicates);
+    Publish(*s, -1, Stage::kStereo, "done");
+  }
+
+  void WriteReport(const SessionRec& s) {
+    std::string j = "{\n  \"session\": \"" + s.id + "\",\n  \"take\": \"" + s.spec.take() +
+                    "\",\n  \"cameras\": " + std::to_string(s.cameras.size()) +
+                    ",\n  \"instants\": " + std::to_string(s.graph->instants().size()) +
+                    ",\n  \"slabs_per_instant\": " + std::to_string(s.num_slabs) +
+                    ",\n  \"jobs\": " + std::to_string(s.graph->size()) +
+                    ",\n  \"jobs_resumed_from_journal\": " + std::to_string(s.resumed) +
+                    ",\n  \"jobs_requeued\": " + std::to_string(s.requeued) +
+                    ",\n  \"duplicate_results_dropped\": " + std::to_string(s.duplicates) +
+                    ",\n  \"bytes_to_workers\": " + std::to_string(s.bytes_to_workers) +
+                    ",\n  \"bytes_from_workers\": " + std::to_string(s.bytes_from_workers) +
+                    ",\n  \"seconds\": " + Num(s.finished_s) + ",\n  \"seconds_per_instant\": " +
+                    Num(s.finished_s / double(s.graph->instants().size())) + ",\n  \"stages\": {";
+    bool first = true;
+    for (int k = 0; k < kNumStages; ++k) {
+      int total = 0;
+      for (int t = 0; t < int(s.graph->instants().size()); ++t)
+        total += s.graph->Count(t, Stage(k)).total;
+      if (total == 0) continue;
+      const auto& st = s.stage_stats[k];
+      j += std::string(first ? "" : ",") + "\n    \"" + StageName(Stage(k)) +
+           "\": {\"jobs\": " + std::to_string(total) + ", \"job_seconds\": " + Num(st.job_seconds) +
+           ", \"wall_seconds\": " +
+           Num(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0) + "}";
+      first = false;
+    }
+    j += "\n  },\n  \"per_instant\": [";
+    for (int t = 0; t < int(s.graph->instants().size()); ++t) {
+      const auto& is = s.instant_stats[t];
+      j += std::string(t ? "," : "") + "\n    {\"instant\": \"" + s.graph->instants()[t] +
+           "\", \"seconds\": " +
+           Num(is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0) +
+           ", \"done_at_seconds\": " + Num(is.done) + "}";
+    }
+    j += "\n  ]\n}\n";
+    io::WriteFileAtomically(s.out() / "report.json", j);
+  }
+
+  // ---- workers ------------------------------------------------------------------------
+
+  std::string WorkerName(const std::string& id) const {
+    auto it = workers.find(id);
+    if (it == workers.end()) return net::PeerName(id);
+    return "worker " + it->second.name + " (" + net::PeerName(id) + ")";
+  }
+
+  // Splits a wire job id into its session and node; nullopt when unknown.
+  std::optional<std::pair<SessionRec*, int>> FindJob(const std::string& job_id) {
+    const auto slash = job_id.find('/');
+    if (slash == std::string::npos) return std::nullopt;
+    auto it = sessions.find(job_id.substr(0, slash));
+    if (it == sessions.end() || !it->second->graph) return std::nullopt;
+    const int node = it->second->graph->Find(job_id.substr(slash + 1));
+    if (node < 0) return std::nullopt;
+    return std::make_pair(it->second.get(), node);
+  }
+
+  void LoseWorker(const std::string& id, const std::string& why) {
+    auto it = workers.find(id);
+    if (it == workers.end()) return;
+    const std::string name = WorkerName(id);
+    const std::string job = it->second.job;
+    workers.erase(it);
+    if (job.empty()) {
+      spdlog::warn("{} lost ({}); it was idle", name, why);
+      return;
+    }
+    auto found = FindJob(job);
+    if (!found) return;
+    auto [s, node] = *found;
+    auto running = s->running_on.find(node);
+    if (s->graph->node(node).state != JobState::kRunning || running == s->running_on.end() ||
+        running->second != id) {
+      return;
+    }
+    s->running_on.erase(node);
+    s->graph->Requeue(node);
+    ++s->requeued;
+    const int losses = ++s->losses[node];
+    spdlog::warn("{} lost ({}); re-queued job {} (lost {} time{})", name, why, job, losses,
+                 losses == 1 ? "" : "s");
+    if (losses >= options.max_job_losses) {
+      Fail(s, "job " + job + " was lost with " + std::to_string(losses) + " workers");
+    }
+  }
+
+  void OnWorkerMessage(const std::string& id, const runtime::Envelope& env) {
+    auto it = workers.find(id);
+    const Clock::time_point expiry =
+        Clock::now() +
+        std::chrono::milliseconds(options.heartbeat_interval_ms * options.heartbeat_liveness);
+    if (env.has_hello()) {
+      const auto& h = env.hello();
+      if (it != workers.end()) LoseWorker(id, "said Hello again");
+      WorkerRec w;
+      w.id = id;
+      w.name = h.name().empty() ? net::PeerName(id) : h.name().substr(0, 200);
+      w.threads = std::max(1, std::min(h.threads(), 1024));
+      w.cache_mb = h.cache_mb();
+      w.expiry = expiry;
+      workers[id] = w;
+      spdlog::info("worker {} joined ({}, {} threads, {} MB cache); {} workers", w.name,
+                   net::PeerName(id), w.threads, w.cache_mb, workers.size());
+      return;
+    }
+    if (it != workers.end()) it->second.expiry = expiry;
+    switch (env.body_case()) {
+      case runtime::Envelope::kHeartbeat:
+        break;
+      case runtime::Envelope::kDisconnect:
+        LoseWorker(id, "disconnected: " + env.disconnect().reason());
+        return;
+      case runtime::Envelope::kBlobRequest:
+        ServeBlobs(id, env.blob_request());
+        break;
+      case runtime::Envelope::kResult:
+        OnResult(id, env.result());
+        break;
+      default:
+        throw core::InputError(WorkerName(id), "sent a message a worker may not send");
+    }
+    if (it == workers.end()) {
+      // A worker the master does not know (it was declared lost, or the master
+      // restarted): it must say Hello again before it gets work.
+      runtime::Envelope bye;
+      bye.mutable_disconnect()->set_reason("unknown worker; reconnect and say Hello");
+      SendToWorker(id, bye);
+    }
+  }
+
+  void ServeBlobs(const std::string& id, const runtime::BlobRequest& req) {
+    for (const std::string& sha : req.sha256()) {
+      runtime::Envelope env;
+      auto* b = env.mutable_blob_reply()->add_blobs();
+      b->set_sha256(sha.substr(0, 64));
+      std::optional<std::string> bytes;
+      if (pipeline::IsSha256Hex(sha)) bytes = blobs.Read(sha);
+      if (!bytes) {
+        spdlog::warn("{}: asked for unknown blob '{}'", WorkerName(id), sha.substr(0, 80));
+        b->set_missing(true);
+      } else {
+        b->set_data(std::move(*bytes));
+        auto w = workers.find(id);
+        if (w != workers.end() && !w->second.job.empty()) {
+          auto found = FindJob(w->second.job);
+          if (found) found->first->bytes_to_workers += int64_t(b->data().size());
+        }
+      }
+      SendToWorker(id, env);
+    }
+  }
+
+  void OnResult(const std::string& id, const runtime::JobResult& r) {
+    const std::string peer = WorkerName(id);
+    auto w = workers.find(id);
+    if (w != workers.end() && w->second.job == r.job_id()) w->second.job.clear();
+    auto found = FindJob(r.job_id());
+    if (!found) {
+      throw core::InputError(peer, "result for unknown job id '" + r.job_id().substr(0, 200) + "'");
+    }
+    auto [s, node] = *found;
+    const JobNode& n = s->graph->node(node);
+    if (s->state != "running") {
+      spdlog::info("{}: result for {} of {} session {} dropped", peer, r.job_id(), s->state, s->id);
+      return;
+    }
+    if (n.state == JobState::kDone) {
+      ++s->duplicates;
+      spdlog::info("{}: late or duplicate result for {} dropped", peer, r.job_id());
+      return;
+    }
+    if (n.stage == Stage::kSurface || n.state == JobState::kWaiting) {
+      throw core::InputError(peer, "result for " + r.job_id() + ", which was never dispatched");
+    }
+    if (!r.ok()) {
+      // Jobs are deterministic: an input error on one worker is one on every worker.
+      Fail(s, "job " + r.job_id() + " failed on " + peer + ": " + r.error());
+      return;
+    }
+    std::vector<runtime::BlobRef> outs;
+    try {
+      outs = StoreOutputs(s, node, r, peer);
+    } catch (const core::InputError& e) {
+      spdlog::warn("{}: bad result for {}: {}", peer, r.job_id(), e.what());
+      if (n.state == JobState::kRunning && s->running_on[node] == id) {
+        s->running_on.erase(node);
+        s->graph->Requeue(node);
+        ++s->requeued;
+        spdlog::warn("re-queued job {} after a bad result", r.job_id());
+      }
+      return;
+    }
+    if (n.state == JobState::kReady) {
+      // Requeued after its worker was lost, and now the result came after all.
+      s->graph->MarkRunning(node);
+    } else if (s->running_on.count(node) && s->running_on[node] != id) {
+      auto other = workers.find(s->running_on[node]);
+      if (other != workers.end() && other->second.job == r.job_id()) other->second.job.clear();
+    }
+    Completed(s, node, outs, r.seconds());
+  }
+
+  void Dispatch() {
+    for (auto& [id, w] : workers) {
+      if (!w.job.empty()) continue;
+      // The highest-priority ready job over every running session (oldest first).
+      SessionRec* best = nullptr;
+      int node = -1;
+      for (const auto& sid : session_order) {
+        SessionRec* s = sessions[sid].get();
+        if (s->state != "running") continue;
+        for (int n : s->graph->ready()) {
+          if (s->graph->node(n).stage == Stage::kSurface) continue;
+          best = s;
+          node = n;
+          break;
+        }
+        if (best) break;
+      }
+      if (!best) return;
+      runtime::Job job = MakeJob(best, node, w);
+      best->graph->MarkRunning(node);
+      best->running_on[node] = id;
+      Touch(best, node);
+      w.job = job.id();
+      runtime::Envelope env;
+      *env.mutable_job() = std::move(job);
+      SendToWorker(id, env);
+    }
+  }
+
+  // ---- control ------------------------------------------------------------------------
+
+  runtime::SessionStatus Status(const SessionRec& s) const {
+    runtime::SessionStatus st;
+    st.set_id(s.id);
+    st.set_state(s.state);
+    st.set_take(s.spec.take());
+    st.set_out(s.spec.out());
+    st.set_error(s.error);
+    st.set_elapsed_s(s.finished_s >= 0 ? s.finished_s : s.Now());
+    st.set_workers(int(workers.size()));
+    if (!s.graph) return st;
+    st.set_jobs_done(s.graph->done());
+    st.set_jobs_total(s.graph->size());
+    for (int t = 0; t < int(s.graph->instants().size()); ++t) {
+      auto* is = st.add_instants();
+      is->set_instant(s.graph->instants()[t]);
+      is->set_done(s.graph->InstantDone(t));
+      for (int k = 0; k < kNumStages; ++k) {
+        const StageCount c = s.graph->Count(t, Stage(k));
+        if (c.total == 0) continue;
+        auto* sp = is->add_stages();
+        sp->set_stage(StageName(Stage(k)));
+        sp->set_done(c.done);
+        sp->set_total(c.total);
+      }
+    }
+    return st;
+  }
+
+  runtime::ControlReply OnControl(const runtime::ControlRequest& req) {
+    runtime::ControlReply reply;
+    reply.set_ok(true);
+    try {
+      switch (req.kind_case()) {
+        case runtime::ControlRequest::kSubmit:
+          reply.set_session_id(Submit(req.submit().session()));
+          *reply.add_sessions() = Status(*sessions[reply.session_id()]);
+          break;
+        case runtime::ControlRequest::kStatus:
+        case runtime::ControlRequest::kCancel: {
+          const std::string& id =
+              req.has_status() ? req.status().session_id() : req.cancel().session_id();
+          if (id.empty() && req.has_status()) {
+            for (const auto& sid : session_order) *reply.add_sessions() = Status(*sessions[sid]);
+            break;
+          }
+          auto it = sessions.find(id);
+          core::Require(it != sessions.end(), "session id",
+                        "no session '" + id.substr(0, 100) + "'");
+          if (req.has_cancel() && it->second->state == "running") {
+            it->second->state = "cancelled";
+            it->second->finished_s = it->second->Now();
+            DropQueued(it->second.get());
+            spdlog::info("session {} cancelled", id);
+            Publish(*it->second, -1, Stage::kStereo, "cancelled");
+          }
+          reply.set_session_id(id);
+          *reply.add_sessions() = Status(*it->second);
+          break;
+        }
+        case runtime::ControlRequest::kList:
+          for (const auto& sid : session_order) *reply.add_sessions() = Status(*sessions[sid]);
+          break;
+        default:
+          throw core::InputError("control request",
+                                 "names no request (submit, status, cancel, list)");
+      }
+    } catch (const core::InputError& e) {
+      reply.set_ok(false);
+      reply.set_error(e.what());
+    } catch (const std::exception& e) {
+      reply.set_ok(false);
+      reply.set_error(std::string("master: ") + e.what());
+    }
+    return reply;
+  }
+
+  // ---- loop -------------------------------------------------------------------------
+
+  static std::vector<zmq::message_t> ReceiveAll(zmq::socket_t* s) {
+    std::vector<zmq::message_t> frames;
+    while (true) {
+      zmq::message_t m;
+      if (!s->recv(m, zmq::recv_flags::dontwait)) break;
+      const bool more = m.more();
+      frames.push_back(std::move(m));
+      if (!more) break;
+    }
+    return frames;
+  }
+
+  void HandleWorkerSocket() {
+    for (int budget = 0; budget < 1000; ++budget) {
+      std::vector<zmq::message_t> frames = ReceiveAll(&workers_socket);
+      if (frames.empty()) return;
+      const std::string id = frames[0].to_string();
+      if (frames.size() != 2) {
+        spdlog::warn("{}: refused a message of {} frames on the worker socket (expected 1)",
+                     net::PeerName(id), frames.size() - 1);
+        Refuse(&workers_socket, id, "expected one frame per message", false);
+        continue;
+      }
+      try {
+        const runtime::Envelope env = net::DecodeEnvelope(
+            frames[1].to_string_view(), WorkerName(id), options.socket.max_message_bytes);
+        OnWorkerMessage(id, env);
+      } catch (const core::InputError& e) {
+        spdlog::warn("refused on the worker socket: {}", e.what());
+        Refuse(&workers_socket, id, e.what(), false);
+        // A known worker's refused message may have been its result (over the cap):
+        // its job would never finish, so it counts as lost with that worker.
+        auto w = workers.find(id);
+        if (w != workers.end() && !w->second.job.empty()) {
+          LoseWorker(id, std::string("sent a refused message: ") + e.what());
+        }
+      } catch (const std::exception& e) {
+        // Not the peer's fault (a file system error writing outputs...): say so, go on.
+        spdlog::error("{}: message not handled: {}", WorkerName(id), e.what());
+      }
+    }
+  }
+
+  void HandleControlSocket() {
+    for (int budget = 0; budget < 1000; ++budget) {
+      std::vector<zmq::message_t> frames = ReceiveAll(&control_socket);
+      if (frames.empty()) return;
+      const std::string id = frames[0].to_string();
+      const std::string peer = "control " + net::PeerName(id);
+      // REQ clients: [id, empty, payload]; DEALER clients: [id, payload].
+      const bool req = frames.size() == 3 && frames[1].size() == 0;
+      if (!(req || frames.size() == 2)) {
+        spdlog::warn("{}: refused a message of {} frames on the control socket", peer,
+                     frames.size() - 1);
+        Refuse(&control_socket, id, "expected [empty, request] frames", frames.size() >= 3);
+        continue;
+      }
+      runtime::ControlReply reply;
+      try {
+        const runtime::Envelope env = net::DecodeEnvelope(frames.back().to_string_view(), peer,
+                                                          options.socket.max_message_bytes);
+        core::Require(env.has_control(), peer, "sent a message that is not a control request");
+        reply = OnControl(env.control());
+      } catch (const core::InputError& e) {
+        spdlog::warn("refused on the control socket: {}", e.what());
+        Refuse(&control_socket, id, e.what(), req);
+        continue;
+      }
+      runtime::Envelope env;
+      *env.mutable_control_reply() = reply;
+      const std::string bytes = net::EncodeEnvelope(env);
+      if (req) {
+        net::SendFrames(&control_socket, {id, "", bytes});
+      } else {
+        net::SendFrames(&control_socket, {id, bytes});
+      }
+    }
+  }
+
+  void Run(const std::atomic<bool>* stop) {
+    const int interval = options.heartbeat_interval_ms;
+    while (!stop->load()) {
+      zmq::pollitem_t items[] = {{workers_socket.handle(), 0, ZMQ_POLLIN, 0},
+                                 {control_socket.handle(), 0, ZMQ_POLLIN, 0}};
+      try {
+        zmq::poll(items, 2, std::chrono::milliseconds(std::min(interval, 20)));
+      } catch (const zmq::error_t& e) {
+        if (e.num() != EINTR) throw;
+        continue;  // a signal; *stop says whether to go on
+      }
+      if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
+      if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
+      PollSurfaces();
+      const auto now = Clock::now();
+      std::vector<std::string> expired;
+      for (const auto& [id, w] : workers) {
+        if (now > w.expiry) expired.push_back(id);
+      }
+      for (const auto& id : expired) {
+        LoseWorker(id, "no heartbeat for " + std::to_string(interval * options.heartbeat_liveness) +
+                           " ms");
+      }
+      if (now >= next_heartbeat) {
+        runtime::Envelope hb;
+        hb.mutable_heartbeat();
+        for (const auto& [id, w] : workers) SendToWorker(id, hb);
+        next_heartbeat = now + std::chrono::milliseconds(interval);
+      }
+      Dispatch();
+    }
+    // Let running surface stages finish before the sockets and store go away.
+    for (auto& [id, s] : sessions) {
+      for (auto& [node, f] : s->surface) {
+        if (f.valid()) f.wait();
+      }
+    }
+  }
+};
+
+Master::Master(zmq::context_t* context, const MasterOptions& options)
+    : impl_(std::make_unique<Impl>(context, options)) {}
+Master::~Master() = default;
+const MasterEndpoints& Master::endpoints() const { return impl_->endpoints; }
+void Master::Run(const std::atomic<bool>* stop) { impl_->Run(stop); }
+
+}  // namespace dome::scheduler

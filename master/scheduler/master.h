@@ -1,0 +1,70 @@
+// The scheduler (SPEC.md "Components"; the ZeroMQ guide's Majordomo broker and
+// Paranoid Pirate heartbeating): one thread polls three sockets.
+//
+//   workers  ROUTER: dome-workers (DEALER) say Hello with their capacity, get Jobs,
+//            fetch blobs, return JobResults; heartbeats both ways.
+//   control  ROUTER: clients (REQ) submit, ask status, cancel, list.
+//   events   PUB: a StatusEvent whenever a job finishes or a session changes state.
+//
+// Each session is a job graph (graph.h) with a journal in its output folder
+// (journal.h); a restarted master given the same session resumes from it. A worker
+// silent for heartbeat_liveness intervals is dropped and its job re-queued; results
+// for finished jobs are dropped as duplicates; anything malformed is logged with the
+// peer and refused while the master keeps serving. `dome-master` and the embedded
+// `dome run` both run this class.
+//
+// Outputs of a session (OUT = Session.out):
+//   OUT/<instant>/depth/<camera>.tiff, reliability/, preview/   (stereo/take_stereo.h)
+//   OUT/<instant>/mesh.ply            marching cubes, binary PLY, world mm
+//   OUT/<instant>/mesh_decimated.ply  decimated, per-vertex colours
+//   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
+//   OUT/report.json                   per-stage and per-instant seconds and counts
+//   OUT/journal.log, OUT/.blobs/      the journal and the job outputs it names
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <zmq.hpp>
+
+#include "net/wire.h"
+
+namespace dome::scheduler {
+
+struct MasterOptions {
+  std::string worker_endpoint = "tcp://*:5555";   // ROUTER for dome-workers
+  std::string control_endpoint = "tcp://*:5556";  // ROUTER for clients
+  std::string events_endpoint = "tcp://*:5557";   // PUB of StatusEvents
+  int heartbeat_interval_ms = 1000;               // between heartbeats to each worker, ms
+  int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
+  int max_job_losses = 5;      // a job lost with this many workers fails its session
+  net::SocketOptions socket;
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
+};
+
+struct MasterEndpoints {
+  std::string workers, control, events;  // as bound (ports resolved)
+};
+
+class Master {
+ public:
+  // Binds the three sockets (errors name the endpoint).
+  Master(zmq::context_t* context, const MasterOptions& options);
+  ~Master();
+  Master(const Master&) = delete;
+  Master& operator=(const Master&) = delete;
+
+  const MasterEndpoints& endpoints() const;
+
+  // Serves until *stop becomes true (checked every few ms).
+  void Run(const std::atomic<bool>* stop);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dome::scheduler

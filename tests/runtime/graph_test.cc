@@ -1,0 +1,81 @@
+#include "scheduler/graph.h"
+
+#include <gtest/gtest.h>
+
+namespace dome::scheduler {
+namespace {
+
+TEST(JobGraph, StereoFirstThenSlabsThenSurfaceDecimateTexture) {
+  JobGraph g({"00-00-00-00", "00-00-00-01"}, {"c0", "c1", "c2"}, 4);
+  // Per instant: 3 stereo + 4 fusion + surface + decimate + texture.
+  ASSERT_EQ(g.size(), 2 * (3 + 4 + 3));
+  // Only the stereo jobs are ready at first, instant 0 before instant 1.
+  std::vector<std::string> ready;
+  for (int i : g.ready()) ready.push_back(g.node(i).key);
+  EXPECT_EQ(ready, (std::vector<std::string>{"00-00-00-00/stereo/c0", "00-00-00-00/stereo/c1",
+                                             "00-00-00-00/stereo/c2", "00-00-00-01/stereo/c0",
+                                             "00-00-00-01/stereo/c1", "00-00-00-01/stereo/c2"}));
+  // Fusion needs every depth map of its instant.
+  const int s0 = g.Find("00-00-00-00/stereo/c0");
+  const int s1 = g.Find("00-00-00-00/stereo/c1");
+  const int s2 = g.Find("00-00-00-00/stereo/c2");
+  g.MarkRunning(s0);
+  EXPECT_TRUE(g.MarkDone(s0).empty());
+  EXPECT_TRUE(g.MarkDone(s1).empty());
+  const std::vector<int> fusion = g.MarkDone(s2);
+  ASSERT_EQ(fusion.size(), 4u);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(g.node(fusion[k]).key, "00-00-00-00/fusion/" + std::to_string(k));
+  // Instant 0's fusion outranks instant 1's stereo (earlier instants first).
+  EXPECT_EQ(*g.ready().begin(), fusion[0]);
+  EXPECT_EQ(g.Count(0, Stage::kStereo).done, 3);
+  EXPECT_EQ(g.Count(0, Stage::kFusion).total, 4);
+  // The surface waits for every slab.
+  for (int k = 0; k < 3; ++k) EXPECT_TRUE(g.MarkDone(fusion[k]).empty());
+  const std::vector<int> surface = g.MarkDone(fusion[3]);
+  ASSERT_EQ(surface.size(), 1u);
+  EXPECT_EQ(g.node(surface[0]).key, "00-00-00-00/surface");
+  const std::vector<int> decimate = g.MarkDone(surface[0]);
+  ASSERT_EQ(decimate.size(), 1u);
+  EXPECT_EQ(g.node(decimate[0]).stage, Stage::kDecimate);
+  const std::vector<int> texture = g.MarkDone(decimate[0]);
+  ASSERT_EQ(texture.size(), 1u);
+  EXPECT_FALSE(g.InstantDone(0));
+  EXPECT_TRUE(g.MarkDone(texture[0]).empty());
+  EXPECT_TRUE(g.InstantDone(0));
+  EXPECT_FALSE(g.AllDone());
+  EXPECT_EQ(g.done(), 10);
+}
+
+TEST(JobGraph, RequeueAndDuplicateDone) {
+  JobGraph g({"t0"}, {"a", "b"}, 1);
+  const int a = g.Find("t0/stereo/a");
+  g.MarkRunning(a);
+  EXPECT_EQ(g.ready().count(a), 0u);
+  g.Requeue(a);  // its worker was lost
+  EXPECT_EQ(g.ready().count(a), 1u);
+  g.MarkRunning(a);
+  g.MarkDone(a);
+  // A second (late, duplicate) result changes nothing.
+  EXPECT_TRUE(g.MarkDone(a).empty());
+  EXPECT_EQ(g.done(), 1);
+  EXPECT_EQ(g.Count(0, Stage::kStereo).done, 1);
+  EXPECT_EQ(g.Find("t0/stereo/zz"), -1);
+}
+
+TEST(JobGraph, DoneOutOfOrderFromAJournal) {
+  // A resumed session marks jobs done in the journal's order; the later stages must
+  // not become ready before all their inputs are done.
+  JobGraph g({"t0"}, {"a", "b"}, 2);
+  g.MarkDone(g.Find("t0/fusion/0"));
+  g.MarkDone(g.Find("t0/stereo/a"));
+  std::vector<std::string> ready;
+  for (int i : g.ready()) ready.push_back(g.node(i).key);
+  EXPECT_EQ(ready, (std::vector<std::string>{"t0/stereo/b"}));
+  const std::vector<int> now = g.MarkDone(g.Find("t0/stereo/b"));
+  ASSERT_EQ(now.size(), 1u);
+  EXPECT_EQ(g.node(now[0]).key, "t0/fusion/1");
+}
+
+}  // namespace
+}  // namespace dome::scheduler

@@ -1,0 +1,65 @@
+// Envelopes, the blob cache and content hashes.
+#include "net/wire.h"
+
+#include <gtest/gtest.h>
+
+#include "net/blob_cache.h"
+#include "pipeline/content_hash.h"
+#include "testing/expect_error.h"
+
+namespace dome::net {
+namespace {
+
+TEST(Wire, RoundTripAndRefusals) {
+  runtime::Envelope env;
+  env.mutable_hello()->set_threads(3);
+  const std::string bytes = EncodeEnvelope(env);
+  const runtime::Envelope back = DecodeEnvelope(bytes, "peer x", 1 << 20);
+  EXPECT_EQ(back.version(), kProtocolVersion);
+  EXPECT_EQ(back.hello().threads(), 3);
+
+  testing::ExpectInputError([&] { DecodeEnvelope(bytes, "peer x", 4); },
+                            {"peer x", "over the cap of 4"});
+  testing::ExpectInputError([&] { DecodeEnvelope("\xff\xff\xff", "peer y", 1 << 20); },
+                            {"peer y", "not a dome runtime envelope"});
+  runtime::Envelope other = env;
+  other.set_version(kProtocolVersion + 6);
+  std::string other_bytes;
+  other.SerializeToString(&other_bytes);
+  testing::ExpectInputError([&] { DecodeEnvelope(other_bytes, "peer z", 1 << 20); },
+                            {"peer z", "protocol version " + std::to_string(kProtocolVersion + 6),
+                             "this side speaks version " + std::to_string(kProtocolVersion)});
+  runtime::Envelope empty;
+  testing::ExpectInputError([&] { DecodeEnvelope(EncodeEnvelope(empty), "p", 1 << 20); },
+                            {"without a message body"});
+  EXPECT_EQ(PeerName(std::string("\x00\x80\x01", 3)), "peer 0x008001");
+}
+
+TEST(BlobCache, EvictsLeastRecentlyUsedWithinTheBound) {
+  BlobCache cache(10);
+  auto blob = [](int n) { return std::make_shared<const std::string>(size_t(n), 'x'); };
+  cache.Put("a", blob(4));
+  cache.Put("b", blob(4));
+  EXPECT_NE(cache.Get("a"), nullptr);  // a is now more recent than b
+  cache.Put("c", blob(4));             // 12 > 10: b goes
+  EXPECT_EQ(cache.Get("b"), nullptr);
+  EXPECT_NE(cache.Get("a"), nullptr);
+  EXPECT_NE(cache.Get("c"), nullptr);
+  EXPECT_EQ(cache.bytes(), 8);
+  cache.Put("huge", blob(11));  // over the bound: not kept, nothing evicted
+  EXPECT_EQ(cache.Get("huge"), nullptr);
+  EXPECT_EQ(cache.size(), 2u);
+}
+
+TEST(ContentHash, Sha256OfKnownVectors) {
+  // FIPS 180-4 examples.
+  EXPECT_EQ(pipeline::Sha256Hex("abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(pipeline::Sha256Hex(""),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_TRUE(pipeline::IsSha256Hex(pipeline::Sha256Hex("x")));
+  EXPECT_FALSE(pipeline::IsSha256Hex("../etc/passwd"));
+}
+
+}  // namespace
+}  // namespace dome::net

@@ -1,0 +1,128 @@
+#include "stereo/options_json.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "io/depth_tiff.h"
+#include "testing/expect_error.h"
+#include "testing/run_command.h"
+#include "testing/temp_dir.h"
+
+namespace dome::stereo {
+namespace {
+
+void WriteText(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
+  TakeStereoOptions o;
+  o.stereo.z_min_mm = 600;
+  o.stereo.z_max_mm = 4200;
+  o.stereo.num_levels = 123;
+  o.stereo.level_step_px = 0.75;
+  o.stereo.window_sizes_px = {5, 9, 13};
+  o.stereo.normalize_contrast = true;
+  o.stereo.outside_difference_grey = 33;
+  o.stereo.min_curvature = 1.5;
+  o.stereo.min_uniqueness = 0.4;
+  o.stereo.min_texture_grey = 3;
+  o.cluster.max_neighbours = 2;
+  o.cluster.max_axis_angle_deg = 45;
+  const TakeStereoOptions r = ParseStereoOptionsJson(StereoOptionsToJson(o), "test");
+  EXPECT_EQ(r.stereo.z_min_mm, 600);
+  EXPECT_EQ(r.stereo.z_max_mm, 4200);
+  EXPECT_EQ(r.stereo.num_levels, 123);
+  EXPECT_EQ(r.stereo.level_step_px, 0.75);
+  EXPECT_EQ(r.stereo.window_sizes_px, (std::vector<int>{5, 9, 13}));
+  EXPECT_TRUE(r.stereo.normalize_contrast);
+  EXPECT_EQ(r.stereo.outside_difference_grey, 33);
+  EXPECT_EQ(r.stereo.min_curvature, 1.5);
+  EXPECT_EQ(r.stereo.min_uniqueness, 0.4);
+  EXPECT_EQ(r.stereo.min_texture_grey, 3);
+  EXPECT_EQ(r.cluster.max_neighbours, 2);
+  EXPECT_EQ(r.cluster.max_axis_angle_deg, 45);
+}
+
+TEST(StereoOptionsJsonTest, MissingFieldsKeepTheBase) {
+  TakeStereoOptions base;
+  base.stereo.min_texture_grey = 7;
+  base.stereo.num_threads = 3;
+  // Proto and lowerCamelCase names both map.
+  const TakeStereoOptions r =
+      ParseStereoOptionsJson(R"({"zMinMm": 900, "window_sizes_px": [11]})", "test", base);
+  EXPECT_EQ(r.stereo.z_min_mm, 900);
+  EXPECT_EQ(r.stereo.window_sizes_px, std::vector<int>{11});
+  EXPECT_EQ(r.stereo.z_max_mm, StereoOptions{}.z_max_mm);
+  EXPECT_EQ(r.stereo.min_texture_grey, 7);
+  EXPECT_EQ(r.stereo.num_threads, 3);
+}
+
+TEST(StereoOptionsJsonTest, BadInputNamesTheField) {
+  using dome::testing::ExpectInputError;
+  ExpectInputError([] { ParseStereoOptionsJson(R"({"zmin": 900})", "o.json"); },
+                   {"o.json", "zmin"});
+  ExpectInputError([] { ParseStereoOptionsJson(R"({"num_levels": "many"})", "o.json"); },
+                   {"o.json", "num_levels"});
+  ExpectInputError([] { ParseStereoOptionsJson("[1, 2]", "o.json"); }, {"o.json"});
+  ExpectInputError(
+      [] { ParseStereoOptionsJson(R"({"z_min_mm": 3000, "z_max_mm": 2000})", "o.json"); },
+      {"o.json: z_max_mm", "greater than z_min_mm"});
+  ExpectInputError([] { ParseStereoOptionsJson(R"({"window_sizes_px": [4]})", "o.json"); },
+                   {"o.json: window_sizes_px", "odd"});
+  ExpectInputError([] { ParseStereoOptionsJson(R"({"max_neighbours": 0})", "o.json"); },
+                   {"o.json: max_neighbours"});
+  dome::testing::TempDir dir;
+  ExpectInputError([&] { ReadStereoOptionsJson(dir / "missing.json"); }, {"missing.json"});
+}
+
+// `dome stereo --options FILE`: the file sets the options, flags given override it,
+// --profile real picks RealImageOptions(), and a bad file stops the command with the
+// field named.
+TEST(StereoOptionsJsonTest, CommandReadsOptionsFile) {
+  dome::testing::TempDir dir;
+  const std::string take = dir.File("take");
+  auto synth = dome::testing::RunDomeBinary(
+      "synth --preset small --instants 1 --no-tape "
+      "--no-calib --threads 2 --out " +
+      take);
+  ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  WriteText(dir / "opts.json", R"({"window_sizes_px": [5, 9], "min_uniqueness": 0.3})");
+  const std::string out = dir.File("out");
+  auto run = dome::testing::RunDomeBinary("stereo " + take + " --camera c00 --options " +
+                                          dir.File("opts.json") + " --windows 7 --threads 2 " +
+                                          "--no-preview --out " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  // --windows 7 replaced the file's [5, 9]: one range image, window 7.
+  EXPECT_NE(run.output.find("w7 density"), std::string::npos) << run.output;
+  EXPECT_EQ(run.output.find("w9"), std::string::npos) << run.output;
+  bool found = false;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out)) {
+    if (e.path().filename() == "c00.tiff" && e.path().parent_path().filename() == "depth") {
+      found = true;
+      EXPECT_EQ(io::ReadDepthTiff(e.path()).cols, 160);
+    }
+  }
+  EXPECT_TRUE(found);
+
+  // The real profile: windows 9 and 13.
+  auto real = dome::testing::RunDomeBinary("stereo " + take +
+                                           " --camera c00 --profile real --threads 2 "
+                                           "--no-preview --out " +
+                                           dir.File("out_real"));
+  ASSERT_EQ(real.exit_code, 0) << real.output;
+  EXPECT_NE(real.output.find("w9 density"), std::string::npos) << real.output;
+  EXPECT_NE(real.output.find("w13 density"), std::string::npos) << real.output;
+
+  WriteText(dir / "bad.json", R"({"z_min_mm": -5})");
+  auto bad = dome::testing::RunDomeBinary("stereo " + take + " --camera c00 --options " +
+                                          dir.File("bad.json") + " --out " + out);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("bad.json: z_min_mm"), std::string::npos) << bad.output;
+}
+
+}  // namespace
+}  // namespace dome::stereo

@@ -1,0 +1,252 @@
+#include "worker/worker.h"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <deque>
+#include <future>
+#include <set>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "core/timer.h"
+#include "net/blob_cache.h"
+#include "pipeline/content_hash.h"
+#include "pipeline/stages.h"
+
+namespace dome::worker {
+using Clock = std::chrono::steady_clock;
+
+void WorkerOptions::Check() const {
+  core::Require(!master.empty(), "--master", "names no master endpoint");
+  core::Require(cache_mb >= 0, "--cache-mb", "must not be negative");
+  core::Require(heartbeat_interval_ms > 0, "--heartbeat-ms", "must be positive");
+  core::Require(heartbeat_liveness > 0, "--liveness", "must be positive");
+  core::Require(reconnect_max_ms >= heartbeat_interval_ms, "--reconnect-max-ms",
+                "must be at least the heartbeat interval");
+  socket.Check();
+}
+
+struct Worker::Impl {
+  zmq::context_t* context;
+  WorkerOptions options;
+  std::unique_ptr<zmq::socket_t> socket;
+  net::BlobCache cache;
+  WorkerStats stats;
+  std::deque<runtime::Job> queue;   // jobs received, not started
+  std::set<std::string> requested;  // blobs asked for, not yet received
+  std::future<runtime::JobResult> running;
+  Clock::time_point master_expiry, next_heartbeat;
+  int backoff_ms;
+
+  Impl(zmq::context_t* ctx, const WorkerOptions& o)
+      : context(ctx), options(o), cache(o.cache_mb << 20), backoff_ms(o.heartbeat_interval_ms) {
+    options.Check();
+    if (options.threads <= 0) options.threads = core::HardwareThreads();
+    if (options.name.empty()) {
+      char host[256] = {0};
+      gethostname(host, sizeof host - 1);
+      options.name = std::string(host) + ":" + std::to_string(::getpid());
+    }
+  }
+
+  void Send(const runtime::Envelope& env) {
+    const std::string bytes = net::EncodeEnvelope(env);
+    net::SendFrames(socket.get(), {bytes});
+  }
+
+  void Connect() {
+    socket = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::dealer);
+    net::ConfigureSocket(socket.get(), options.socket);
+    socket->connect(options.master);
+    requested.clear();
+    runtime::Envelope env;
+    auto* h = env.mutable_hello();
+    h->set_name(options.name);
+    h->set_threads(options.threads);
+    h->set_cache_mb(options.cache_mb);
+    Send(env);
+    master_expiry = Clock::now() + Liveness();
+    next_heartbeat = Clock::now() + std::chrono::milliseconds(options.heartbeat_interval_ms);
+  }
+
+  std::chrono::milliseconds Liveness() const {
+    return std::chrono::milliseconds(options.heartbeat_interval_ms * options.heartbeat_liveness);
+  }
+
+  // Asks for the queued job's missing blobs; starts it when all are here.
+  void MaybeStart() {
+    if (running.valid() || queue.empty()) return;
+    const runtime::Job& job = queue.front();
+    std::vector<std::string> missing;
+    for (const auto& b : job.blobs()) {
+      if (!cache.Get(b.sha256()) && requested.count(b.sha256()) == 0) missing.push_back(b.sha256());
+    }
+    for (const auto& b : job.blobs()) {
+      if (requested.count(b.sha256()) != 0) return;  // on its way
+    }
+    if (!missing.empty()) {
+      // One blob per request: replies stay under the message cap, and they pipeline.
+      for (const auto& sha : missing) {
+        runtime::Envelope env;
+        env.mutable_blob_request()->add_sha256(sha);
+        Send(env);
+        requested.insert(sha);
+      }
+      return;
+    }
+    std::vector<std::shared_ptr<const std::string>> held;
+    for (const auto& b : job.blobs()) {
+      auto bytes = cache.Get(b.sha256());
+      if (!bytes) return;  // evicted meanwhile (cache too small): asked again next turn
+      held.push_back(bytes);
+    }
+    runtime::Job j = std::move(queue.front());
+    queue.pop_front();
+    running = std::async(std::launch::async, [j = std::move(j), held = std::move(held)]() {
+      runtime::JobResult result;
+      result.set_job_id(j.id());
+      core::Stopwatch watch;
+      try {
+        std::vector<std::string> blobs;
+        blobs.reserve(held.size());
+        for (const auto& h : held) blobs.push_back(*h);
+        for (auto& o : pipeline::RunJob(j, blobs)) *result.add_outputs() = std::move(o);
+        result.set_ok(true);
+      } catch (const std::exception& e) {
+        result.set_ok(false);
+        result.set_error(e.what());
+        result.clear_outputs();
+      }
+      result.set_seconds(watch.ElapsedSeconds());
+      return result;
+    });
+  }
+
+  void OnMessage(const runtime::Envelope& env) {
+    switch (env.body_case()) {
+      case runtime::Envelope::kHeartbeat:
+        break;
+      case runtime::Envelope::kJob:
+        spdlog::debug("job {}", env.job().id());
+        queue.push_back(env.job());
+        break;
+      case runtime::Envelope::kBlobReply:
+        for (const auto& b : env.blob_reply().blobs()) {
+          requested.erase(b.sha256());
+          if (b.missing()) {
+            spdlog::warn("master: has no blob {}; dropping the jobs that need it", b.sha256());
+            std::deque<runtime::Job> keep;
+            for (auto& j : queue) {
+              bool needs = false;
+              for (const auto& r : j.blobs()) needs |= r.sha256() == b.sha256();
+              if (!needs) keep.push_back(std::move(j));
+            }
+            queue.swap(keep);
+            continue;
+          }
+          if (pipeline::Sha256Hex(b.data()) != b.sha256()) {
+            spdlog::warn("master: blob {} does not hash to its address; asking again", b.sha256());
+            continue;
+          }
+          ++stats.blobs_fetched;
+          stats.bytes_fetched += int64_t(b.data().size());
+          cache.Put(b.sha256(), std::make_shared<const std::string>(b.data()));
+        }
+        break;
+      case runtime::Envelope::kDisconnect:
+        spdlog::info("master: {}", env.disconnect().reason());
+        Reconnect(false);
+        break;
+      case runtime::Envelope::kRefusal:
+        spdlog::warn("master refused a message: {}", env.refusal().reason());
+        break;
+      default:
+        spdlog::warn("master: unexpected message ignored");
+    }
+  }
+
+  void Reconnect(bool back_off) {
+    ++stats.reconnects;
+    if (back_off) {
+      spdlog::warn("master silent for {} ms; reconnecting in {} ms", Liveness().count(),
+                   backoff_ms);
+      std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+      backoff_ms = std::min(2 * backoff_ms, options.reconnect_max_ms);
+    }
+    // Jobs not started belong to the old connection: the master re-queues them.
+    queue.clear();
+    Connect();
+  }
+
+  void Run(const std::atomic<bool>* stop) {
+    Connect();
+    while (!stop->load()) {
+      zmq::pollitem_t items[] = {{socket->handle(), 0, ZMQ_POLLIN, 0}};
+      try {
+        zmq::poll(items, 1, std::chrono::milliseconds(10));
+      } catch (const zmq::error_t& e) {
+        if (e.num() != EINTR) throw;
+        continue;  // a signal; *stop says whether to go on
+      }
+      if (items[0].revents & ZMQ_POLLIN) {
+        for (int budget = 0; budget < 1000; ++budget) {
+          zmq::message_t m;
+          if (!socket->recv(m, zmq::recv_flags::dontwait)) break;
+          const bool more = m.more();
+          if (more) {
+            // Drain the rest of a multipart message: the master sends single frames.
+            zmq::message_t rest;
+            while (socket->recv(rest, zmq::recv_flags::dontwait) && rest.more()) {
+            }
+            spdlog::warn("master: multipart message ignored");
+            continue;
+          }
+          master_expiry = Clock::now() + Liveness();
+          backoff_ms = options.heartbeat_interval_ms;
+          try {
+            OnMessage(net::DecodeEnvelope(m.to_string_view(), "master " + options.master,
+                                          options.socket.max_message_bytes));
+          } catch (const core::InputError& e) {
+            spdlog::warn("refused: {}", e.what());
+          }
+        }
+      }
+      if (running.valid() &&
+          running.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+        runtime::Envelope env;
+        *env.mutable_result() = running.get();
+        ++stats.jobs;
+        if (!env.result().ok()) {
+          ++stats.failed_jobs;
+          spdlog::warn("job {} failed: {}", env.result().job_id(), env.result().error());
+        }
+        Send(env);
+      }
+      MaybeStart();
+      const auto now = Clock::now();
+      if (now >= next_heartbeat) {
+        runtime::Envelope hb;
+        hb.mutable_heartbeat();
+        Send(hb);
+        next_heartbeat = now + std::chrono::milliseconds(options.heartbeat_interval_ms);
+      }
+      if (now > master_expiry) Reconnect(true);
+    }
+    if (running.valid()) running.wait();
+    runtime::Envelope bye;
+    bye.mutable_disconnect()->set_reason("worker stopping");
+    Send(bye);
+  }
+};
+
+Worker::Worker(zmq::context_t* context, const WorkerOptions& options)
+    : impl_(std::make_unique<Impl>(context, options)) {}
+Worker::~Worker() = default;
+void Worker::Run(const std::atomic<bool>* stop) { impl_->Run(stop); }
+WorkerStats Worker::stats() const { return impl_->stats; }
+
+}  // namespace dome::worker
