@@ -169,13 +169,18 @@ struct Worker::Impl {
     }
   }
 
-  void Reconnect(bool back_off) {
+  void Reconnect(bool back_off, const std::atomic<bool>* stop = nullptr) {
     ++stats.reconnects;
     if (back_off) {
       spdlog::warn("master silent for {} ms; reconnecting in {} ms", Liveness().count(),
                    backoff_ms);
-      std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+      // Sleep in short steps so SIGTERM stops a worker whose master is gone at once.
+      const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
+      while (Clock::now() < until && !(stop && stop->load())) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
       backoff_ms = std::min(2 * backoff_ms, options.reconnect_max_ms);
+      if (stop && stop->load()) return;
     }
     // Jobs not started belong to the old connection: the master re-queues them.
     queue.clear();
@@ -234,7 +239,7 @@ struct Worker::Impl {
         Send(hb);
         next_heartbeat = now + std::chrono::milliseconds(options.heartbeat_interval_ms);
       }
-      if (now > master_expiry) Reconnect(true);
+      if (now > master_expiry) Reconnect(true, stop);
     }
     if (running.valid()) running.wait();
     runtime::Envelope bye;

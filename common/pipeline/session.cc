@@ -32,49 +32,6 @@ runtime::Session ReadSessionJson(const std::filesystem::path& path) {
   return session;
 }
 
-runtime::StereoSettings ToStereoSettings(const stereo::TakeStereoOptions& o) {
-  runtime::StereoSettings s;
-  s.set_z_min_mm(o.stereo.z_min_mm);
-  s.set_z_max_mm(o.stereo.z_max_mm);
-  s.set_num_levels(o.stereo.num_levels);
-  s.set_level_step_px(o.stereo.level_step_px);
-  for (int w : o.stereo.window_sizes_px) s.add_window_sizes_px(w);
-  s.set_normalize_contrast(o.stereo.normalize_contrast);
-  s.set_outside_difference_grey(o.stereo.outside_difference_grey);
-  s.set_min_curvature(o.stereo.min_curvature);
-  s.set_min_uniqueness(o.stereo.min_uniqueness);
-  s.set_min_texture_grey(o.stereo.min_texture_grey);
-  s.set_max_neighbours(o.cluster.max_neighbours);
-  s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
-  return s;
-}
-
-stereo::TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s,
-                                             const std::string& where) {
-  stereo::TakeStereoOptions o;
-  auto& st = o.stereo;
-  if (s.has_z_min_mm()) st.z_min_mm = s.z_min_mm();
-  if (s.has_z_max_mm()) st.z_max_mm = s.z_max_mm();
-  if (s.has_num_levels()) st.num_levels = s.num_levels();
-  if (s.has_level_step_px()) st.level_step_px = s.level_step_px();
-  if (s.window_sizes_px_size() > 0) {
-    st.window_sizes_px.assign(s.window_sizes_px().begin(), s.window_sizes_px().end());
-  }
-  if (s.has_normalize_contrast()) st.normalize_contrast = s.normalize_contrast();
-  if (s.has_outside_difference_grey()) st.outside_difference_grey = s.outside_difference_grey();
-  if (s.has_min_curvature()) st.min_curvature = s.min_curvature();
-  if (s.has_min_uniqueness()) st.min_uniqueness = s.min_uniqueness();
-  if (s.has_min_texture_grey()) st.min_texture_grey = s.min_texture_grey();
-  if (s.has_max_neighbours()) o.cluster.max_neighbours = s.max_neighbours();
-  if (s.has_max_axis_angle_deg()) o.cluster.max_axis_angle_deg = s.max_axis_angle_deg();
-  try {
-    o.Check();
-  } catch (const core::InputError& e) {
-    throw core::InputError(where + ": stereo", e.what());
-  }
-  return o;
-}
-
 runtime::Volume ToVolume(const fusion::VolumeGrid& g) {
   runtime::Volume v;
   for (int a = 0; a < 3; ++a) v.add_origin_mm(g.origin_mm[a]);
@@ -133,7 +90,7 @@ fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& s, doubl
 
 SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::string& where) {
   SessionOptions o;
-  o.stereo = FromStereoSettings(s.stereo(), where);
+  o.stereo = stereo::FromStereoSettings(s.stereo(), where);
   o.stereo.write_previews = s.has_write_previews() ? s.write_previews() : true;
   o.grid = FromVolume(s.volume(), where);
   o.fusion = FromFusionSettings(s.fusion(), o.grid.voxel_size_mm, where);

@@ -15,6 +15,7 @@
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
 #include "runtime.pb.h"
+#include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
 
@@ -43,10 +44,8 @@ SessionOptions ResolveSessionOptions(const runtime::Session& session, const std:
 // every instant of the take, in time order.
 std::vector<std::string> SessionInstants(const runtime::Session& session, const take::Take& take);
 
-// Protobuf forms of resolved options, as jobs carry them (every field set).
-runtime::StereoSettings ToStereoSettings(const stereo::TakeStereoOptions& options);
-stereo::TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& settings,
-                                             const std::string& where);
+// Protobuf forms of resolved options, as jobs carry them (every field set). The stereo
+// ones are stereo::ToStereoSettings / FromStereoSettings (stereo/options_json.h).
 runtime::Volume ToVolume(const fusion::VolumeGrid& grid);
 fusion::VolumeGrid FromVolume(const runtime::Volume& volume, const std::string& where);
 runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& options);

@@ -70,7 +70,7 @@ std::vector<runtime::Output> RunStereo(const runtime::Job& job,
   const runtime::StereoJob& sj = job.stereo();
   RequireBlobs(job, blobs, 2 + sj.neighbours_size());
   const take::Rig rig = RigBlob(job, blobs);
-  stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), "job " + job.id());
+  stereo::TakeStereoOptions options = stereo::FromStereoSettings(sj.stereo(), "job " + job.id());
   options.stereo.num_threads = job.threads();
   auto camera = [&](const std::string& id) {
     const int k = rig.Find(id);

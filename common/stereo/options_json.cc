@@ -10,16 +10,25 @@
 
 namespace dome::stereo {
 
-TakeStereoOptions ParseStereoOptionsJson(const std::string& json, const std::string& where,
-                                         const TakeStereoOptions& base) {
+runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
   runtime::StereoSettings s;
-  google::protobuf::util::JsonParseOptions parse;
-  parse.ignore_unknown_fields = false;
-  const auto status = google::protobuf::util::JsonStringToMessage(json, &s, parse);
-  // Protobuf's message names the field ("Cannot find field: zmin", "Invalid value for
-  // int32 field num_levels").
-  core::Require(status.ok(), where,
-                "not a stereo options object (" + std::string(status.message()) + ")");
+  s.set_z_min_mm(o.stereo.z_min_mm);
+  s.set_z_max_mm(o.stereo.z_max_mm);
+  s.set_num_levels(o.stereo.num_levels);
+  s.set_level_step_px(o.stereo.level_step_px);
+  for (int w : o.stereo.window_sizes_px) s.add_window_sizes_px(w);
+  s.set_normalize_contrast(o.stereo.normalize_contrast);
+  s.set_outside_difference_grey(o.stereo.outside_difference_grey);
+  s.set_min_curvature(o.stereo.min_curvature);
+  s.set_min_uniqueness(o.stereo.min_uniqueness);
+  s.set_min_texture_grey(o.stereo.min_texture_grey);
+  s.set_max_neighbours(o.cluster.max_neighbours);
+  s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
+  return s;
+}
+
+TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std::string& where,
+                                     const TakeStereoOptions& base) {
   TakeStereoOptions o = base;
   auto& st = o.stereo;
   if (s.has_z_min_mm()) st.z_min_mm = s.z_min_mm();
@@ -48,25 +57,26 @@ TakeStereoOptions ParseStereoOptionsJson(const std::string& json, const std::str
   return o;
 }
 
+TakeStereoOptions ParseStereoOptionsJson(const std::string& json, const std::string& where,
+                                         const TakeStereoOptions& base) {
+  runtime::StereoSettings s;
+  google::protobuf::util::JsonParseOptions parse;
+  parse.ignore_unknown_fields = false;
+  const auto status = google::protobuf::util::JsonStringToMessage(json, &s, parse);
+  // Protobuf's message names the field ("Cannot find field: zmin", "Invalid value for
+  // int32 field num_levels").
+  core::Require(status.ok(), where,
+                "not a stereo options object (" + std::string(status.message()) + ")");
+  return FromStereoSettings(s, where, base);
+}
+
 TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& path,
                                         const TakeStereoOptions& base) {
   return ParseStereoOptionsJson(io::ReadFileBytes(path), path.string(), base);
 }
 
 std::string StereoOptionsToJson(const TakeStereoOptions& o) {
-  runtime::StereoSettings s;
-  s.set_z_min_mm(o.stereo.z_min_mm);
-  s.set_z_max_mm(o.stereo.z_max_mm);
-  s.set_num_levels(o.stereo.num_levels);
-  s.set_level_step_px(o.stereo.level_step_px);
-  for (int w : o.stereo.window_sizes_px) s.add_window_sizes_px(w);
-  s.set_normalize_contrast(o.stereo.normalize_contrast);
-  s.set_outside_difference_grey(o.stereo.outside_difference_grey);
-  s.set_min_curvature(o.stereo.min_curvature);
-  s.set_min_uniqueness(o.stereo.min_uniqueness);
-  s.set_min_texture_grey(o.stereo.min_texture_grey);
-  s.set_max_neighbours(o.cluster.max_neighbours);
-  s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
+  const runtime::StereoSettings s = ToStereoSettings(o);
   google::protobuf::util::JsonPrintOptions print;
   print.add_whitespace = true;
   print.preserve_proto_field_names = true;

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <string>
 
+#include "runtime.pb.h"
 #include "stereo/take_stereo.h"
 
 namespace dome::stereo {
@@ -27,6 +28,12 @@ TakeStereoOptions ParseStereoOptionsJson(const std::string& json, const std::str
 // Reads and parses a file (errors name the path).
 TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& path,
                                         const TakeStereoOptions& base = {});
+
+// The protobuf form jobs and session files carry. FromStereoSettings applies the fields
+// that are set over `base` and checks the result (errors "<where>: <field>").
+runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& options);
+TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& settings,
+                                     const std::string& where, const TakeStereoOptions& base = {});
 
 // The JSON of `options` (every field written), parseable by ParseStereoOptionsJson.
 std::string StereoOptionsToJson(const TakeStereoOptions& options);

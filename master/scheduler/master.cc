@@ -205,7 +205,7 @@ struct Master::Impl {
     runtime::Session canon;
     canon.set_take(fs::absolute(s.take.dir).lexically_normal().string());
     for (const auto& in : s.graph->instants()) canon.add_instants(in);
-    *canon.mutable_stereo() = pipeline::ToStereoSettings(s.options.stereo);
+    *canon.mutable_stereo() = stereo::ToStereoSettings(s.options.stereo);
     *canon.mutable_volume() = pipeline::ToVolume(s.options.grid);
     *canon.mutable_fusion() = pipeline::ToFusionSettings(s.options.fusion);
     canon.set_slab_planes(s.options.slab_planes);
@@ -328,7 +328,7 @@ struct Master::Impl {
       case Stage::kStereo: {
         auto* sj = job.mutable_stereo();
         sj->set_camera(s->cameras[n.part]);
-        *sj->mutable_stereo() = pipeline::ToStereoSettings(s->options.stereo);
+        *sj->mutable_stereo() = stereo::ToStereoSettings(s->options.stereo);
         const auto& frames = s->frames[n.instant];
         add(s->rig);
         add(frames[n.part]);
