@@ -12,6 +12,7 @@
 #include "io/image_io.h"
 #include "io/ply.h"
 #include "mesh/decimate.h"
+#include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
 #include "mesh/texture.h"
 #include "pipeline/session.h"
@@ -173,14 +174,18 @@ std::vector<runtime::Output> RunTexture(const runtime::Job& job,
                                                       "_" + std::to_string(std::random_device{}()));
     fs::create_directories(dir);
     try {
-      mesh::WriteTexturedObj(dir / kTexturedObj,
-                             mesh::BuildTextureAtlas(decimated, views, options));
+      const mesh::TexturedMesh textured = mesh::BuildTextureAtlas(decimated, views, options);
+      mesh::WriteTexturedObj(dir / kTexturedObj, textured);
       for (const char* name : {kTexturedObj, kTexturedMtl, kTexturedPng}) {
         runtime::Output o;
         o.set_name(name);
         o.set_data(io::ReadFileBytes(dir / name));
         outputs.push_back(std::move(o));
       }
+      runtime::Output glb;
+      glb.set_name(kTexturedGlb);
+      glb.set_data(mesh::EncodeGlb(textured));
+      outputs.push_back(std::move(glb));
     } catch (...) {
       std::error_code ec;
       fs::remove_all(dir, ec);

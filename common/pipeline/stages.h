@@ -30,6 +30,7 @@ inline constexpr const char* kDecimatedOutput = "mesh_decimated.ply";
 inline constexpr const char* kTexturedObj = "textured.obj";
 inline constexpr const char* kTexturedMtl = "textured.mtl";
 inline constexpr const char* kTexturedPng = "textured.png";
+inline constexpr const char* kTexturedGlb = "textured.glb";  // the same mesh, one binary glTF
 
 // Runs one job; `blobs` are the bytes of job.blobs, in the job's order. Returns its
 // outputs (names above). `threads` <= 0: all hardware threads.

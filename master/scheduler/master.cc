@@ -518,8 +518,8 @@ struct Master::Impl {
         io::ParsePly(ply, peer + " " + r.job_id());
         std::vector<std::string> names = {pipeline::kDecimatedOutput};
         if (s->options.texture) {
-          for (const char* name :
-               {pipeline::kTexturedObj, pipeline::kTexturedMtl, pipeline::kTexturedPng}) {
+          for (const char* name : {pipeline::kTexturedObj, pipeline::kTexturedMtl,
+                                   pipeline::kTexturedPng, pipeline::kTexturedGlb}) {
             names.push_back(name);
           }
         }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <random>
@@ -196,6 +197,13 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   for (const char* f : {"textured.obj", "textured.mtl", "textured.png"}) {
     EXPECT_GT(fs::file_size(reference_ / instant / f), 0u) << f;
   }
+  // The same textured mesh as one GLB: its header names the container and its length.
+  const std::string glb = io::ReadFileBytes(reference_ / instant / "textured.glb");
+  ASSERT_GE(glb.size(), 12u);
+  EXPECT_EQ(glb.substr(0, 4), "glTF");
+  uint32_t glb_length = 0;
+  std::memcpy(&glb_length, glb.data() + 8, 4);
+  EXPECT_EQ(glb_length, glb.size());
   const std::string report = io::ReadFileBytes(reference_ / "report.json");
   for (const char* key : {"\"stereo\": {\"jobs\": 12", "\"fusion\": {\"jobs\": 30", "\"surface\"",
                           "\"decimate\"", "\"texture\"", "\"seconds_per_instant\""}) {
