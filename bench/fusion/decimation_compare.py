@@ -12,8 +12,9 @@ surface to the original surface, and of the original to the decimated one. Print
 """
 import json, os, subprocess, sys, time
 
-import numpy as np
 import open3d as o3d
+
+from mesh_distance import quality
 
 args = sys.argv[1:]
 ratio = "0.1"
@@ -44,23 +45,8 @@ t_o3d = time.perf_counter() - t0
 o3d.io.write_triangle_mesh(os.path.join(out, "open3d_decimated.ply"), theirs)
 
 
-def distances(a, b, n=300000):
-    """Uniform samples on a, unsigned distance to b's surface (mm)."""
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(b))
-    pts = np.asarray(a.sample_points_uniformly(n).points, np.float32)
-    return scene.compute_distance(o3d.core.Tensor(pts)).numpy()
-
-
-def quality(m):
-    d1 = distances(m, orig)
-    d2 = distances(orig, m)
-    return {"triangles": len(m.triangles), "to_original_mean_mm": float(d1.mean()),
-            "to_original_max_mm": float(d1.max()), "from_original_mean_mm": float(d2.mean()),
-            "from_original_max_mm": float(d2.max())}
-
 
 o3d.utility.random.seed(1)
 print(json.dumps({"mesh": mesh_path, "original_triangles": len(orig.triangles),
-                  "dome": quality(ours), "dome_seconds": dome_info["seconds"],
-                  "open3d": quality(theirs), "open3d_seconds": t_o3d}, indent=1))
+                  "dome": quality(ours, orig), "dome_seconds": dome_info["seconds"],
+                  "open3d": quality(theirs, orig), "open3d_seconds": t_o3d}, indent=1))

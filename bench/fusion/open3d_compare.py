@@ -26,6 +26,8 @@ os.environ["OMP_NUM_THREADS"] = threads
 import numpy as np
 import open3d as o3d
 
+from mesh_distance import quality
+
 bench, take, instant, out = args[:4]
 res = subprocess.run([bench, take, instant, out, "--threads", threads, "--slab-planes", "32"],
                      check=True, capture_output=True, text=True)
@@ -68,21 +70,6 @@ theirs = orig.simplify_quadric_decimation(target_number_of_triangles=target)
 t_o3d_dec = time.perf_counter() - t0
 
 
-def distances(a, b, n=300000):
-    """Samples on a, unsigned distance to b's surface (mm)."""
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(b))
-    pts = np.asarray(a.sample_points_uniformly(n).points, np.float32)
-    return scene.compute_distance(o3d.core.Tensor(pts)).numpy()
-
-
-def quality(m):
-    d1 = distances(m, orig)
-    d2 = distances(orig, m)
-    return {"triangles": len(m.triangles), "to_original_mean_mm": float(d1.mean()),
-            "to_original_max_mm": float(d1.max()), "from_original_mean_mm": float(d2.mean()),
-            "from_original_max_mm": float(d2.max())}
-
 
 o3d.utility.random.seed(1)
 report = {
@@ -91,7 +78,7 @@ report = {
     "open3d_extract_mesh_s": t_o3d_mc,
     "open3d_triangles": len(o3d_mesh.triangles),
     "fusion_speedup_vs_open3d": best / dome["fusion_s"],
-    "decimation_10pct": {"dome": quality(ours), "open3d": quality(theirs),
+    "decimation_10pct": {"dome": quality(ours, orig), "open3d": quality(theirs, orig),
                          "open3d_seconds": t_o3d_dec, "dome_seconds": dome["decimation_s"]},
 }
 print(json.dumps(report, indent=1))

@@ -348,6 +348,8 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   dec->add_option("--max-error-mm", d->options.max_error_mm,
                   "stop before moving the surface more, mm");
   dec->add_flag("--free-border", d->free_border, "let open borders move");
+  dec->add_flag("!--no-relocate", d->options.relocate_vertices,
+                "keep surviving vertices where the simplifier left them");
   dec->callback([=] {
     mesh::DecimationOptions o = d->options;
     o.lock_border = !d->free_border;

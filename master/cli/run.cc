@@ -96,6 +96,15 @@ int ExitCodeFor(const runtime::SessionStatus& st) {
   return st.state() == "done" ? 0 : 1;
 }
 
+// Sends one control request and prints the sessions of the reply; the exit code.
+int RequestAndPrintSessions(const MasterArgs& m, const runtime::ControlRequest& req) {
+  zmq::context_t context;
+  for (const auto& s : client::Request(&context, m.master, req).sessions()) {
+    std::fputs(client::FormatStatus(s).c_str(), stdout);
+  }
+  return 0;
+}
+
 }  // namespace
 
 void AddRunCommand(CLI::App* app, int* exit_code) {
@@ -151,14 +160,9 @@ void AddStatusCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("ID", *id, "session id");
   AddMasterFlags(cmd, m.get());
   cmd->callback([=] {
-    zmq::context_t context;
     runtime::ControlRequest req;
     req.mutable_status()->set_session_id(*id);
-    const runtime::ControlReply reply = client::Request(&context, m->master, req);
-    for (const auto& s : reply.sessions()) {
-      std::fputs(client::FormatStatus(s).c_str(), stdout);
-    }
-    *exit_code = 0;
+    *exit_code = RequestAndPrintSessions(*m, req);
   });
 }
 
@@ -181,14 +185,9 @@ void AddCancelCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("ID", *id, "session id")->required();
   AddMasterFlags(cmd, m.get());
   cmd->callback([=] {
-    zmq::context_t context;
     runtime::ControlRequest req;
     req.mutable_cancel()->set_session_id(*id);
-    const runtime::ControlReply reply = client::Request(&context, m->master, req);
-    for (const auto& s : reply.sessions()) {
-      std::fputs(client::FormatStatus(s).c_str(), stdout);
-    }
-    *exit_code = 0;
+    *exit_code = RequestAndPrintSessions(*m, req);
   });
 }
 
