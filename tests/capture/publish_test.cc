@@ -208,6 +208,8 @@ TEST(Publish, IngestRestartedDuringCaptureLosesNothing) {
     publisher.Pump(5);
     if (++published == 12) {
       ingest.reset();  // the master goes down ...
+    } else if (published == 13) {
+      publisher.Pump(500);  // ... long enough for a frame to time out: the publisher reconnects
     } else if (published == 25) {
       ingest =
           std::make_unique<IngestThread>(IngestOptions{.bind = endpoint, .take_dir = dir / "take"});
