@@ -81,6 +81,24 @@ bool SolveFocalTz(const Matrix3d& r, double tx, double ty,
   return true;
 }
 
+// Tsai's sign test: a negative focal length means the rotation's third row and column
+// have the wrong sign; flip them and solve again (throws naming `where` when singular).
+void SolveFocalTzWithSign(Matrix3d* r, double tx, double ty,
+                          const std::vector<Correspondence>& points,
+                          const std::vector<Vector2d>& sensor, const std::string& where, double* f,
+                          double* tz) {
+  core::Require(SolveFocalTz(*r, tx, ty, points, sensor, f, tz), where,
+                "degenerate solution (f, tz)");
+  if (*f >= 0) return;
+  (*r)(0, 2) = -(*r)(0, 2);
+  (*r)(1, 2) = -(*r)(1, 2);
+  (*r)(2, 0) = -(*r)(2, 0);
+  (*r)(2, 1) = -(*r)(2, 1);
+  *r = NearestRotation(*r);
+  core::Require(SolveFocalTz(*r, tx, ty, points, sensor, f, tz), where,
+                "degenerate solution (f, tz)");
+}
+
 // Resolves the sign of ty with the point farthest from the image centre: the camera
 // frame x, y of a point have the signs of its sensor coordinates (Tsai, step 3).
 bool TyIsPositive(const Vector3d& r1_over, const Vector3d& r2_over, double tx_over, double ty,
@@ -239,16 +257,7 @@ geometry::TsaiCamera NonCoplanarImpl(const CameraPrior& prior, double cx_px, dou
   std::vector<Vector2d> sd(n);
   for (int i = 0; i < n; ++i) sd[i] = Vector2d(s[i].x() / sx, s[i].y());
   double f = 0, tz = 0;
-  core::Require(SolveFocalTz(r, tx, ty, points, sd, &f, &tz), where, "degenerate solution (f, tz)");
-  if (f < 0) {
-    r(0, 2) = -r(0, 2);
-    r(1, 2) = -r(1, 2);
-    r(2, 0) = -r(2, 0);
-    r(2, 1) = -r(2, 1);
-    r = NearestRotation(r);
-    core::Require(SolveFocalTz(r, tx, ty, points, sd, &f, &tz), where,
-                  "degenerate solution (f, tz)");
-  }
+  SolveFocalTzWithSign(&r, tx, ty, points, sd, where, &f, &tz);
   geometry::TsaiCamera cam;
   cam.id = prior.id;
   cam.width_px = prior.width_px;
@@ -329,16 +338,7 @@ geometry::TsaiCamera CoplanarImpl(const geometry::TsaiCamera& intrinsics,
   r.row(2) = r.row(0).cross(r.row(1));
   r = NearestRotation(r);
   double f = 0, tz = 0;
-  core::Require(SolveFocalTz(r, tx, ty, points, s, &f, &tz), where, "degenerate solution (f, tz)");
-  if (f < 0) {
-    r(0, 2) = -r(0, 2);
-    r(1, 2) = -r(1, 2);
-    r(2, 0) = -r(2, 0);
-    r(2, 1) = -r(2, 1);
-    r = NearestRotation(r);
-    core::Require(SolveFocalTz(r, tx, ty, points, s, &f, &tz), where,
-                  "degenerate solution (f, tz)");
-  }
+  SolveFocalTzWithSign(&r, tx, ty, points, s, where, &f, &tz);
   geometry::TsaiCamera cam = intrinsics;
   if (fix_focal) {
     // tz with the known f: least squares of Yd tz = f yc - Yd w.
