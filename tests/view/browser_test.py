@@ -33,20 +33,26 @@ def label_of(name):
 def mesh_pixels_check(b, what):
     """Asserts the mesh is drawn where it projects: the canvas pixels inside its projected
     triangles change when the mesh is hidden, and are then the background colour."""
-    b.eval("domeViewer.setCamerasVisible(false)")
-    points = b.eval("domeViewer.projectMesh(200)")
-    assert len(points) >= 50, "%s: only %d triangles project into the canvas" % (what, len(points))
-    shown = b.eval("domeViewer.readPixels(%s)" % json.dumps(points))
-    b.eval("domeViewer.setMeshVisible(false)")
-    hidden = b.eval("domeViewer.readPixels(%s)" % json.dumps(points + [[5, 5]]))
-    b.eval("domeViewer.setMeshVisible(true)")
-    b.eval("domeViewer.setCamerasVisible(true)")
-    background = hidden.pop()
-
     def diff(p, q):
         return sum(abs(p[k] - q[k]) for k in range(3))
 
-    drawn = sum(diff(p, q) > 6 for p, q in zip(shown, hidden)) / len(points)
+    # A mesh still being swapped in when the pixels are read shows as undrawn: look again
+    # (up to three times, a second apart) before judging.
+    for attempt in range(3):
+        if attempt:
+            time.sleep(1)
+        b.eval("domeViewer.setCamerasVisible(false)")
+        points = b.eval("domeViewer.projectMesh(200)")
+        assert len(points) >= 50, "%s: only %d triangles project into the canvas" % (what, len(points))
+        shown = b.eval("domeViewer.readPixels(%s)" % json.dumps(points))
+        b.eval("domeViewer.setMeshVisible(false)")
+        hidden = b.eval("domeViewer.readPixels(%s)" % json.dumps(points + [[5, 5]]))
+        b.eval("domeViewer.setMeshVisible(true)")
+        b.eval("domeViewer.setCamerasVisible(true)")
+        background = hidden.pop()
+        drawn = sum(diff(p, q) > 6 for p, q in zip(shown, hidden)) / len(points)
+        if drawn >= 0.95:
+            break
     not_bg = sum(diff(q, background) > 0 for q in hidden) / len(points)
     print("%s: %d projected triangles, %.0f%% of their centroids' pixels change when the mesh is hidden, "
           "%.0f%% then differ from the background %s" % (what, len(points), 100 * drawn,
