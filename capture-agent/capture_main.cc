@@ -1,6 +1,8 @@
 // dome-capture: drives one VCR + digitizer through rewind-play passes and publishes the
-// VITC-tagged frames (capture/agent.h); also the stand-alone frame ingest and a Sony
-// 9-pin deck emulator on a pseudo-terminal.
+// VITC-tagged frames (capture/agent.h) to a dome-master (--capture-bind) or the
+// stand-alone frame ingest; also that ingest and a Sony 9-pin deck emulator on a
+// pseudo-terminal. Like every dome client it talks CURVE (--master-key, --key) unless
+// --insecure; the stand-alone ingest is plaintext.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -12,6 +14,8 @@
 #include "capture/sim_deck.h"
 #include "capture/sony9pin.h"
 #include "core/error.h"
+#include "net/security.h"
+#include "net/wire.h"
 
 namespace {
 
@@ -30,7 +34,16 @@ int main(int argc, char** argv) {
                  "v4l2:/dev/video0, file:PATH, or sim (the sim deck's signal)");
   app.add_option("--range", agent.range,
                  "time codes to capture, FIRST-LAST, e.g. 00:00:10:00-00:00:11:20");
-  app.add_option("--master", agent.master, "the frame ingest, e.g. tcp://master:5570");
+  app.add_option("--master", agent.master,
+                 "the frame ingest: dome-master --capture-bind, or dome-capture ingest");
+  std::string master_key, key;
+  bool insecure = false;
+  app.add_option("--master-key", master_key, "the master's public key file (CURVE)")
+      ->envname("DOME_MASTER_KEY");
+  app.add_option("--key", key, "this agent's secret key file, its .pub allowed by the master")
+      ->envname("DOME_KEY");
+  app.add_flag("--insecure", insecure,
+               "plaintext, for a master started with --insecure or dome-capture ingest");
   app.add_option("--spool", agent.spool_dir, "folder keeping frames until acknowledged");
   app.add_option("--standard", agent.standard, "525-ndf, 525-df or 625");
   app.add_option("--every", agent.every, "keep every n-th frame of the range (the seed: 5)");
@@ -44,6 +57,8 @@ int main(int argc, char** argv) {
   app.add_option("--drop-probability", agent.drop_probability,
                  "sim digitizer: chance a stored frame is lost");
   app.add_option("--seed", agent.seed, "sim digitizer: seed of the drops");
+  app.add_option("--sim-pace", agent.sim_pace,
+                 "sim deck: play at this many times real time (0 = as fast as read)");
   app.add_option("--ack-timeout-ms", agent.ack_timeout_ms,
                  "resend a frame not acknowledged within this");
   app.add_option("--flush-timeout-ms", agent.flush_timeout_ms,
@@ -114,6 +129,11 @@ int main(int argc, char** argv) {
           {"--master", &agent.master}}) {
       if (value->empty()) throw dome::core::InputError(flag, "required for a capture");
     }
+    // A secure master admits only CURVE clients on its allow-list (net/security.h).
+    dome::net::SocketOptions socket;
+    dome::net::ApplyClientKeys(master_key, key, insecure, &socket);
+    socket.Check();
+    agent.configure_socket = [socket](zmq::socket_t* s) { dome::net::ConfigureSocket(s, socket); };
     const AgentResult result = RunCaptureAgent(agent, stderr);
     std::printf("%s\n", result.summary.BriefReport().c_str());
     std::printf("delivered: %lld acknowledged by %s%s (%lld resent, %d reconnects)\n",

@@ -15,6 +15,10 @@ mkdir -p "$out"
 # The seed's experiment with exact ground truth: 51 cameras, 11 instants at 6 Hz.
 $dome synth --preset paper --out "$out/dome" --overwrite
 $dome info "$out/dome"
+# The capture path (seed §2.1): each camera's tape (FFV1 with VITC) on a simulated deck,
+# its own dome-capture agent publishing the frames into a dome-master that stores them
+# into a new take, progress from the master's status events (deploy/capture-demo.sh).
+bash deploy/capture-demo.sh build/bin "$out/dome" "$out/dome-captured"
 # Every instant reconstructed on the embedded cluster (a master and two workers in this
 # process, the same scheduler and messages as dome-master): stereo, fusion slabs,
 # marching cubes, decimation, texture, with a live progress display.

@@ -26,6 +26,7 @@ packages=(
   systemd  # systemd-analyze verify: the test of deploy/systemd units
   slurm-wlm munge  # a single-node Slurm for the test of deploy/slurm/dome-workers.sbatch
   openssh-server openssh-client  # sshd on loopback for the test of deploy/ssh/dome-ssh-workers
+  libzstd-dev  # zstd: fusion slabs travel to the master compressed (fusion/volume.h)
 )
 
 missing=()

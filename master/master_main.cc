@@ -1,11 +1,14 @@
-// dome-master: the scheduler daemon (scheduler/master.h).
+// dome-master: the scheduler daemon (scheduler/master.h). Its sockets are CURVE
+// servers with a ZAP allow-list (net/security.h) unless started with --insecure.
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <memory>
 
 #include "core/logging.h"
 #include "io/file_util.h"
+#include "net/security.h"
 #include "scheduler/master.h"
 
 namespace {
@@ -16,7 +19,8 @@ void OnSignal(int) { g_stop = true; }
 int main(int argc, char** argv) {
   CLI::App app{"dome-master: schedules stereo and fusion jobs to dome-workers over ZeroMQ"};
   dome::scheduler::MasterOptions o;
-  std::string log_level = "info", endpoints_file;
+  std::string log_level = "info", endpoints_file, keys_dir, secret_key, allow;
+  bool insecure = false;
   app.add_option("--bind", o.worker_endpoint, "ROUTER endpoint workers connect to")
       ->capture_default_str();
   app.add_option("--control", o.control_endpoint, "ROUTER endpoint for dome clients")
@@ -32,17 +36,35 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--endpoints-file", endpoints_file,
                  "write the bound endpoints here (workers, control, events; one a line)");
+  app.add_option("--keys", keys_dir, "folder with master.key and allowed_keys (CURVE)");
+  app.add_option("--secret-key", secret_key, "the master's secret key file (dome keygen)");
+  app.add_option("--allow", allow, "allow-list: public keys of workers and clients, one a line");
+  app.add_flag("--insecure", insecure, "plaintext, anyone may connect (no keys)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off");
+  app.add_option("--capture-bind", o.capture_endpoint,
+                 "ROUTER endpoint capture agents (dome-capture --master) publish frames to");
+  app.add_option("--take", o.capture_take, "take folder captured frames go into (--capture-bind)");
   CLI11_PARSE(app, argc, argv);
   try {
     dome::core::SetUpLogging(log_level);
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
+    const auto allowed =
+        dome::net::ApplyServerKeys(keys_dir, secret_key, allow, insecure, &o.socket);
     zmq::context_t context;
+    // Declared before the master so that it outlives the master's sockets.
+    std::unique_ptr<dome::net::ZapHandler> zap;
+    if (!insecure) zap = std::make_unique<dome::net::ZapHandler>(&context, allowed, false);
     dome::scheduler::Master master(&context, o);
     const auto& e = master.endpoints();
     std::printf("workers %s\ncontrol %s\nevents %s\n", e.workers.c_str(), e.control.c_str(),
                 e.events.c_str());
+    if (!e.capture.empty()) std::printf("capture %s\n", e.capture.c_str());
+    if (insecure) {
+      std::printf("insecure: plaintext sockets, any peer may connect\n");
+    } else {
+      std::printf("CURVE: %zu public keys allowed\n", allowed.size());
+    }
     std::fflush(stdout);
     if (!endpoints_file.empty()) {
       dome::io::WriteFileAtomically(endpoints_file,

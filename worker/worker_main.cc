@@ -1,4 +1,5 @@
-// dome-worker: the stateless job executor (worker/worker.h).
+// dome-worker: the stateless job executor (worker/worker.h); a CURVE client of the
+// master unless started with --insecure.
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
@@ -6,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/logging.h"
+#include "net/security.h"
 #include "worker/worker.h"
 
 namespace {
@@ -16,7 +18,8 @@ void OnSignal(int) { g_stop = true; }
 int main(int argc, char** argv) {
   CLI::App app{"dome-worker: runs stereo, fusion, decimation and texture jobs for a dome-master"};
   dome::worker::WorkerOptions o;
-  std::string log_level = "info";
+  std::string log_level = "info", master_key, key;
+  bool insecure = false;
   app.add_option("--master", o.master, "the master's worker endpoint, e.g. tcp://host:5555")
       ->required();
   app.add_option("--threads", o.threads, "threads per job (0: all)")->capture_default_str();
@@ -28,9 +31,14 @@ int main(int argc, char** argv) {
   app.add_option("--reconnect-max-ms", o.reconnect_max_ms, "longest reconnect back-off, ms")
       ->capture_default_str();
   app.add_option("--name", o.name, "name in the master's logs (default host:pid)");
+  app.add_option("--master-key", master_key, "the master's public key file (CURVE)");
+  app.add_option("--key", key,
+                 "this worker's secret key file, its .pub on the master's allow-list");
+  app.add_flag("--insecure", insecure, "plaintext, for a master started with --insecure");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off");
   CLI11_PARSE(app, argc, argv);
   try {
+    dome::net::ApplyClientKeys(master_key, key, insecure, &o.socket);
     dome::core::SetUpLogging(log_level);
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);

@@ -3,11 +3,12 @@
 //
 //   build-calib/bin/dome synth --preset paper --instants 1 --no-tape --out /tmp/calib_paper
 //   build-calib/bin/calib_bench_dome /tmp/calib_paper [--stored-points] [--no-joint]
-//       [--first-view-only] [--raw-centroids] [--synth]
+//       [--first-view-only] [--raw-centroids] [--synth] [--per-camera]
 //
 // --synth first writes that take (paper preset, 1 instant, no tape) into TAKE;
 // --first-view-only uses one stage-1 image per camera; --raw-centroids fits the dots'
-// centroids as detected (no perspective correction).
+// centroids as detected (no perspective correction); --per-camera prints each
+// camera's errors against the truth.
 // Prints the detector's error against the renderer's true image points (per stage:
 // the distance, and the mean signed x / y error, a bias, per image), then over the
 // cameras: relative focal error, image-centre error (px), relative kappa1 error,
@@ -96,12 +97,13 @@ int main(int argc, char** argv) {
   try {
     dome::calib::CalibrateOptions options;
     options.keep_going = true;
-    bool first_view_only = false, synth = false;
+    bool first_view_only = false, synth = false, per_camera = false;
     for (int i = 2; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--stored-points")) options.use_stored_points = true;
       if (!std::strcmp(argv[i], "--no-joint")) options.joint_refinement = false;
       if (!std::strcmp(argv[i], "--first-view-only")) first_view_only = true;
       if (!std::strcmp(argv[i], "--synth")) synth = true;
+      if (!std::strcmp(argv[i], "--per-camera")) per_camera = true;
       if (!std::strcmp(argv[i], "--raw-centroids")) options.correct_dot_centroids = false;
     }
     const std::string take = argv[1];
@@ -136,6 +138,13 @@ int main(int argc, char** argv) {
         rot.push_back(Eigen::AngleAxisd(e.rotation * t.rotation.transpose()).angle() * 180 / M_PI);
         rms.push_back(result.cameras[i].rms_px);
         maxe.push_back(result.cameras[i].max_px);
+        if (!skip_flagged && per_camera) {
+          std::printf(
+              "camera %s: focal %.4f %%, centre %.3f px, kappa1 %.3f %%, position %.3f mm, "
+              "rotation %.4f deg, stage 2 %d points (%d identified)\n",
+              t.id.c_str(), f.back(), c.back(), k.back(), pos.back(), rot.back(),
+              result.cameras[i].stage2.points, result.cameras[i].stage2.detected);
+        }
         if (!skip_flagged && (pos.back() > 10.0 || rot.back() > 0.5)) {
           std::printf("camera %s: centre %.1f mm, rotation %.2f deg off\n", t.id.c_str(),
                       pos.back(), rot.back());

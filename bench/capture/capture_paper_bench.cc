@@ -1,31 +1,138 @@
 // Captures every camera's tape of a synthetic take with simulated decks and
 // digitizers, all publishing into one frame ingest, and checks the result against the
 // take's own images: every wanted frame stored once, under its time code, pixel for
-// pixel the rendered first field. Prints passes and per-pass yields.
+// pixel the rendered first field. Prints passes and per-pass yields. With --master the
+// ingest is a dome-master process (--capture-bind) next to this binary instead of one
+// in this process, and its status events give the frames it stored per camera.
 //
 //   capture_paper_bench --take TAKE [--generate] [--keep-per-second 10]
-//                       [--drop-probability 0.02] [--seed 1]
+//                       [--drop-probability 0.02] [--seed 1] [--master]
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <map>
+#include <mutex>
+#include <optional>
 #include <thread>
+#include <zmq.hpp>
 
 #include "capture/agent.h"
 #include "capture/publish.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "io/file_util.h"
 #include "io/image_io.h"
+#include "runtime.pb.h"
 #include "synth/synth.h"
 
 namespace fs = std::filesystem;
 using namespace dome;
 
+namespace {
+
+std::string FreeLoopbackEndpoint() {
+  zmq::context_t context;
+  zmq::socket_t socket(context, zmq::socket_type::router);
+  socket.bind("tcp://127.0.0.1:*");
+  return socket.get(zmq::sockopt::last_endpoint);
+}
+
+// A dome-master hosting the frame ingest, in its own process; its status events'
+// capture progress collected on a thread.
+class MasterIngest {
+ public:
+  MasterIngest(const fs::path& take, const fs::path& log) {
+    const fs::path binary = fs::read_symlink("/proc/self/exe").parent_path() / "dome-master";
+    capture_ = FreeLoopbackEndpoint();
+    const std::string events = FreeLoopbackEndpoint();
+    std::vector<std::string> args = {
+        binary.string(), "--bind",    FreeLoopbackEndpoint(), "--control", FreeLoopbackEndpoint(),
+        "--events",      events,      "--capture-bind",       capture_,    "--take",
+        take.string(),   "--insecure"};
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(binary.c_str(), argv.data());
+      ::_exit(127);
+    }
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (std::chrono::steady_clock::now() < end) {
+      if (fs::exists(log) &&
+          io::ReadFileBytes(log).find("capture " + capture_) != std::string::npos)
+        break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    sub_.set(zmq::sockopt::subscribe, "");
+    sub_.connect(events);
+    thread_ = std::thread([this] {
+      while (!stop_) {
+        zmq::pollitem_t items[] = {{sub_.handle(), 0, ZMQ_POLLIN, 0}};
+        zmq::poll(items, 1, std::chrono::milliseconds(20));
+        zmq::message_t m;
+        while (sub_.recv(m, zmq::recv_flags::dontwait)) {
+          runtime::Envelope env;
+          if (env.ParseFromArray(m.data(), static_cast<int>(m.size())) && env.has_status() &&
+              env.status().has_capture()) {
+            std::lock_guard lock(mutex_);
+            last_[env.status().capture().camera_id()] = env.status().capture();
+          }
+        }
+      }
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the SUB joins
+  }
+  ~MasterIngest() {
+    stop_ = true;
+    thread_.join();
+    ::kill(pid_, SIGTERM);
+    ::waitpid(pid_, nullptr, 0);
+  }
+  const std::string& capture_endpoint() const { return capture_; }
+  // Waits until `cameras` cameras reported their end; the last event of each.
+  std::map<std::string, runtime::CaptureStatus> WaitForFinal(size_t cameras) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (std::chrono::steady_clock::now() < end) {
+      {
+        std::lock_guard lock(mutex_);
+        size_t done = 0;
+        for (const auto& [c, s] : last_) done += s.state() != "capturing";
+        if (done >= cameras) return last_;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    std::lock_guard lock(mutex_);
+    return last_;
+  }
+
+ private:
+  std::string capture_;
+  pid_t pid_ = -1;
+  zmq::context_t context_;
+  zmq::socket_t sub_{context_, zmq::socket_type::sub};
+  std::mutex mutex_;
+  std::map<std::string, runtime::CaptureStatus> last_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"capture a synthetic take's tapes with simulated agents"};
   fs::path take, work = fs::temp_directory_path() / "dome_capture_paper_bench";
-  bool generate = false;
+  bool generate = false, through_master = false;
   capture::AgentOptions base;
   base.every = 5;
   base.preroll_frames = 5;
@@ -36,6 +143,9 @@ int main(int argc, char** argv) {
                  "digitizer bandwidth, frames/s (0 = all)");
   app.add_option("--drop-probability", base.drop_probability, "digitizer random drops");
   app.add_option("--seed", base.seed, "seed of the drops");
+  app.add_flag("--master", through_master,
+               "publish into a dome-master process (--capture-bind) instead of an in-process "
+               "ingest");
   CLI11_PARSE(app, argc, argv);
   try {
     if (generate) {
@@ -56,11 +166,21 @@ int main(int argc, char** argv) {
     if (cameras.empty() || instants.empty())
       throw core::InputError(take.string(), "no tape/<camera>.avi");
 
-    capture::FrameIngest ingest({.bind = "tcp://127.0.0.1:*", .take_dir = work / "take"});
-    const std::string endpoint = ingest.endpoint();
+    fs::create_directories(work);
+    std::optional<capture::FrameIngest> ingest;
+    std::optional<MasterIngest> master;
+    std::string endpoint;
+    if (through_master) {
+      master.emplace(work / "take", work / "master.log");
+      endpoint = master->capture_endpoint();
+    } else {
+      ingest.emplace(
+          capture::IngestOptions{.bind = "tcp://127.0.0.1:*", .take_dir = work / "take"});
+      endpoint = ingest->endpoint();
+    }
     std::atomic<bool> stop{false};
     std::thread server([&] {
-      while (!stop) ingest.Poll(20);
+      while (!stop && ingest) ingest->Poll(20);
     });
 
     const core::Stopwatch clock;
@@ -90,6 +210,19 @@ int main(int argc, char** argv) {
     const double seconds = clock.ElapsedSeconds();
     stop = true;
     server.join();
+    // The ingest's counts: its own, or the master's from its status events.
+    int64_t ingest_stored = 0, ingest_duplicates = 0, ingest_rejected = 0;
+    int complete_events = 0;
+    if (ingest) {
+      ingest_stored = ingest->stored();
+      ingest_duplicates = ingest->duplicates();
+      ingest_rejected = ingest->rejected();
+    } else {
+      for (const auto& [camera, c] : master->WaitForFinal(cameras.size())) {
+        ingest_stored += c.stored();
+        complete_events += c.state() == "complete" && c.captured() == c.wanted();
+      }
+    }
 
     // Passes and per-pass yields over all agents.
     std::map<int, std::pair<int, int>> per_pass;  // pass -> (agents that ran it, new frames)
@@ -121,12 +254,19 @@ int main(int argc, char** argv) {
     std::printf(
         "agents: %zu cameras x %zu instants; digitizer keeps %g frames/s (0 = all), drops %g\n",
         cameras.size(), instants.size(), base.keep_per_second, base.drop_probability);
-    std::printf(
-        "captured %d of %d wanted; delivered by %d of %zu agents; ingest stored %lld, duplicates "
-        "%lld, "
-        "rejected %lld\n",
-        captured, wanted, delivered, cameras.size(), static_cast<long long>(ingest.stored()),
-        static_cast<long long>(ingest.duplicates()), static_cast<long long>(ingest.rejected()));
+    if (ingest) {
+      std::printf(
+          "captured %d of %d wanted; delivered by %d of %zu agents; ingest stored %lld, "
+          "duplicates %lld, rejected %lld\n",
+          captured, wanted, delivered, cameras.size(), static_cast<long long>(ingest_stored),
+          static_cast<long long>(ingest_duplicates), static_cast<long long>(ingest_rejected));
+    } else {
+      std::printf(
+          "captured %d of %d wanted; delivered by %d of %zu agents; dome-master stored %lld "
+          "(its status events); %d of %zu cameras reported complete in them\n",
+          captured, wanted, delivered, cameras.size(), static_cast<long long>(ingest_stored),
+          complete_events, cameras.size());
+    }
     std::printf(
         "in the take: %d frames, %d identical pixel for pixel to the rendered take images\n",
         stored, identical);
@@ -138,7 +278,8 @@ int main(int argc, char** argv) {
     }
     std::printf("wall time %.1f s\n", seconds);
     const bool ok = captured == wanted && stored == wanted && identical == wanted &&
-                    ingest.stored() == wanted && delivered == static_cast<int>(cameras.size());
+                    ingest_stored == wanted && delivered == static_cast<int>(cameras.size()) &&
+                    (ingest || complete_events == static_cast<int>(cameras.size()));
     std::printf("%s\n", ok ? "OK" : "FAILED");
     return ok ? 0 : 1;
   } catch (const core::InputError& e) {

@@ -2,16 +2,18 @@
 //
 //   runtime_bench dispatch OUT [--workers 32] [--jobs 4000]
 //     The master's dispatch rate: an in-process Master on loopback TCP, `--workers`
-//     dome-worker processes (bin/dome-worker beside this binary, one thread each), a
-//     session of no-op jobs; jobs/s from submit to the last result (journal fsyncs
-//     included, as in a real session).
+//     dome-worker processes (bin/dome-worker beside this binary, one thread each,
+//     plaintext), a session of no-op jobs; jobs/s from submit to the last result
+//     (journal fsyncs included, as in a real session). OUT/noop holds its journal.
 //   runtime_bench memory [--cameras 51] [--instants 1000] [--slabs 19]
 //     The master's bookkeeping for a session of that shape: the job graph and one blob
 //     reference per frame, as resident-memory growth of this process.
 //   runtime_bench e2e TAKE OUT [--workers N] [--instant TC]...
 //     `dome run` on the embedded cluster (N workers, one thread each); prints the
-//     session's report.json seconds per instant and bytes moved.
+//     session's report.json seconds per instant and bytes moved (OUT/report.json has
+//     them per stage).
 #include <signal.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -21,6 +23,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -51,39 +54,91 @@ int64_t ResidentKiB() {
   return -1;
 }
 
+// Worker processes of the dispatch benchmark, started with posix_spawn (no fork of a
+// process whose ZeroMQ threads are running) and stopped with SIGTERM however the
+// benchmark ends.
+class WorkerProcesses {
+ public:
+  WorkerProcesses(const std::string& binary, const std::string& master, int count) {
+    for (int w = 0; w < count; ++w) {
+      std::vector<std::string> args = {binary,
+                                       "--master",
+                                       master,
+                                       "--threads",
+                                       "1",
+                                       "--cache-mb",
+                                       "16",
+                                       "--log-level",
+                                       "warn",
+                                       "--name",
+                                       "noop-" + std::to_string(w),
+                                       "--insecure"};
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      pid_t pid = -1;
+      const int err = ::posix_spawn(&pid, binary.c_str(), nullptr, nullptr, argv.data(), environ);
+      if (err != 0) {
+        throw std::runtime_error("cannot start " + binary + ": " + std::strerror(err));
+      }
+      pids_.push_back(pid);
+    }
+  }
+  ~WorkerProcesses() {
+    for (pid_t pid : pids_) ::kill(pid, SIGTERM);
+    for (pid_t pid : pids_) ::waitpid(pid, nullptr, 0);
+  }
+
+ private:
+  std::vector<pid_t> pids_;
+};
+
+// The master's loop on its own thread, stopped and joined however the benchmark ends.
+class MasterThread {
+ public:
+  explicit MasterThread(scheduler::Master* master)
+      : thread_([this, master] { master->Run(&stop_); }) {}
+  ~MasterThread() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
 int Dispatch(const fs::path& out, int num_workers, int jobs, const fs::path& bin) {
+  // A session's journal resumes finished jobs: start from nothing.
+  fs::remove_all(out / "probe");
+  fs::remove_all(out / "noop");
   zmq::context_t context;
   scheduler::MasterOptions mo;
   mo.worker_endpoint = mo.control_endpoint = mo.events_endpoint = "tcp://127.0.0.1:*";
   scheduler::Master master(&context, mo);
-  std::atomic<bool> stop{false};
-  std::thread loop([&] { master.Run(&stop); });
-  std::vector<pid_t> children;
-  const std::string worker = (bin / "dome-worker").string();
-  for (int w = 0; w < num_workers; ++w) {
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-      execl(worker.c_str(), worker.c_str(), "--master", master.endpoints().workers.c_str(),
-            "--threads", "1", "--cache-mb", "16", "--log-level", "warn", (char*)nullptr);
-      ::_exit(127);
-    }
-    children.push_back(pid);
-  }
-  // Wait until every worker said Hello.
-  runtime::ControlRequest list;
-  list.mutable_status();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  const std::string control = master.endpoints().control;
+  MasterThread loop(&master);
+  WorkerProcesses workers((bin / "dome-worker").string(), master.endpoints().workers, num_workers);
+  // Wait until every worker said Hello: a one-job session's status counts them.
   runtime::Session probe;
   probe.set_out((out / "probe").string());
   probe.set_noop_jobs(1);
+  runtime::ControlRequest submit_probe;
+  *submit_probe.mutable_submit()->mutable_session() = probe;
+  const std::string probe_id = client::Request(&context, control, submit_probe).session_id();
+  runtime::ControlRequest ask;
+  ask.mutable_status()->set_session_id(probe_id);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   int seen = 0;
   while (std::chrono::steady_clock::now() < deadline) {
-    runtime::ControlRequest req;
-    *req.mutable_submit()->mutable_session() = probe;
-    const auto reply = client::Request(&context, master.endpoints().control, req);
-    seen = reply.sessions(0).workers();
+    seen = client::Request(&context, control, ask).sessions(0).workers();
     if (seen >= num_workers) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (seen < num_workers) {
+    std::fprintf(stderr, "runtime_bench: only %d of %d workers registered in 120 s\n", seen,
+                 num_workers);
+    return 1;
   }
   runtime::Session session;
   session.set_out((out / "noop").string());
@@ -91,15 +146,11 @@ int Dispatch(const fs::path& out, int num_workers, int jobs, const fs::path& bin
   runtime::ControlRequest req;
   *req.mutable_submit()->mutable_session() = session;
   const auto start = std::chrono::steady_clock::now();
-  const auto reply = client::Request(&context, master.endpoints().control, req);
-  const auto status = client::WaitForSession(&context, master.endpoints().control, "",
-                                             reply.session_id(), nullptr, 5);
+  const auto reply = client::Request(&context, control, req);
+  const auto status =
+      client::WaitForSession(&context, control, "", reply.session_id(), nullptr, 20);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  for (pid_t pid : children) ::kill(pid, SIGTERM);
-  for (pid_t pid : children) ::waitpid(pid, nullptr, 0);
-  stop = true;
-  loop.join();
   std::printf(
       "{\"mode\": \"dispatch\", \"workers\": %d, \"workers_seen\": %d, \"jobs\": %d, \"state\": "
       "\"%s\", \"seconds\": %.3f, \"jobs_per_s\": %.1f}\n",

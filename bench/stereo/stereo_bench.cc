@@ -61,10 +61,11 @@ StereoInput BenchInput() {
   return BuiltInInput();
 }
 
-void BM_MultiBaseline(benchmark::State& state) {
+void MultiBaseline(benchmark::State& state, bool prewarp) {
   static const StereoInput input = BenchInput();
   StereoOptions opt;
   opt.num_threads = kThreads;
+  opt.prewarp_neighbours = prewarp;
   opt.window_sizes_px = {int(state.range(0))};
   int levels = 0;
   double match_s = 0;
@@ -86,6 +87,15 @@ void BM_MultiBaseline(benchmark::State& state) {
   const double cpu_s = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   state.counters["evals/cpu_s"] = evals * double(state.iterations()) / cpu_s;
 }
+void BM_MultiBaseline(benchmark::State& state) { MultiBaseline(state, false); }
+// The same with the neighbours pre-warped (StereoOptions::prewarp_neighbours).
+void BM_MultiBaselinePrewarp(benchmark::State& state) { MultiBaseline(state, true); }
+BENCHMARK(BM_MultiBaselinePrewarp)
+    ->Arg(5)
+    ->Arg(7)
+    ->Arg(11)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_MultiBaseline)->Arg(5)->Arg(7)->Arg(11)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_MultiBaselineThreeWindows(benchmark::State& state) {

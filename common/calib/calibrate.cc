@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "calib/target.h"
 #include "core/error.h"
@@ -23,6 +24,7 @@ void CalibrateOptions::Check() const {
   Require(max_function_evaluations > 0, "--max-evaluations", "must be positive");
   Require(min_stage2_points >= 5, "--min-floor-marks",
           "must be at least 5 (Tsai's coplanar minimum)");
+  Require(min_plain_mark_px >= 0, "min_plain_mark_px", "must be >= 0 (pixels)");
   Require(outlier_px > 0, "--outlier-px", "must be positive (pixels)");
   Require(flag_rms_px > 0 && flag_max_px > 0, "--flag-rms-px/--flag-max-px",
           "must be positive (pixels)");
@@ -32,11 +34,22 @@ void CalibrateOptions::Check() const {
 
 namespace {
 
+RefineOptions Refine(const CalibrateOptions& o, bool intrinsics, bool centre) {
+  RefineOptions r;
+  r.refine_focal = r.refine_kappa1 = r.refine_sx = intrinsics;
+  r.refine_centre = intrinsics && centre;
+  r.max_function_evaluations = o.max_function_evaluations;
+  return r;
+}
+
 struct LoadedView {
   std::string where;           // the view file
   std::string detector_error;  // why no points were found, when none were
   std::vector<Correspondence> points;
   StageReport report;
+  Target target;
+  GridLayout layout;  // detected dots only
+  cv::Mat gray;       // the image, when its dots were detected
 };
 
 LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) {
@@ -54,11 +67,11 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
   } else {
     Require(fs::exists(view.image), view_path.string() + ": image",
             fmt::format("calibration image {} does not exist", view.image.string()));
-    const cv::Mat gray = io::ReadImage(view.image, io::ImageMode::kGray8);
+    out.gray = io::ReadImage(view.image, io::ImageMode::kGray8);
     layout = InferGridLayout(target);
     try {
       const DotDetection det =
-          DetectDotTarget(gray, target, layout, options.detector, view.image.string());
+          DetectDotTarget(out.gray, target, layout, options.detector, view.image.string());
       points = det.points;
       out.report.blobs = det.blobs;
       out.report.missing_ids = det.missing_ids;
@@ -87,9 +100,115 @@ LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) 
         }
       }
     }
+    for (auto& c : out.points) {
+      if (std::binary_search(layout.plain_ids.begin(), layout.plain_ids.end(), c.id)) {
+        c.marker_normal = layout.grids[0].normal;
+        c.marker_radius_mm = target.marker_radius_mm;
+      }
+    }
   }
   out.report.detected = static_cast<int>(out.points.size());
+  out.target = target;
+  out.layout = layout;
   return out;
+}
+
+// The target's plain marks (calib/target.h) among the image's dark blobs: each mark
+// is predicted by the camera (its intrinsics and the view's pose from the grids, with
+// the shift of the dot's centroid) and taken when an unclaimed blob lies within the
+// detector's match tolerance of the local spacing of the marks' images; the pose is
+// refitted (intrinsics fixed) and the marks predicted again until no more are found.
+// Marks not found join the report's missing ids.
+void AddPlainMarks(const LoadedView& loaded, const CalibrateOptions& options,
+                   geometry::TsaiCamera* cam, std::vector<View>* views, StageReport* report) {
+  const GridLayout& layout = loaded.layout;
+  if (layout.plain_ids.empty() || loaded.gray.empty()) return;
+  const Target& target = loaded.target;
+  View& view = (*views)[0];
+  const std::vector<Blob> blobs = DetectBlobs(loaded.gray, options.detector);
+  std::vector<char> used(blobs.size(), 0);
+  for (size_t b = 0; b < blobs.size(); ++b) {
+    for (const auto& c : view.points) {
+      if ((c.detected_px - blobs[b].centre).norm() < 1e-6) used[b] = 1;
+    }
+    if (blobs[b].cut) used[b] = 1;  // centroid biased by the border
+  }
+  const Eigen::Vector3d normal = layout.grids[0].normal;
+  const double radius = target.marker_radius_mm;
+  std::vector<int> pending = layout.plain_ids;
+  for (int round = 0; round < 6 && !pending.empty(); ++round) {
+    geometry::TsaiCamera posed = *cam;
+    posed.rotation = view.rotation;
+    posed.translation_mm = view.translation_mm;
+    // Every target point's image, for the local spacing.
+    std::vector<std::pair<int, Eigen::Vector2d>> images;
+    for (const auto& p : target.points) {
+      Eigen::Vector2d px;
+      if (posed.Project(p.position_mm, &px)) images.emplace_back(p.id, px);
+    }
+    const double fx = cam->focal_mm * cam->sx / cam->sensor.dpx_mm();
+    std::vector<int> still;
+    std::vector<Correspondence> found;
+    for (const int id : pending) {
+      const Eigen::Vector3d& position = target.points[target.Find(id)].position_mm;
+      const double z = posed.WorldToCamera(position).z();
+      Eigen::Vector2d px;
+      if (z <= 0 || !posed.Project(position, &px)) {
+        still.push_back(id);
+        continue;
+      }
+      // the dot's image, narrowest: its diameter foreshortened by the viewing angle
+      const Eigen::Vector3d ray = position - posed.CentreWorld();
+      if (2.0 * radius * fx / z * std::abs(normal.dot(ray.normalized())) <
+          options.min_plain_mark_px) {
+        still.push_back(id);
+        continue;
+      }
+      px += DotCentroidOffsetPx(*cam, view, position, normal, radius);
+      const double margin = radius * fx / z + 1.0;  // the whole dot inside the image
+      double spacing = std::numeric_limits<double>::infinity();
+      for (const auto& [other, image] : images) {
+        if (other != id) spacing = std::min(spacing, (image - px).norm());
+      }
+      int best = -1;
+      double best_d = options.detector.match_tolerance * spacing;
+      if (px.x() >= margin - 0.5 && px.y() >= margin - 0.5 &&
+          px.x() <= cam->width_px - 0.5 - margin && px.y() <= cam->height_px - 0.5 - margin) {
+        for (size_t b = 0; b < blobs.size(); ++b) {
+          const double d = (blobs[b].centre - px).norm();
+          if (!used[b] && d < best_d) {
+            best_d = d;
+            best = static_cast<int>(b);
+          }
+        }
+      }
+      if (best < 0) {
+        still.push_back(id);
+        continue;
+      }
+      used[best] = 1;
+      Correspondence c;
+      c.id = id;
+      c.target_mm = position;
+      c.pixel = c.detected_px = blobs[best].centre;
+      if (options.correct_dot_centroids) {
+        c.marker_normal = normal;
+        c.marker_radius_mm = radius;
+      }
+      found.push_back(c);
+    }
+    pending = still;
+    if (found.empty()) break;
+    report->detected += static_cast<int>(found.size());
+    view.points.insert(view.points.end(), found.begin(), found.end());
+    report->refine = RefineCamera(cam, views, Refine(options, false, false), loaded.where);
+    if (options.correct_dot_centroids) {
+      CorrectDotCentroids(*cam, &view);
+      report->refine = RefineCamera(cam, views, Refine(options, false, false), loaded.where);
+    }
+  }
+  report->missing_ids.insert(report->missing_ids.end(), pending.begin(), pending.end());
+  std::sort(report->missing_ids.begin(), report->missing_ids.end());
 }
 
 void Measure(const geometry::TsaiCamera& cam, const View& view, StageReport* report) {
@@ -140,14 +259,6 @@ bool RejectOutliers(const geometry::TsaiCamera& cam, View* view, double outlier_
   }
   view->points = std::move(kept);
   return removed;
-}
-
-RefineOptions Refine(const CalibrateOptions& o, bool intrinsics, bool centre) {
-  RefineOptions r;
-  r.refine_focal = r.refine_kappa1 = r.refine_sx = intrinsics;
-  r.refine_centre = intrinsics && centre;
-  r.max_function_evaluations = o.max_function_evaluations;
-  return r;
 }
 
 }  // namespace
@@ -251,6 +362,7 @@ CameraReport CalibrateCamera(const take::RigCamera& prior,
     CorrectDotCentroids(cam, &views2[0]);
     report.stage2.refine = RefineCamera(&cam, &views2, Refine(options, false, false), s2.where);
   }
+  AddPlainMarks(s2, options, &cam, &views2, &report.stage2);
   for (int pass = 0;
        pass < 3 && RejectOutliers(cam, &views2[0], options.outlier_px, &report.stage2); ++pass) {
     Require(static_cast<int>(views2[0].points.size()) >= options.min_stage2_points, s2.where,

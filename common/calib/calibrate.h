@@ -7,8 +7,11 @@
 //    at the middle of the image, then Levenberg-Marquardt over f, kappa1, cx, cy, sx
 //    and the object's pose; then over the intrinsics and every view's pose.
 //  Stage 2 (pose): the camera's image of the floor marks (calib/stage2/, world frame,
-//    z = 0), intrinsics fixed: Tsai's coplanar closed form, then LM over the pose. The
-//    floor marks put every camera into one world frame.
+//    z = 0), intrinsics fixed: Tsai's coplanar closed form from the key-marked grid,
+//    then LM over the pose; then the target's plain marks (calib/target.h), each
+//    camera those it sees, predicted from that pose, found among the image's dots and
+//    added, and the pose refitted. The floor marks put every camera into one world
+//    frame.
 //  Joint (optional): LM over the intrinsics and both poses with both stages' points.
 //
 // After each refinement, points whose reprojection error exceeds the outlier bound are
@@ -40,11 +43,15 @@ struct CalibrateOptions {
   // distortion shift, calib/tsai_calibration.h); detected dots only.
   bool correct_dot_centroids = true;
   int min_stage2_points = 6;  // floor marks a camera must see (Tsai: >= 5)
-  double outlier_px = 1.0;    // reject points beyond max(this, 4 x RMS), px
-  double flag_rms_px = 0.3;   // flag cameras whose RMS exceeds this, px
-  double flag_max_px = 1.0;   // flag cameras whose largest error exceeds this, px
-  int worst_points = 5;       // per camera, in the report
-  int threads = 0;            // 0 = all hardware threads
+  // Plain floor marks (calib/target.h) whose dot images are narrower than this, px, are
+  // not used: the far marks of a grazing view, whose centroids a few pixels of blob
+  // cannot place to a tenth of a pixel.
+  double min_plain_mark_px = 2.0;
+  double outlier_px = 1.0;   // reject points beyond max(this, 4 x RMS), px
+  double flag_rms_px = 0.3;  // flag cameras whose RMS exceeds this, px
+  double flag_max_px = 1.0;  // flag cameras whose largest error exceeds this, px
+  int worst_points = 5;      // per camera, in the report
+  int threads = 0;           // 0 = all hardware threads
   // A camera that cannot be calibrated (its error) is flagged and keeps its prior
   // parameters instead of failing the whole take.
   bool keep_going = false;

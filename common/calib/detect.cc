@@ -438,7 +438,8 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
   }
   core::Require(!keys.empty(), where, "no key marker (a dot larger than its neighbours) found");
   std::sort(keys.rbegin(), keys.rend());  // darkest first: printed dots, not texture
-  keys.resize(std::min<size_t>(keys.size(), 12 * grids + 24));
+  // (plain marks, calib/target.h, are dots too: near ones stand out like keys)
+  keys.resize(std::min<size_t>(keys.size(), 12 * grids + 24 + layout.plain_ids.size()));
 
   std::vector<GridFit> fits;
   for (const auto& [darkness_level, key] : keys) {
@@ -532,8 +533,10 @@ DotDetection DetectDotTarget(const cv::Mat& gray, const Target& target, const Gr
       have[target.Find(grid.ids[c])] = 1;
     }
   }
-  for (size_t i = 0; i < target.points.size(); ++i) {
-    if (!have[i]) out.missing_ids.push_back(target.points[i].id);
+  for (const Grid& grid : layout.grids) {
+    for (const int id : grid.ids) {
+      if (!have[target.Find(id)]) out.missing_ids.push_back(id);
+    }
   }
   std::sort(out.points.begin(), out.points.end(),
             [](const auto& a, const auto& b) { return a.id < b.id; });

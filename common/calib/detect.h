@@ -53,7 +53,7 @@ struct DotDetection {
   std::vector<ImagePoint> points;    // matched dots, by target id
   int blobs = 0;                     // dark blobs found
   int grids_found = 0;               // of the layout's grids
-  std::vector<int> missing_ids;      // target ids not found in the image
+  std::vector<int> missing_ids;      // grid ids not found in the image (not plain marks)
   std::vector<int> conflicting_ids;  // dots claimed by two grids (dropped, reported)
   std::string BriefReport() const;
 };

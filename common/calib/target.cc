@@ -4,6 +4,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -56,6 +57,10 @@ Target ReadTarget(const fs::path& path) {
   Require(std::isfinite(target.key_marker_radius_mm) && target.key_marker_radius_mm > 0,
           where + ": key_marker_radius_mm", "expected a positive number of mm");
   Require(msg.points_size() > 0, where + ": points", "the target has no points");
+  Require(static_cast<int>(msg.grid_points()) <= msg.points_size(), where + ": grid_points",
+          fmt::format("{} grid points, but the target has only {} points", msg.grid_points(),
+                      msg.points_size()));
+  target.grid_points = static_cast<int>(msg.grid_points());
   std::set<int> seen;
   for (int i = 0; i < msg.points_size(); ++i) {
     const auto& p = msg.points(i);
@@ -96,9 +101,11 @@ CalibViewFile ReadCalibView(const fs::path& path) {
 }
 
 GridLayout InferGridLayout(const Target& target) {
-  const int total = static_cast<int>(target.points.size());
   std::vector<TargetPoint> sorted = target.points;
   std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  const int total = target.grid_points > 0 ? target.grid_points : static_cast<int>(sorted.size());
+  std::vector<TargetPoint> plain(sorted.begin() + total, sorted.end());
+  sorted.resize(total);
   for (int grids = 1; grids <= total; ++grids) {
     if (total % grids != 0) continue;
     const int per = total / grids;
@@ -128,7 +135,17 @@ GridLayout InferGridLayout(const Target& target) {
       grid.normal = ei.cross(ej).normalized();
       layout.grids.push_back(grid);
     }
-    if (ok) return layout;
+    if (!ok) continue;
+    // Plain marks: in grid 0's plane, to 1% of its pitch.
+    const Grid& g0 = layout.grids[0];
+    const Eigen::Vector3d o = sorted[0].position_mm;
+    const double pitch = (sorted[1].position_mm - o).norm();
+    for (const TargetPoint& p : plain) {
+      Require(std::abs(g0.normal.dot(p.position_mm - o)) <= 0.01 * pitch, target.path,
+              fmt::format("plain mark id {} is not in the plane of the grid", p.id));
+      layout.plain_ids.push_back(p.id);
+    }
+    return layout;
   }
   throw core::InputError(target.path,
                          "the points do not form square dot grids (G blocks of n x n "

@@ -11,7 +11,10 @@
 // n x n consecutive ids, id = base + n * j + i (i, j = 0 .. n-1 along the grid's two
 // axes), each block planar with its key marker (the larger dot) at (i, j) = (0, 0).
 // That is how `dome synth` numbers its object (3 plates of 7 x 7) and its floor marks
-// (one 5 x 5 grid).
+// (one 5 x 5 grid, ids 0-24). A target may list further plain marks after its grids
+// (TargetPoints.grid_points: the first that many points, by id, form the grids): they
+// lie in the plane of the grids and are identified from the pose the grids give
+// (`dome synth`'s floor marks beyond the central grid, calib/calibrate.h).
 #pragma once
 
 #include <Eigen/Core>
@@ -32,6 +35,8 @@ struct Target {
   double marker_radius_mm = 0.0;
   double key_marker_radius_mm = 0.0;
   std::vector<TargetPoint> points;  // ids unique, coordinates finite
+  // How many points, the lowest ids, form the grids; the rest are plain marks. 0 = all.
+  int grid_points = 0;
 
   int Find(int id) const;  // index of the point with this id, or -1
 };
@@ -66,10 +71,13 @@ struct Grid {
 
 struct GridLayout {
   std::vector<Grid> grids;
+  // The plain marks after the grids (ids ascending), in the plane of grid 0 (normal).
+  std::vector<int> plain_ids;
 };
 
 // The grid layout of a dot target (see the header comment). Throws core::InputError
-// naming the target file when its points do not form planar square grids.
+// naming the target file when its grid points do not form planar square grids, or
+// its plain marks do not lie in the grids' plane.
 GridLayout InferGridLayout(const Target& target);
 
 }  // namespace dome::calib

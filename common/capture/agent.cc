@@ -1,5 +1,8 @@
 #include "capture/agent.h"
 
+#include <algorithm>
+#include <chrono>
+
 #include "capture/publish.h"
 #include "capture/sim_deck.h"
 #include "capture/sony9pin.h"
@@ -34,6 +37,7 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
   VideoSignal* signal = nullptr;
   if (options.deck.rfind("sim:", 0) == 0) {
     auto sim = std::make_unique<SimDeck>(options.deck.substr(4), layout);
+    sim->SetPace(options.sim_pace);
     signal = sim.get();
     deck = std::move(sim);
   } else if (options.deck.rfind("serial:", 0) == 0) {
@@ -61,6 +65,7 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
   publish.endpoint = options.master;
   publish.spool_dir = options.spool_dir;
   publish.ack_timeout_ms = options.ack_timeout_ms;
+  publish.configure_socket = options.configure_socket;
   FramePublisher publisher(options.camera_id, publish);
 
   PassPlanner planner(deck.get(), digitizer.get(), capture);
@@ -70,12 +75,22 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
                  options.camera_id.c_str(), publisher.spooled_at_start().size());
   }
 
-  int last_pass = 0;
+  AgentProgress last;
+  auto last_sent = std::chrono::steady_clock::time_point{};
   const auto on_progress = [&](const PassReport& pass, int captured, int wanted, bool pass_done) {
     publisher.Pump(0);
-    if (pass.pass != last_pass || pass_done)
-      publisher.SendProgress(pass.pass, captured, wanted, false);
-    last_pass = pass.pass;
+    const auto now = std::chrono::steady_clock::now();
+    const bool due = now - last_sent >= std::chrono::milliseconds(options.progress_interval_ms);
+    const bool new_pass = pass.pass != last.pass;
+    last.pass = pass.pass;
+    last.captured = captured;
+    last.wanted = wanted;
+    last.pass_yield = pass.new_frames;
+    last.error = pass.deck_error;
+    if (new_pass || pass_done || due) {
+      publisher.SendProgress(last);
+      last_sent = now;
+    }
     if (!progress) return;
     if (pass_done) {
       std::fprintf(progress,
@@ -92,10 +107,35 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
     std::fflush(progress);
   };
   AgentResult result;
-  result.summary =
-      planner.Run([&](const CapturedFrame& frame) { publisher.Publish(frame); }, on_progress);
-  publisher.SendProgress(last_pass, result.summary.captured, result.summary.wanted, true);
-  result.delivered = publisher.Flush(options.flush_timeout_ms);
+  try {
+    result.summary =
+        planner.Run([&](const CapturedFrame& frame) { publisher.Publish(frame); }, on_progress);
+  } catch (const std::exception& e) {
+    // The ingest shows why this camera stopped; the frames already captured still go.
+    last.done = true;
+    last.error = e.what();
+    publisher.SendProgress(last);
+    publisher.Flush(std::min(options.flush_timeout_ms, 5000));
+    throw;
+  }
+  last.done = true;
+  last.captured = result.summary.captured;
+  last.wanted = result.summary.wanted;
+  if (!result.summary.complete() && last.error.empty()) {
+    last.error = std::to_string(result.summary.missing.size()) + " frames not captured after " +
+                 std::to_string(result.summary.passes.size()) + " passes";
+  }
+  // The frames first, so the final progress carries the final acknowledged count; then
+  // that progress, acknowledged in turn (within what is left of the flush time).
+  const auto flush_end =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(options.flush_timeout_ms);
+  publisher.Flush(options.flush_timeout_ms);
+  publisher.SendProgress(last);
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                        flush_end - std::chrono::steady_clock::now())
+                        .count();
+  publisher.Flush(static_cast<int>(std::max<int64_t>(left, 0)));
+  result.delivered = publisher.pending() == 0;
   result.acknowledged = publisher.acknowledged();
   result.resent = publisher.resent();
   result.reconnects = publisher.reconnects();

@@ -11,6 +11,7 @@
 #include "capture/deck.h"
 #include "capture/digitizer.h"
 #include "capture/pass_planner.h"
+#include "capture/publish.h"
 
 namespace dome::capture {
 
@@ -29,8 +30,11 @@ struct AgentOptions {
   double keep_per_second = 0.0;    // sim digitizer: frames it can store per second; 0 = all
   double drop_probability = 0.0;   // sim digitizer: chance of losing a frame it stores
   uint64_t seed = 1;               // sim digitizer: of the drops
-  int ack_timeout_ms = 1000;       // resend frames not acknowledged within this, ms
-  int flush_timeout_ms = 60000;    // wait at the end for the last acknowledgements, ms
+  double sim_pace = 0.0;  // sim deck: signal seconds per wall second (1 = real time); 0 = unpaced
+  int ack_timeout_ms = 1000;            // resend frames not acknowledged within this, ms
+  int flush_timeout_ms = 60000;         // wait at the end for the last acknowledgements, ms
+  int progress_interval_ms = 250;       // least time between progress messages within a pass, ms
+  SocketConfigurator configure_socket;  // optional, for the publisher's socket (security)
 };
 
 struct AgentResult {
@@ -43,8 +47,9 @@ struct AgentResult {
 
 VideoStandard ParseStandard(const std::string& name, const std::string& where);
 
-// Runs the agent; progress lines go to `progress` (nullptr: none). Throws
-// core::InputError naming the flag, file, device or peer at fault.
+// Runs the agent; progress lines go to `progress` (nullptr: none) and progress messages
+// to the ingest. Throws core::InputError naming the flag, file, device or peer at
+// fault; once the publisher is up, the ingest is told of the failure first.
 AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress);
 
 }  // namespace dome::capture

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <fstream>
 #include <optional>
+#include <random>
 #include <zmq.hpp>
 
 #include "capture.pb.h"
@@ -73,12 +74,20 @@ std::optional<take::Timecode> ParseWireTimecode(const std::string& text) {
 // --- publisher -----------------------------------------------------------------------
 
 struct FramePublisher::Socket {
-  zmq::context_t context{1};
+  std::unique_ptr<zmq::context_t> own_context;
+  zmq::context_t* context = nullptr;
   std::unique_ptr<zmq::socket_t> socket;
 };
 
 FramePublisher::FramePublisher(const std::string& camera_id, const PublisherOptions& options)
     : camera_id_(camera_id), options_(options), socket_(std::make_unique<Socket>()) {
+  run_id_ = (uint64_t{std::random_device{}()} << 32) ^ std::random_device{}() ^
+            static_cast<uint64_t>(Clock::now().time_since_epoch().count());
+  socket_->context = options.context;
+  if (socket_->context == nullptr) {
+    socket_->own_context = std::make_unique<zmq::context_t>(1);
+    socket_->context = socket_->own_context.get();
+  }
   core::Require(ValidCameraId(camera_id), "--camera",
                 "expected letters, digits, '_' or '-', got '" + camera_id + "'");
   core::Require(!options.endpoint.empty(), "--master",
@@ -115,7 +124,8 @@ FramePublisher::FramePublisher(const std::string& camera_id, const PublisherOpti
 FramePublisher::~FramePublisher() = default;
 
 void FramePublisher::Connect() {
-  socket_->socket = std::make_unique<zmq::socket_t>(socket_->context, zmq::socket_type::dealer);
+  socket_->socket = std::make_unique<zmq::socket_t>(*socket_->context, zmq::socket_type::dealer);
+  if (options_.configure_socket) options_.configure_socket(socket_->socket.get());
   socket_->socket->set(zmq::sockopt::linger, 0);
   socket_->socket->set(zmq::sockopt::reconnect_ivl, 100);
   socket_->socket->set(zmq::sockopt::routing_id, camera_id_);
@@ -127,6 +137,15 @@ void FramePublisher::Connect() {
   }
   last_heard_ = Clock::now();
   for (auto& [tc, p] : pending_) p.sent = false;  // resend everything on the new socket
+  // The latest progress, so a restarted ingest shows this agent at once.
+  if (!last_progress_.empty()) {
+    socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
+    progress_sent_at_ = Clock::now();
+  }
+}
+
+bool FramePublisher::AllAcknowledged() const {
+  return pending_.empty() && !final_progress_pending_;
 }
 
 void FramePublisher::Publish(const CapturedFrame& frame) {
@@ -150,17 +169,25 @@ void FramePublisher::Publish(const CapturedFrame& frame) {
   Pump(0);
 }
 
-void FramePublisher::SendProgress(int pass, int captured, int wanted, bool done) {
+void FramePublisher::SendProgress(AgentProgress progress) {
+  progress.acknowledged = acknowledged_;
   proto::CaptureMessage message;
   message.set_protocol(kCaptureProtocol);
   proto::CaptureProgress* p = message.mutable_progress();
   p->set_camera_id(camera_id_);
-  p->set_pass(pass);
-  p->set_captured(captured);
-  p->set_wanted(wanted);
-  p->set_done(done);
-  const std::string bytes = message.SerializeAsString();
-  socket_->socket->send(zmq::buffer(bytes), zmq::send_flags::dontwait);
+  p->set_pass(progress.pass);
+  p->set_captured(progress.captured);
+  p->set_wanted(progress.wanted);
+  p->set_done(progress.done);
+  p->set_pass_yield(progress.pass_yield);
+  p->set_acknowledged(static_cast<int32_t>(progress.acknowledged));
+  p->set_error(progress.error);
+  p->set_run_id(run_id_);
+  p->set_sequence(++progress_sequence_);
+  last_progress_ = message.SerializeAsString();
+  final_progress_pending_ = progress.done;
+  progress_sent_at_ = Clock::now();
+  socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
 }
 
 void FramePublisher::SendDue() {
@@ -177,6 +204,10 @@ void FramePublisher::SendDue() {
     p.sent_at = now;
     ++in_flight;
   }
+  if (final_progress_pending_ && now - progress_sent_at_ >= timeout) {
+    socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
+    progress_sent_at_ = now;
+  }
 }
 
 void FramePublisher::Receive(int timeout_ms) {
@@ -189,6 +220,10 @@ void FramePublisher::Receive(int timeout_ms) {
         ack.protocol() != kCaptureProtocol) {
       spdlog::warn("capture: peer {}: a reply that is not a {} acknowledgement; ignored",
                    options_.endpoint, kCaptureProtocol);
+      continue;
+    }
+    if (ack.progress()) {
+      final_progress_pending_ = false;
       continue;
     }
     const auto it = pending_.find(ack.timecode());
@@ -213,6 +248,7 @@ void FramePublisher::Pump(int timeout_ms) {
     // Silence for a whole time-out with frames outstanding: the ingest went away or
     // restarted; a fresh socket drops whatever the old one still queued.
     const bool outstanding =
+        final_progress_pending_ ||
         std::any_of(pending_.begin(), pending_.end(), [](const auto& e) { return e.second.sent; });
     if (outstanding &&
         Clock::now() - last_heard_ > std::chrono::milliseconds(options_.ack_timeout_ms)) {
@@ -223,19 +259,20 @@ void FramePublisher::Pump(int timeout_ms) {
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count();
     Receive(static_cast<int>(std::clamp<int64_t>(left, 0, 50)));
-  } while (Clock::now() < end && !pending_.empty());
+  } while (Clock::now() < end && !AllAcknowledged());
 }
 
 bool FramePublisher::Flush(int timeout_ms) {
   Pump(timeout_ms);
-  return pending_.empty();
+  return AllAcknowledged();
 }
 
 // --- ingest --------------------------------------------------------------------------
 
 struct FrameIngest::Socket {
-  zmq::context_t context{1};
-  zmq::socket_t socket{context, zmq::socket_type::router};
+  std::unique_ptr<zmq::context_t> own_context;
+  std::unique_ptr<zmq::socket_t> socket_ptr;
+  zmq::socket_t& socket() { return *socket_ptr; }
 };
 
 FrameIngest::FrameIngest(const IngestOptions& options)
@@ -244,35 +281,45 @@ FrameIngest::FrameIngest(const IngestOptions& options)
   fs::create_directories(options.take_dir / "frames", ec);
   core::Require(fs::is_directory(options.take_dir / "frames"), options.take_dir.string(),
                 "cannot create the take's frames/ folder: " + ec.message());
-  socket_->socket.set(zmq::sockopt::linger, 0);
-  socket_->socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.max_message_bytes));
+  zmq::context_t* context = options.context;
+  if (context == nullptr) {
+    socket_->own_context = std::make_unique<zmq::context_t>(1);
+    context = socket_->own_context.get();
+  }
+  socket_->socket_ptr = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::router);
+  if (options.configure_socket) options.configure_socket(socket_->socket_ptr.get());
+  socket_->socket().set(zmq::sockopt::linger, 0);
+  socket_->socket().set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.max_message_bytes));
   // An agent that rebuilt its socket comes back under the same identity (its camera).
-  socket_->socket.set(zmq::sockopt::router_handover, 1);
+  socket_->socket().set(zmq::sockopt::router_handover, 1);
   try {
-    socket_->socket.bind(options.bind);
+    socket_->socket().bind(options.bind);
   } catch (const zmq::error_t& e) {
-    throw core::InputError("--bind " + options.bind, std::string("cannot bind: ") + e.what());
+    throw core::InputError(options.flag + " " + options.bind,
+                           std::string("cannot bind: ") + e.what());
   }
 }
 
 FrameIngest::~FrameIngest() = default;
 
 std::string FrameIngest::endpoint() const {
-  return socket_->socket.get(zmq::sockopt::last_endpoint);
+  return socket_->socket().get(zmq::sockopt::last_endpoint);
 }
 
+zmq::socket_t& FrameIngest::socket() { return socket_->socket(); }
+
 void FrameIngest::Poll(int timeout_ms) {
-  WaitForInput(socket_->socket, timeout_ms);
+  WaitForInput(socket_->socket(), timeout_ms);
   while (true) {
     zmq::message_t identity, body;
-    if (!socket_->socket.recv(identity, zmq::recv_flags::dontwait)) return;
+    if (!socket_->socket().recv(identity, zmq::recv_flags::dontwait)) return;
     std::string bytes;
     bool extra = false;
-    if (identity.more() && socket_->socket.recv(body, zmq::recv_flags::none))
+    if (identity.more() && socket_->socket().recv(body, zmq::recv_flags::none))
       bytes = body.to_string();
     while (body.more()) {  // a well-behaved agent sends one part; drain the rest
       zmq::message_t part;
-      if (!socket_->socket.recv(part, zmq::recv_flags::none)) break;
+      if (!socket_->socket().recv(part, zmq::recv_flags::none)) break;
       extra = true;
       body = std::move(part);
     }
@@ -299,8 +346,8 @@ void FrameIngest::Poll(int timeout_ms) {
       }
     }
     if (reply.empty()) continue;
-    socket_->socket.send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
-    socket_->socket.send(zmq::buffer(reply), zmq::send_flags::dontwait);
+    socket_->socket().send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
+    socket_->socket().send(zmq::buffer(reply), zmq::send_flags::dontwait);
   }
 }
 
@@ -322,10 +369,36 @@ std::string FrameIngest::Handle(const std::string& peer, const std::string& byte
   }
   if (message.has_progress()) {
     const auto& p = message.progress();
-    progress_[p.camera_id()] = {p.pass(), p.captured(), p.wanted(), p.done()};
-    spdlog::info("ingest: {} pass {}: {}/{} frames{}", p.camera_id(), p.pass(), p.captured(),
-                 p.wanted(), p.done() ? " (done)" : "");
-    return "";
+    if (!ValidCameraId(p.camera_id()))
+      return reject("progress for camera_id '" + p.camera_id() +
+                    "': expected letters, digits, '_' or '-'");
+    IngestProgress& entry = progress_[p.camera_id()];
+    // An older message of the same run (overtaken after a socket rebuild, or resent):
+    // not shown, but a final one is still acknowledged.
+    const bool stale = entry.run_id == p.run_id() && p.sequence() <= entry.sequence;
+    if (stale) {
+      if (!p.done()) return "";
+      ack.set_camera_id(p.camera_id());
+      ack.set_progress(true);
+      return ack.SerializeAsString();
+    }
+    entry.run_id = p.run_id();
+    entry.sequence = p.sequence();
+    entry.camera_id = p.camera_id();
+    entry.agent.pass = p.pass();
+    entry.agent.captured = p.captured();
+    entry.agent.wanted = p.wanted();
+    entry.agent.pass_yield = p.pass_yield();
+    entry.agent.acknowledged = p.acknowledged();
+    entry.agent.done = p.done();
+    entry.agent.error = p.error();
+    spdlog::debug("ingest: {} pass {}: {}/{} frames{}", p.camera_id(), p.pass(), p.captured(),
+                  p.wanted(), p.done() ? " (done)" : "");
+    if (options_.on_progress) options_.on_progress(entry);
+    if (!p.done()) return "";
+    ack.set_camera_id(p.camera_id());
+    ack.set_progress(true);
+    return ack.SerializeAsString();
   }
   if (!message.has_frame()) return reject("a message with neither frame nor progress");
   const proto::CaptureFrame& f = message.frame();
@@ -353,6 +426,8 @@ std::string FrameIngest::Handle(const std::string& peer, const std::string& byte
   const cv::Mat image(f.height_px(), f.width_px(), CV_8UC1, const_cast<char*>(f.pixels().data()));
   io::WriteFileAtomically(path, io::EncodePng(image));
   ++stored_;
+  ++progress_[f.camera_id()].stored;
+  progress_[f.camera_id()].camera_id = f.camera_id();
   ack.set_status(proto::CaptureAck::STORED);
   return ack.SerializeAsString();
 }

@@ -9,30 +9,58 @@
 // back for that long the socket is rebuilt (the Lazy Pirate pattern of the ZeroMQ
 // guide). A new publisher over an existing spool sends what it finds there first.
 //
+// Progress travels on the same connection: a few messages a second, not spooled; the
+// final one (done) is resent until acknowledged, on every new socket too, so the
+// ingest always learns the final count unless the agent gives up flushing.
+//
 // The ingest writes TAKE/frames/<HH-MM-SS-FF>/<camera>.png (take/take.h's layout) via a
 // temporary file and a rename, and acknowledges; a frame already in the take is a
 // duplicate and left as it is. Malformed messages are answered REJECTED with the
-// reason and counted; they never stop the ingest.
+// reason and counted; they never stop the ingest. dome-master hosts one in its poll
+// loop (--capture-bind); `dome-capture ingest` runs one on its own.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
 
 #include "capture/pass_planner.h"
 
+namespace zmq {
+class context_t;
+class socket_t;
+}  // namespace zmq
+
 namespace dome::capture {
+
+// Applied to a socket before it binds or connects, e.g. the runtime's
+// net::ConfigureSocket (security options); the capture's own options come after it.
+using SocketConfigurator = std::function<void(zmq::socket_t*)>;
+
+// One agent's progress (proto/capture.proto CaptureProgress).
+struct AgentProgress {
+  int pass = 0;              // current pass, 1-based
+  int captured = 0;          // frames of the range captured so far
+  int wanted = 0;            // frames in the range
+  int pass_yield = 0;        // frames this pass captured for the first time
+  int64_t acknowledged = 0;  // frames the ingest acknowledged so far
+  bool done = false;         // the agent finished (complete or gave up)
+  std::string error;         // why it gave up or the last pass ended early; "" if none
+};
 
 inline constexpr const char* kCaptureProtocol = "dome-capture/1";
 
 struct PublisherOptions {
-  std::string endpoint;             // the ingest, e.g. tcp://master:5570
-  std::filesystem::path spool_dir;  // created if missing
-  int ack_timeout_ms = 1000;        // resend a frame not acknowledged within this, ms
-  int max_in_flight = 16;           // frames sent and not yet acknowledged
+  std::string endpoint;                   // the ingest, e.g. tcp://master:5570
+  std::filesystem::path spool_dir;        // created if missing
+  int ack_timeout_ms = 1000;              // resend a frame not acknowledged within this, ms
+  int max_in_flight = 16;                 // frames sent and not yet acknowledged
+  SocketConfigurator configure_socket{};  // optional; applied to each new socket
+  zmq::context_t* context = nullptr;      // optional; the publisher's own when null
 };
 
 class FramePublisher {
@@ -46,11 +74,13 @@ class FramePublisher {
 
   // Spools `frame` and sends it when the window allows. Returns at once.
   void Publish(const CapturedFrame& frame);
-  // Progress for status displays (best effort, not spooled).
-  void SendProgress(int pass, int captured, int wanted, bool done);
+  // Progress for status displays: best effort, not spooled; with `done` set it is
+  // resent until acknowledged (Flush waits for it). `acknowledged` is filled in here.
+  void SendProgress(AgentProgress progress);
   // Sends and receives for up to timeout_ms.
   void Pump(int timeout_ms);
-  // Pumps until every spooled frame is acknowledged (true) or timeout_ms passes.
+  // Pumps until every spooled frame and the final progress are acknowledged (true) or
+  // timeout_ms passes.
   bool Flush(int timeout_ms);
 
   size_t pending() const { return pending_.size(); }
@@ -71,6 +101,7 @@ class FramePublisher {
   };
   void Connect();
   void SendDue();
+  bool AllAcknowledged() const;
   void Receive(int timeout_ms);
 
   std::string camera_id_;
@@ -78,6 +109,11 @@ class FramePublisher {
   struct Socket;
   std::unique_ptr<Socket> socket_;
   std::map<std::string, Pending> pending_;  // by time code text
+  uint64_t run_id_ = 0;  // random, tells this run's progress from an earlier one's
+  uint32_t progress_sequence_ = 0;
+  std::string last_progress_;            // serialized CaptureMessage; "" before any
+  bool final_progress_pending_ = false;  // the done progress awaits its acknowledgement
+  std::chrono::steady_clock::time_point progress_sent_at_{};
   std::vector<take::Timecode> spooled_at_start_;
   std::chrono::steady_clock::time_point last_heard_;
   int64_t acknowledged_ = 0, resent_ = 0;
@@ -85,10 +121,24 @@ class FramePublisher {
   std::vector<std::string> rejections_;
 };
 
+// What the ingest heard from one camera's agent, and what it stored for it.
+struct IngestProgress {
+  std::string camera_id;
+  AgentProgress agent;    // the latest progress message
+  int64_t stored = 0;     // frames of this camera this ingest stored (not duplicates)
+  uint64_t run_id = 0;    // of the agent run `agent` came from
+  uint32_t sequence = 0;  // of that message within the run
+};
+
 struct IngestOptions {
   std::string bind;  // e.g. tcp://*:5570, tcp://127.0.0.1:* (port chosen)
   std::filesystem::path take_dir;
-  size_t max_message_bytes = 64u << 20;  // larger messages are rejected unread
+  size_t max_message_bytes = 64u << 20;   // larger messages are rejected unread
+  SocketConfigurator configure_socket{};  // optional, before the bind
+  zmq::context_t* context = nullptr;      // optional; the ingest's own when null
+  // Called from Poll() on every progress message (e.g. to republish it).
+  std::function<void(const IngestProgress&)> on_progress{};
+  std::string flag = "--bind";  // the option that named `bind`, for errors
 };
 
 class FrameIngest {
@@ -100,17 +150,16 @@ class FrameIngest {
   FrameIngest& operator=(const FrameIngest&) = delete;
 
   std::string endpoint() const;  // the bound address, port resolved
-  // Serves messages for up to timeout_ms.
+  // Serves messages for up to timeout_ms (0: only what is waiting).
   void Poll(int timeout_ms);
+  // The socket, for a caller's zmq::poll (ZMQ_POLLIN means Poll(0) has work).
+  zmq::socket_t& socket();
 
   int64_t stored() const { return stored_; }
   int64_t duplicates() const { return duplicates_; }
   int64_t rejected() const { return rejected_; }
-  struct Progress {
-    int pass = 0, captured = 0, wanted = 0;
-    bool done = false;
-  };
-  const std::map<std::string, Progress>& progress() const { return progress_; }
+  // By camera.
+  const std::map<std::string, IngestProgress>& progress() const { return progress_; }
 
  private:
   std::string Handle(const std::string& peer, const std::string& bytes);
@@ -119,7 +168,7 @@ class FrameIngest {
   struct Socket;
   std::unique_ptr<Socket> socket_;
   int64_t stored_ = 0, duplicates_ = 0, rejected_ = 0;
-  std::map<std::string, Progress> progress_;
+  std::map<std::string, IngestProgress> progress_;
 };
 
 }  // namespace dome::capture

@@ -1,6 +1,7 @@
 #include "capture/sim_deck.h"
 
 #include <algorithm>
+#include <thread>
 
 #include "core/error.h"
 
@@ -101,18 +102,37 @@ DeckStatus SimDeck::Status() {
 }
 
 bool SimDeck::NextFrame(cv::Mat* frame, double* time_s) {
-  std::lock_guard lock(mutex_);
-  if (transport_ != Transport::kPlaying) return false;
-  if (position_ >= frame_count()) {
-    transport_ = Transport::kStopped;
-    position_ = frame_count() - 1;
-    return false;
+  std::chrono::steady_clock::time_point due;
+  {
+    std::lock_guard lock(mutex_);
+    if (transport_ != Transport::kPlaying) return false;
+    if (position_ >= frame_count()) {
+      transport_ = Transport::kStopped;
+      position_ = frame_count() - 1;
+      return false;
+    }
+    *frame = frames_[position_];
+    *time_s = clock_s_;
+    clock_s_ += 1.0 / FramesPerSecond(layout_.standard);
+    ++position_;
+    if (pace_ > 0) {
+      due = pace_origin_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(*time_s / pace_));
+    }
   }
-  *frame = frames_[position_];
-  *time_s = clock_s_;
-  clock_s_ += 1.0 / FramesPerSecond(layout_.standard);
-  ++position_;
+  // Outside the lock, so a deck emulator can still answer while the frame "plays".
+  if (pace_ > 0) std::this_thread::sleep_until(due);
   return true;
+}
+
+void SimDeck::SetPace(double signal_seconds_per_second) {
+  core::Require(signal_seconds_per_second >= 0, "pace",
+                "must not be negative, got " + std::to_string(signal_seconds_per_second));
+  std::lock_guard lock(mutex_);
+  pace_ = signal_seconds_per_second;
+  pace_origin_ = std::chrono::steady_clock::now() -
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(pace_ > 0 ? clock_s_ / pace_ : 0.0));
 }
 
 }  // namespace dome::capture

@@ -7,11 +7,14 @@
 // one frame per call of NextFrame, the signal clock advancing one frame period each
 // (1/29.97 s or 1/25 s), until Stop or the end of the tape. A cue-up takes
 // kCueSeconds of signal time with nothing played (a deck winds and pre-rolls); fast-
-// forward and rewind wind to the tape's end or start at once and stop there.
+// forward and rewind wind to the tape's end or start at once and stop there. With a
+// pace set, NextFrame waits so that the signal clock keeps to wall time (times the
+// pace), as a real deck's playback does.
 //
 // Thread-safe: a deck emulator may drive it while a digitizer reads its signal.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <mutex>
 #include <vector>
@@ -42,6 +45,9 @@ class SimDeck : public Deck, public VideoSignal {
 
   bool NextFrame(cv::Mat* frame, double* time_s) override;
 
+  // Signal seconds per wall second from now on (1 = real time); 0 = as fast as read.
+  void SetPace(double signal_seconds_per_second);
+
   int frame_count() const { return static_cast<int>(frames_.size()); }
   const TapeLayout& layout() const { return layout_; }
   // The control-track time code of frame `index` as a frame number.
@@ -60,6 +66,8 @@ class SimDeck : public Deck, public VideoSignal {
   Transport transport_ = Transport::kStopped;
   bool cue_complete_ = false;
   double clock_s_ = 0.0;  // the signal clock, seconds
+  double pace_ = 0.0;     // signal seconds per wall second; 0 = unpaced
+  std::chrono::steady_clock::time_point pace_origin_;  // wall time of signal clock 0
 };
 
 }  // namespace dome::capture

@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "core/parallel_for.h"
+#include "fusion/consistency.h"
 #include "io/depth_tiff.h"
 
 namespace dome::fusion {
@@ -34,6 +35,13 @@ void FusionOptions::Check() const {
           "must be a fraction >= 0, got " + std::to_string(max_depth_jump_ratio));
   Require(std::isfinite(min_depth_mm) && min_depth_mm > 0.0, "fusion: min_depth_mm",
           "must be a positive number of mm, got " + std::to_string(min_depth_mm));
+  Require(min_consistent_views >= 0, "fusion: min_consistent_views",
+          "must be >= 0 (0 = off), got " + std::to_string(min_consistent_views));
+  Require(std::isfinite(consistency_tolerance_mm) && consistency_tolerance_mm > 0.0,
+          "fusion: consistency_tolerance_mm",
+          "must be a positive number of mm, got " + std::to_string(consistency_tolerance_mm));
+  Require(std::isfinite(min_weight) && min_weight >= 0.0, "fusion: min_weight",
+          "must be >= 0, got " + std::to_string(min_weight));
 }
 
 void CheckRangeImage(const RangeImage& image) {
@@ -164,11 +172,22 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
   options_.Check();
   cameras_.resize(images.size());
   for (const RangeImage& image : images) CheckRangeImage(image);  // first bad one throws
-  // The tables of the cameras are independent: built in parallel.
   const int threads = options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads();
+  // Inconsistent samples removed first (the same for every slab: the whole instant's
+  // images decide).
+  std::vector<cv::Mat> consistent;
+  if (options_.min_consistent_views > 0) {
+    ConsistencyOptions c;
+    c.min_views = options_.min_consistent_views;
+    c.tolerance_mm = options_.consistency_tolerance_mm;
+    c.num_threads = threads;
+    consistent = KeepConsistentDepth(images, c);
+  }
+  // The tables of the cameras are independent: built in parallel.
   core::ParallelFor(0, int64_t(images.size()), threads, [&](int64_t c_begin, int64_t c_end) {
     for (int64_t c = c_begin; c < c_end; ++c) {
       const RangeImage& image = images[c];
+      const cv::Mat& depth_mm = consistent.empty() ? image.depth_mm : consistent[c];
       const geometry::TsaiCamera& cam = image.camera;
       CameraTables& t = cameras_[c];
       t.rotation = cam.rotation;
@@ -227,7 +246,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       // Inverse depths and the tessellation (seed §3: no triangle across a jump).
       t.inv_depth.resize(size_t(w) * h);
       for (int y = 0; y < h; ++y) {
-        const float* row = image.depth_mm.ptr<float>(y);
+        const float* row = depth_mm.ptr<float>(y);
         for (int x = 0; x < w; ++x)
           t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
       }
@@ -248,8 +267,8 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       t.quad_min.assign(t.quad.size(), std::numeric_limits<float>::infinity());
       t.quad_max.assign(t.quad.size(), -std::numeric_limits<float>::infinity());
       for (int y = 0; y + 1 < h; ++y) {
-        const float* r0 = image.depth_mm.ptr<float>(y);
-        const float* r1 = image.depth_mm.ptr<float>(y + 1);
+        const float* r0 = depth_mm.ptr<float>(y);
+        const float* r1 = depth_mm.ptr<float>(y + 1);
         for (int x = 0; x + 1 < w; ++x) {
           uint8_t q = 0;
           if (connected(r0[x], r0[x + 1], r1[x + 1])) q |= 1;  // (0,0) (1,0) (1,1)
@@ -269,7 +288,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
           t.quad_max[size_t(y) * (w - 1) + x] = hi;
         }
       }
-      BuildPyramid(image.depth_mm, &t);
+      BuildPyramid(depth_mm, &t);
     }
   });
 }
@@ -637,6 +656,7 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
     }
   }
   const float clamp = p.clamp;
+  const float min_weight = static_cast<float>(options_.min_weight);
   for (int k = kb; k < ke; ++k) {
     for (int j = jb; j < je; ++j) {
       const int o = ((k - kb) * kSuperXY + (j - jb)) * kSuperXY;
@@ -645,8 +665,9 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
       for (int m = 0; m < ie - ib; ++m) {
         const float n = float(s->super_count + bc[m / kBlock] + s->count[o + m]);
         const float w = s->sum_w[o + m] + n;
-        slab->weight[out + m] = w;
-        slab->distance_mm[out + m] = w > 0.0f ? (s->sum_wd[o + m] + n * clamp) / w : 0.0f;
+        const bool kept = w > 0.0f && w >= min_weight;
+        slab->weight[out + m] = kept ? w : 0.0f;
+        slab->distance_mm[out + m] = kept ? (s->sum_wd[o + m] + n * clamp) / w : 0.0f;
       }
     }
   }

@@ -52,6 +52,15 @@ struct FusionOptions {
   double max_depth_jump_ratio = 0.05;
   // Voxels closer to a camera than this are not updated by it, in mm (camera z).
   double min_depth_mm = 1.0;
+  // Multi-view consistency before fusion (fusion/consistency.h): when > 0, a depth
+  // sample is fused only if at least this many other cameras' range images see a
+  // surface within consistency_tolerance_mm of it (count; 0 = every sample is fused).
+  int min_consistent_views = 0;
+  double consistency_tolerance_mm = 20.0;  // depth difference seen from the other camera, mm
+  // Voxels whose summed weight (uniform weights: the number of images that updated them)
+  // is below this are written as unobserved (weight 0, distance 0), so that marching
+  // cubes leaves no surface where fewer images saw one (unitless; 0 = keep every voxel).
+  double min_weight = 0.0;
   // Threads over the blocks of a slab; <= 0: all hardware threads.
   int num_threads = 0;
   // Skip work with a conservative test of 32x32x8 super-blocks, then 8^3 blocks, against

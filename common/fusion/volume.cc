@@ -1,5 +1,7 @@
 #include "fusion/volume.h"
 
+#include <zstd.h>
+
 #include <cmath>
 #include <cstring>
 
@@ -43,6 +45,14 @@ VolumeGrid VolumeGrid::Covering(const Eigen::Vector3d& min_mm, const Eigen::Vect
 
 namespace {
 constexpr char kSlabMagic[8] = {'D', 'O', 'M', 'E', 'S', 'L', 'A', 'B'};
+constexpr size_t kSlabHeader = 8 + 4 + 16;
+// The largest slab a decoder allocates (distances and weights), bytes: a whole
+// 300^3 volume is 216 MB; this stops a corrupt header from asking for more.
+constexpr uint64_t kMaxSlabBytes = uint64_t{1} << 32;
+// zstd's fastest level: slabs are mostly runs of unobserved or free-space voxels,
+// which compress well at any level; the time goes to the workers' fusion.
+constexpr int kSlabZstdLevel = 1;
+
 template <typename T>
 void Put(std::string* out, T v) {
   out->append(reinterpret_cast<const char*>(&v), sizeof(T));
@@ -50,29 +60,42 @@ void Put(std::string* out, T v) {
 }  // namespace
 
 std::string EncodeSlab(const Slab& slab) {
+  const size_t n = slab.distance_mm.size();
+  DOME_CHECK(slab.weight.size() == n, "a slab has as many weights as distances");
+  // Distances then weights, as one buffer for the compressor.
+  std::string raw(2 * n * sizeof(float), '\0');
+  std::memcpy(raw.data(), slab.distance_mm.data(), n * sizeof(float));
+  std::memcpy(raw.data() + n * sizeof(float), slab.weight.data(), n * sizeof(float));
   std::string out(kSlabMagic, 8);
-  Put<uint32_t>(&out, 1);
+  Put<uint32_t>(&out, 2);
   Put<int32_t>(&out, slab.k0);
   Put<int32_t>(&out, slab.k1);
   Put<int32_t>(&out, slab.nx);
   Put<int32_t>(&out, slab.ny);
-  out.append(reinterpret_cast<const char*>(slab.distance_mm.data()),
-             slab.distance_mm.size() * sizeof(float));
-  out.append(reinterpret_cast<const char*>(slab.weight.data()), slab.weight.size() * sizeof(float));
+  out.resize(kSlabHeader + ZSTD_compressBound(raw.size()));
+  // With the frame's checksum, so that a corrupt slab fails to decode.
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  DOME_CHECK(cctx != nullptr, "zstd allocates a compression context");
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, kSlabZstdLevel);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  const size_t size = ZSTD_compress2(cctx, out.data() + kSlabHeader, out.size() - kSlabHeader,
+                                     raw.data(), raw.size());
+  ZSTD_freeCCtx(cctx);
+  DOME_CHECK(!ZSTD_isError(size), "zstd compresses into a buffer of its own bound");
+  out.resize(kSlabHeader + size);
   return out;
 }
 
 Slab DecodeSlab(const std::string& bytes, const std::string& where) {
-  constexpr size_t kHeader = 8 + 4 + 16;
-  core::Require(bytes.size() >= kHeader && std::memcmp(bytes.data(), kSlabMagic, 8) == 0, where,
+  core::Require(bytes.size() >= kSlabHeader && std::memcmp(bytes.data(), kSlabMagic, 8) == 0, where,
                 "not a dome slab (expected the 'DOMESLAB' header)");
   uint32_t version;
   int32_t h[4];
   std::memcpy(&version, bytes.data() + 8, 4);
   std::memcpy(h, bytes.data() + 12, 16);
   core::Require(
-      version == 1, where,
-      "slab format version " + std::to_string(version) + " is not the supported version 1");
+      version == 1 || version == 2, where,
+      "slab format version " + std::to_string(version) + " is not a supported version (1, 2)");
   Slab slab;
   slab.k0 = h[0];
   slab.k1 = h[1];
@@ -80,15 +103,37 @@ Slab DecodeSlab(const std::string& bytes, const std::string& where) {
   slab.ny = h[3];
   core::Require(slab.k1 > slab.k0 && slab.nx > 0 && slab.ny > 0, where,
                 "slab header has an empty plane range or size");
-  const size_t n = size_t(slab.k1 - slab.k0) * size_t(slab.nx) * size_t(slab.ny);
-  core::Require(bytes.size() == kHeader + 2 * n * sizeof(float), where,
-                "slab of " + std::to_string(n) + " voxels must be " +
-                    std::to_string(kHeader + 2 * n * sizeof(float)) + " bytes, got " +
-                    std::to_string(bytes.size()));
+  const uint64_t n = uint64_t(int64_t{slab.k1} - slab.k0) * uint64_t(slab.nx) * uint64_t(slab.ny);
+  core::Require(n <= kMaxSlabBytes / (2 * sizeof(float)), where,
+                "slab header names " + std::to_string(n) + " voxels, more than a slab may hold");
+  const uint64_t raw_size = 2 * n * sizeof(float);
+  const char* payload = bytes.data() + kSlabHeader;
+  const size_t payload_size = bytes.size() - kSlabHeader;
+  std::string decompressed;
+  if (version == 1) {
+    core::Require(payload_size == raw_size, where,
+                  "slab of " + std::to_string(n) + " voxels must be " +
+                      std::to_string(kSlabHeader + raw_size) + " bytes, got " +
+                      std::to_string(bytes.size()));
+  } else {
+    const unsigned long long declared = ZSTD_getFrameContentSize(payload, payload_size);
+    core::Require(declared == raw_size, where,
+                  "compressed payload of " + std::to_string(payload_size) +
+                      " bytes does not declare the " + std::to_string(raw_size) +
+                      " bytes of a slab of " + std::to_string(n) + " voxels");
+    decompressed.resize(raw_size);
+    const size_t got = ZSTD_decompress(decompressed.data(), raw_size, payload, payload_size);
+    core::Require(!ZSTD_isError(got) && got == raw_size, where,
+                  "compressed payload of " + std::to_string(payload_size) +
+                      " bytes does not decompress: " +
+                      (ZSTD_isError(got) ? std::string(ZSTD_getErrorName(got))
+                                         : std::to_string(got) + " bytes out"));
+    payload = decompressed.data();
+  }
   slab.distance_mm.resize(n);
   slab.weight.resize(n);
-  std::memcpy(slab.distance_mm.data(), bytes.data() + kHeader, n * sizeof(float));
-  std::memcpy(slab.weight.data(), bytes.data() + kHeader + n * sizeof(float), n * sizeof(float));
+  std::memcpy(slab.distance_mm.data(), payload, n * sizeof(float));
+  std::memcpy(slab.weight.data(), payload + n * sizeof(float), n * sizeof(float));
   return slab;
 }
 

@@ -5,6 +5,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <queue>
 #include <string>
 #include <vector>
 
@@ -116,33 +118,471 @@ std::vector<Eigen::Vector3f> RelocatedPositions(const io::Mesh& mesh,
   return pos;
 }
 
-}  // namespace
-
-void DecimationOptions::Check() const {
-  core::Require(target_triangles >= 0, "decimation: target_triangles",
-                "must be >= 0, got " + std::to_string(target_triangles));
-  core::Require(std::isfinite(target_ratio) && target_ratio > 0.0 && target_ratio <= 1.0,
-                "decimation: target_ratio",
-                "must be in (0, 1], got " + std::to_string(target_ratio));
-  core::Require(std::isfinite(max_error_mm) && max_error_mm >= 0.0, "decimation: max_error_mm",
-                "must be >= 0 mm, got " + std::to_string(max_error_mm));
+// The faces of `mesh` whose connected component (faces joined by shared vertices) has at
+// least `min_triangles` triangles and a bounding-box diagonal of at least `min_diagonal`.
+std::vector<Eigen::Vector3i> KeptComponentFaces(const io::Mesh& mesh, int64_t min_triangles,
+                                                double min_diagonal, int64_t* removed) {
+  const int nv = int(mesh.vertices.size());
+  std::vector<int> parent(nv);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const auto& f : mesh.faces) {
+    const int a = find(f[0]);
+    for (int m = 1; m < 3; ++m) {
+      const int b = find(f[m]);
+      if (a != b) parent[b] = a;
+    }
+  }
+  std::vector<int64_t> count(nv, 0);
+  std::vector<Eigen::Vector3f> lo(nv, Eigen::Vector3f::Constant(HUGE_VALF)),
+      hi(nv, Eigen::Vector3f::Constant(-HUGE_VALF));
+  for (const auto& f : mesh.faces) {
+    const int r = find(f[0]);
+    ++count[r];
+    for (int m = 0; m < 3; ++m) {
+      lo[r] = lo[r].cwiseMin(mesh.vertices[f[m]]);
+      hi[r] = hi[r].cwiseMax(mesh.vertices[f[m]]);
+    }
+  }
+  std::vector<uint8_t> drop(nv, 0);
+  *removed = 0;
+  for (int r = 0; r < nv; ++r) {
+    if (count[r] == 0) continue;
+    drop[r] = count[r] < min_triangles || double((hi[r] - lo[r]).norm()) < min_diagonal;
+    *removed += drop[r];
+  }
+  std::vector<Eigen::Vector3i> kept;
+  kept.reserve(mesh.faces.size());
+  for (const auto& f : mesh.faces) {
+    if (!drop[find(f[0])]) kept.push_back(f);
+  }
+  return kept;
 }
 
-io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
-                  DecimationSummary* summary) {
-  options.Check();
-  const std::string bad = mesh.Inconsistency();
-  core::Require(bad.empty(), "decimation: mesh", bad);
-  core::Stopwatch watch;
-  const size_t triangles = mesh.faces.size();
-  std::vector<unsigned int> indices(triangles * 3);
-  for (size_t f = 0; f < triangles; ++f) {
-    for (int m = 0; m < 3; ++m) indices[3 * f + m] = static_cast<unsigned int>(mesh.faces[f][m]);
+// Symmetric quadric x^T A x + 2 b.x + c: area-weighted squared distances to planes.
+struct Quadric {
+  double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0;
+
+  // The plane n.x + d = 0 (n unit) with weight w.
+  void AddPlane(const Eigen::Vector3d& n, double d, double w) {
+    a00 += w * n.x() * n.x();
+    a01 += w * n.x() * n.y();
+    a02 += w * n.x() * n.z();
+    a11 += w * n.y() * n.y();
+    a12 += w * n.y() * n.z();
+    a22 += w * n.z() * n.z();
+    b0 += w * d * n.x();
+    b1 += w * d * n.y();
+    b2 += w * d * n.z();
+    c += w * d * d;
+  }
+  Quadric& operator+=(const Quadric& o) {
+    a00 += o.a00, a01 += o.a01, a02 += o.a02, a11 += o.a11, a12 += o.a12, a22 += o.a22;
+    b0 += o.b0, b1 += o.b1, b2 += o.b2, c += o.c;
+    return *this;
+  }
+  Eigen::Matrix3d A() const {
+    Eigen::Matrix3d m;
+    m << a00, a01, a02, a01, a11, a12, a02, a12, a22;
+    return m;
+  }
+  Eigen::Vector3d B() const { return Eigen::Vector3d(b0, b1, b2); }
+  double Eval(const Eigen::Vector3d& x) const { return x.dot(A() * x) + 2.0 * B().dot(x) + c; }
+  double Weight() const { return a00 + a11 + a22; }  // sum of the plane weights
+};
+
+// Greedy quadric edge collapse on a face list; positions are kept relative to the vertex
+// centroid (well conditioned far from the world origin).
+class EdgeCollapser {
+ public:
+  EdgeCollapser(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
+                const DecimationOptions& o)
+      : options_(o) {
+    const size_t nv = mesh.vertices.size();
+    origin_.setZero();
+    for (const auto& p : mesh.vertices) origin_ += p.cast<double>();
+    if (nv > 0) origin_ /= double(nv);
+    pos_.resize(nv);
+    for (size_t v = 0; v < nv; ++v) pos_[v] = mesh.vertices[v].cast<double>() - origin_;
+    quad_.resize(nv);
+    stamp_.assign(nv, 0);
+    alive_.assign(nv, 1);
+    locked_.assign(nv, 0);
+    border_.assign(nv, 0);
+    vfaces_.resize(nv);
+    mark_.assign(nv, 0);
+    mark_v_.assign(nv, 0);
+    count_u_.assign(nv, 0);
+    count_v_.assign(nv, 0);
+    if (mesh.HasColors()) {
+      colors_.resize(nv);
+      for (size_t v = 0; v < nv; ++v) colors_[v] = mesh.colors[v].cast<float>();
+    }
+    if (mesh.HasNormals()) normals_ = mesh.normals;
+    if (mesh.HasAlphas()) alphas_.assign(mesh.alphas.begin(), mesh.alphas.end());
+    faces_.reserve(faces.size());
+    for (const auto& f : faces) {
+      if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
+      const int id = int(faces_.size());
+      faces_.push_back(f);
+      for (int m = 0; m < 3; ++m) vfaces_[f[m]].push_back(id);
+    }
+    face_alive_.assign(faces_.size(), 1);
+    live_ = int64_t(faces_.size());
+    for (const auto& f : faces_) {
+      const Eigen::Vector3d cr = (pos_[f[1]] - pos_[f[0]]).cross(pos_[f[2]] - pos_[f[0]]);
+      const double len = cr.norm();
+      if (!(len > 0)) continue;
+      const Eigen::Vector3d n = cr / len;
+      for (int m = 0; m < 3; ++m) quad_[f[m]].AddPlane(n, -n.dot(pos_[f[0]]), 0.5 * len);
+    }
+    ClassifyVertices();
+  }
+
+  int64_t live_faces() const { return live_; }
+  double max_error_mm() const { return max_error_; }
+
+  // Collapses until `target` faces are left. A collapse refused for its shape is not
+  // retried until an endpoint changes; when the queue runs dry before the target, all
+  // edges are queued again (the neighbourhoods have changed), while that still helps.
+  void Run(int64_t target) {
+    candidates_.reserve(faces_.size() * 3);
+    heap_.reserve(faces_.size() * 2);
+    for (int pass = 0; pass < kMaxPasses && live_ > target; ++pass) {
+      candidates_.clear();
+      heap_.clear();
+      heaped_ = false;  // the first candidates are heaped at once
+      for (size_t u = 0; u < vfaces_.size(); ++u) {
+        if (alive_[u]) PushEdgesOf(int(u), /*only_greater=*/true);
+      }
+      std::make_heap(heap_.begin(), heap_.end(), std::greater<>());
+      heaped_ = true;
+      int64_t collapses = 0;
+      while (live_ > target && !heap_.empty()) {
+        std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
+        const Candidate c = candidates_[heap_.back().second];
+        heap_.pop_back();
+        if (!alive_[c.keep] || !alive_[c.gone] || stamp_[c.keep] != c.stamp_keep ||
+            stamp_[c.gone] != c.stamp_gone) {
+          continue;
+        }
+        Quadric q = quad_[c.keep];
+        q += quad_[c.gone];
+        const double w = q.Weight();
+        const double error = w > 0 ? std::sqrt(c.cost / w) : 0.0;
+        if (options_.max_error_mm > 0 && error > options_.max_error_mm) continue;
+        if (!Collapsible(c.keep, c.gone, c.x)) continue;
+        Collapse(c.keep, c.gone, c.x);
+        ++collapses;
+        max_error_ = std::max(max_error_, error);
+      }
+      if (collapses == 0) break;
+    }
+  }
+
+  io::Mesh Result() const {
+    io::Mesh out;
+    std::vector<int> remap(pos_.size(), -1);
+    for (size_t f = 0; f < faces_.size(); ++f) {
+      if (!face_alive_[f]) continue;
+      Eigen::Vector3i face;
+      for (int m = 0; m < 3; ++m) {
+        const int v = faces_[f][m];
+        if (remap[v] < 0) {
+          remap[v] = int(out.vertices.size());
+          out.vertices.push_back((pos_[v] + origin_).cast<float>());
+          if (!colors_.empty()) {
+            out.colors.push_back(
+                colors_[v].array().round().max(0.0f).min(255.0f).cast<uint8_t>().matrix());
+          }
+          if (!normals_.empty()) {
+            const float len = normals_[v].norm();
+            out.normals.push_back(len > 0 ? Eigen::Vector3f(normals_[v] / len) : normals_[v]);
+          }
+          if (!alphas_.empty()) {
+            out.alphas.push_back(uint8_t(std::clamp(std::lround(alphas_[v]), 0l, 255l)));
+          }
+        }
+        face[m] = remap[v];
+      }
+      out.faces.push_back(face);
+    }
+    return out;
+  }
+
+ private:
+  struct Candidate {
+    double cost;
+    Eigen::Vector3d x;
+    int keep, gone;
+    uint32_t stamp_keep, stamp_gone;
+  };
+
+  // Border vertices (on an edge used by one face) and locked ones: non-manifold edges or
+  // fans, and with lock_border the border. Adds the border penalty planes.
+  void ClassifyVertices() {
+    const bool penalty = !options_.lock_border && options_.border_weight > 0;
+    for (size_t u = 0; u < vfaces_.size(); ++u) {
+      if (vfaces_[u].empty()) continue;
+      const uint32_t epoch = ++epoch_;
+      int edges = 0, border_edges = 0;
+      bool non_manifold = false;
+      for (int f : vfaces_[u]) {
+        for (int m = 0; m < 3; ++m) {
+          const int w = faces_[f][m];
+          if (w == int(u)) continue;
+          if (mark_[w] != epoch) {
+            mark_[w] = epoch;
+            count_u_[w] = 0;
+            ++edges;
+          }
+          ++count_u_[w];
+        }
+      }
+      for (int f : vfaces_[u]) {
+        for (int m = 0; m < 3; ++m) {
+          const int w = faces_[f][m];
+          if (w == int(u) || mark_[w] != epoch) continue;
+          mark_[w] = epoch - 1;  // count each neighbour once
+          if (count_u_[w] > 2) non_manifold = true;
+          if (count_u_[w] != 1) continue;
+          ++border_edges;
+          if (penalty && int(u) < w) {
+            // The penalty plane contains the edge and is perpendicular to its face.
+            const auto& t = faces_[f];
+            const Eigen::Vector3d n =
+                (pos_[t[1]] - pos_[t[0]]).cross(pos_[t[2]] - pos_[t[0]]).normalized();
+            const Eigen::Vector3d e = pos_[w] - pos_[u];
+            const Eigen::Vector3d p = e.cross(n);
+            if (p.squaredNorm() > 0 && n.allFinite()) {
+              const Eigen::Vector3d pn = p.normalized();
+              const double weight = options_.border_weight * e.squaredNorm();
+              quad_[u].AddPlane(pn, -pn.dot(pos_[u]), weight);
+              quad_[w].AddPlane(pn, -pn.dot(pos_[u]), weight);
+            }
+          }
+        }
+      }
+      ++epoch_;  // the marks above used epoch - 1; keep later epochs fresh
+      const int nf = int(vfaces_[u].size());
+      border_[u] = border_edges > 0;
+      const bool fan_ok = border_edges == 0 ? edges == nf : (border_edges == 2 && edges == nf + 1);
+      locked_[u] = non_manifold || !fan_ok || (options_.lock_border && border_[u]);
+    }
+  }
+
+  // The quadric-optimal position for merging a and b (the locked one's if one is).
+  Eigen::Vector3d Placement(const Quadric& q, int keep, int gone) const {
+    const Eigen::Vector3d& p = pos_[keep];
+    const Eigen::Vector3d& r = pos_[gone];
+    if (locked_[keep]) return p;
+    const Eigen::Vector3d mid = 0.5 * (p + r);
+    const Eigen::Matrix3d a = q.A();
+    const Eigen::Vector3d g = a * mid + q.B();  // half the gradient at the midpoint
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(a);
+    const Eigen::Vector3d lambda = eig.eigenvalues();
+    const double top = lambda.maxCoeff();
+    Eigen::Vector3d x = mid;
+    if (top > 0) {
+      for (int k = 0; k < 3; ++k) {
+        if (lambda[k] > kEigenFloor * top) {
+          const Eigen::Vector3d e = eig.eigenvectors().col(k);
+          x -= e * (e.dot(g) / lambda[k]);
+        }
+      }
+    }
+    // An optimum far off the edge comes from a nearly singular system: take the best of
+    // the endpoints and the midpoint instead.
+    if ((x - mid).squaredNorm() > (r - p).squaredNorm() || !x.allFinite()) {
+      x = mid;
+      double best = q.Eval(mid);
+      for (const Eigen::Vector3d* c : {&p, &r}) {
+        const double e = q.Eval(*c);
+        if (e < best) best = e, x = *c;
+      }
+    }
+    return x;
+  }
+
+  void Push(int a, int b) {
+    if (locked_[a] && locked_[b]) return;
+    if (locked_[a] == 0 && locked_[b] != 0) std::swap(a, b);
+    Quadric q = quad_[a];
+    q += quad_[b];
+    const Eigen::Vector3d x = Placement(q, a, b);
+    const double cost = std::max(0.0, q.Eval(x));
+    heap_.emplace_back(float(cost), uint32_t(candidates_.size()));
+    if (heaped_) std::push_heap(heap_.begin(), heap_.end(), std::greater<>());
+    candidates_.push_back({cost, x, a, b, stamp_[a], stamp_[b]});
+  }
+
+  // Candidates for the edges from u (to neighbours above u only, for the first pass).
+  void PushEdgesOf(int u, bool only_greater) {
+    const uint32_t epoch = ++epoch_;
+    for (int f : vfaces_[u]) {
+      for (int m = 0; m < 3; ++m) {
+        const int w = faces_[f][m];
+        if (w == u || mark_[w] == epoch || (only_greater && w < u)) continue;
+        mark_[w] = epoch;
+        Push(u, w);
+      }
+    }
+  }
+
+  // Link condition (the result stays a 2-manifold with the same topology, open borders
+  // counted as joined to one virtual vertex), then no triangle flipped or degenerate.
+  // (A triangle-quality bound was tried and cost accuracy: 0.324 against 0.303 mm mean
+  // distance at 10% on a fused mesh.)
+  bool Collapsible(int u, int v, const Eigen::Vector3d& x) {
+    const uint32_t epoch = ++epoch_;
+    int opposite[2] = {-1, -1}, n_opposite = 0;
+    for (int f : vfaces_[u]) {
+      const auto& t = faces_[f];
+      bool has_v = false;
+      for (int m = 0; m < 3; ++m) {
+        const int w = t[m];
+        if (w == v) has_v = true;
+        if (w == u) continue;
+        if (mark_[w] != epoch) mark_[w] = epoch, count_u_[w] = 0;
+        ++count_u_[w];
+      }
+      if (has_v) {
+        if (n_opposite == 2) return false;  // a non-manifold edge
+        opposite[n_opposite++] =
+            t[0] != u && t[0] != v ? t[0] : (t[1] != u && t[1] != v ? t[1] : t[2]);
+      }
+    }
+    if (n_opposite == 0) return false;
+    int common = 0;
+    for (int f : vfaces_[v]) {
+      for (int m = 0; m < 3; ++m) {
+        const int w = faces_[f][m];
+        if (w == v) continue;
+        if (mark_v_[w] != epoch) {
+          mark_v_[w] = epoch, count_v_[w] = 0;
+          if (w != u && mark_[w] == epoch) ++common;
+        }
+        ++count_v_[w];
+      }
+    }
+    if (common != n_opposite) return false;
+    if (n_opposite == 1) {
+      const int a = opposite[0];
+      if (count_u_[a] == 1 && count_v_[a] == 1) return false;  // a lone triangle or an ear
+    } else {
+      if (border_[u] && border_[v]) return false;  // would pinch the border
+      // Both u-a-b and v-a-b present: a tetrahedron, which would fold flat.
+      const int a = opposite[0], b = opposite[1];
+      auto has_face = [&](int s, int skip) {
+        for (int f : vfaces_[s]) {
+          const auto& t = faces_[f];
+          const bool ha = t[0] == a || t[1] == a || t[2] == a;
+          const bool hb = t[0] == b || t[1] == b || t[2] == b;
+          const bool hs = t[0] == skip || t[1] == skip || t[2] == skip;
+          if (ha && hb && !hs) return true;
+        }
+        return false;
+      };
+      if (has_face(u, v) && has_face(v, u)) return false;
+    }
+    for (int s : {u, v}) {
+      for (int f : vfaces_[s]) {
+        const auto& t = faces_[f];
+        Eigen::Vector3d p[3], q[3];
+        bool both = false;
+        for (int m = 0; m < 3; ++m) {
+          p[m] = pos_[t[m]];
+          q[m] = t[m] == u || t[m] == v ? x : p[m];
+          if ((t[m] == u && s == v) || (t[m] == v && s == u)) both = true;
+        }
+        if (both) continue;  // removed by the collapse
+        const Eigen::Vector3d n_old = (p[1] - p[0]).cross(p[2] - p[0]);
+        const Eigen::Vector3d n_new = (q[1] - q[0]).cross(q[2] - q[0]);
+        const double len_new = n_new.norm(), len_old = n_old.norm();
+        if (!(len_new > 0)) return false;
+        if (len_old > 0 && n_new.dot(n_old) < kMinNormalCos * len_new * len_old) return false;
+      }
+    }
+    return true;
+  }
+
+  void Collapse(int u, int v, const Eigen::Vector3d& x) {
+    const Eigen::Vector3d e = pos_[v] - pos_[u];
+    const double e2 = e.squaredNorm();
+    const float t = e2 > 0 ? float(std::clamp((x - pos_[u]).dot(e) / e2, 0.0, 1.0)) : 0.5f;
+    if (!colors_.empty()) colors_[u] += t * (colors_[v] - colors_[u]);
+    if (!normals_.empty()) normals_[u] += t * (normals_[v] - normals_[u]);
+    if (!alphas_.empty()) alphas_[u] += t * (alphas_[v] - alphas_[u]);
+    for (int f : vfaces_[v]) {
+      auto& tri = faces_[f];
+      if (tri[0] == u || tri[1] == u || tri[2] == u) {
+        face_alive_[f] = 0;
+        --live_;
+        for (int m = 0; m < 3; ++m) {
+          const int a = tri[m];
+          if (a == u || a == v) continue;
+          auto& list = vfaces_[a];
+          list.erase(std::find(list.begin(), list.end(), f));
+        }
+      } else {
+        for (int m = 0; m < 3; ++m) {
+          if (tri[m] == v) tri[m] = u;
+        }
+        vfaces_[u].push_back(f);
+      }
+    }
+    auto& list = vfaces_[u];
+    list.erase(std::remove_if(list.begin(), list.end(), [&](int f) { return !face_alive_[f]; }),
+               list.end());
+    std::vector<int>().swap(vfaces_[v]);
+    pos_[u] = x;
+    quad_[u] += quad_[v];
+    border_[u] = border_[u] || border_[v];
+    alive_[v] = 0;
+    ++stamp_[u];
+    PushEdgesOf(u, /*only_greater=*/false);
+  }
+
+  static constexpr int kMaxPasses = 8;
+  // Relative floor of the quadric's eigenvalues below which a direction counts as
+  // undetermined (the position stays at the midpoint along it).
+  static constexpr double kEigenFloor = 1e-6;
+  static constexpr double kMinNormalCos = 0.0;  // refuse collapses turning a face > 90 deg
+
+  const DecimationOptions& options_;
+  Eigen::Vector3d origin_;
+  std::vector<Eigen::Vector3d> pos_;
+  std::vector<Quadric> quad_;
+  std::vector<uint32_t> stamp_;
+  std::vector<uint8_t> alive_, locked_, border_;
+  std::vector<std::vector<int>> vfaces_;
+  std::vector<Eigen::Vector3i> faces_;
+  std::vector<uint8_t> face_alive_;
+  std::vector<Eigen::Vector3f> colors_, normals_;
+  std::vector<float> alphas_;
+  std::vector<uint32_t> mark_, mark_v_;
+  std::vector<int> count_u_, count_v_;
+  uint32_t epoch_ = 0;
+  int64_t live_ = 0;
+  double max_error_ = 0.0;
+  // A min-heap of (cost, index into candidates_): small entries keep the heap in cache.
+  std::vector<Candidate> candidates_;
+  std::vector<std::pair<float, uint32_t>> heap_;
+  bool heaped_ = true;
+};
+
+io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
+                               size_t target_triangles, const DecimationOptions& options,
+                               double* error_mm) {
+  std::vector<unsigned int> indices(faces.size() * 3);
+  for (size_t f = 0; f < faces.size(); ++f) {
+    for (int m = 0; m < 3; ++m) indices[3 * f + m] = static_cast<unsigned int>(faces[f][m]);
   }
   const float* positions = mesh.vertices.empty() ? nullptr : mesh.vertices[0].data();
-  const size_t target_triangles =
-      options.target_triangles > 0 ? size_t(options.target_triangles)
-                                   : size_t(std::llround(options.target_ratio * double(triangles)));
   float scale = 1.0f;
   if (!mesh.vertices.empty()) {
     scale = meshopt_simplifyScale(positions, mesh.vertices.size(), sizeof(Eigen::Vector3f));
@@ -159,8 +599,13 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
                              &result_error);
   }
   out.resize(n_out);
+  *error_mm = double(result_error) * scale;
   std::vector<Eigen::Vector3f> moved;
-  if (options.relocate_vertices && n_out > 0) moved = RelocatedPositions(mesh, out);
+  if (options.relocate_vertices && n_out > 0) {
+    io::Mesh kept = mesh;
+    kept.faces = faces;
+    moved = RelocatedPositions(kept, out);
+  }
   io::Mesh result;
   std::vector<int> remap(mesh.vertices.size(), -1);
   for (size_t f = 0; f + 2 < out.size(); f += 3) {
@@ -178,10 +623,61 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
     }
     result.faces.push_back(face);
   }
+  return result;
+}
+
+}  // namespace
+
+void DecimationOptions::Check() const {
+  core::Require(target_triangles >= 0, "decimation: target_triangles",
+                "must be >= 0, got " + std::to_string(target_triangles));
+  core::Require(std::isfinite(target_ratio) && target_ratio > 0.0 && target_ratio <= 1.0,
+                "decimation: target_ratio",
+                "must be in (0, 1], got " + std::to_string(target_ratio));
+  core::Require(std::isfinite(max_error_mm) && max_error_mm >= 0.0, "decimation: max_error_mm",
+                "must be >= 0 mm, got " + std::to_string(max_error_mm));
+  core::Require(std::isfinite(border_weight) && border_weight >= 0.0, "decimation: border_weight",
+                "must be >= 0, got " + std::to_string(border_weight));
+  core::Require(min_component_triangles >= 0, "decimation: min_component_triangles",
+                "must be >= 0, got " + std::to_string(min_component_triangles));
+  core::Require(std::isfinite(min_component_diagonal_mm) && min_component_diagonal_mm >= 0.0,
+                "decimation: min_component_diagonal_mm",
+                "must be >= 0 mm, got " + std::to_string(min_component_diagonal_mm));
+}
+
+io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
+                  DecimationSummary* summary) {
+  options.Check();
+  const std::string bad = mesh.Inconsistency();
+  core::Require(bad.empty(), "decimation: mesh", bad);
+  core::Stopwatch watch;
+  const size_t triangles = mesh.faces.size();
+  const int64_t target_triangles =
+      options.target_triangles > 0
+          ? options.target_triangles
+          : int64_t(std::llround(options.target_ratio * double(triangles)));
+  int64_t components_removed = 0;
+  const std::vector<Eigen::Vector3i> faces =
+      options.min_component_triangles > 0 || options.min_component_diagonal_mm > 0
+          ? KeptComponentFaces(mesh, options.min_component_triangles,
+                               options.min_component_diagonal_mm, &components_removed)
+          : mesh.faces;
+  io::Mesh result;
+  double error_mm = 0.0;
+  if (options.method == DecimationMethod::kMeshoptimizer) {
+    result = MeshoptimizerDecimate(mesh, faces, size_t(target_triangles), options, &error_mm);
+  } else {
+    EdgeCollapser collapser(mesh, faces, options);
+    collapser.Run(target_triangles);
+    result = collapser.Result();
+    error_mm = collapser.max_error_mm();
+  }
   if (summary) {
     summary->triangles_in = int64_t(triangles);
     summary->triangles_out = int64_t(result.faces.size());
-    summary->error_mm = double(result_error) * scale;
+    summary->components_removed = components_removed;
+    summary->triangles_removed = int64_t(triangles - faces.size());
+    summary->error_mm = error_mm;
     summary->seconds = watch.ElapsedSeconds();
   }
   return result;

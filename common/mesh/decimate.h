@@ -1,12 +1,22 @@
 // Quadric-error mesh decimation (Garland & Heckbert 1997; seed §4.5 "decimated ...
-// with little loss in structural accuracy"), by meshoptimizer's topology-preserving
-// edge-collapse simplifier (Debian libmeshoptimizer-dev): collapses never change the
-// topology (no holes opened, no separate parts welded), open borders are kept.
-// meshoptimizer keeps the surviving vertices where they were (on the input surface,
-// so the coarse triangles cut chords through curved parts); a second pass places each
-// surviving interior vertex at the quadric optimum of the input faces around it
-// (the input vertices nearest to it in edge hops), moving it only along the
-// directions those faces determine.
+// with little loss in structural accuracy").
+//
+// Default method, kEdgeCollapse: greedy edge collapses in order of quadric error
+// (area-weighted squared distances to the planes of the input faces merged into a
+// vertex), each vertex placed at the quadric optimum (minimum-norm solution from the
+// edge midpoint where the planes leave a direction undetermined, so flat regions
+// collapse with zero error). A collapse is refused when it would break the 2-manifold
+// (link condition, open borders included), flip or nearly degenerate a triangle, or
+// move a locked vertex. Colours, alphas and normals are interpolated along the edge.
+// Before decimating, connected components smaller than a triangle count or bounding-box
+// diagonal can be dropped (the small floating parts stereo noise leaves in a fused
+// mesh); the target counts against the input triangles, so dropped parts count towards
+// the reduction.
+//
+// kMeshoptimizer: meshoptimizer's topology-preserving simplifier (Debian
+// libmeshoptimizer-dev), surviving vertices optionally moved to the quadric optimum of
+// the input faces around them.
+//
 // Units: the mesh's (mm for dome's meshes).
 #pragma once
 
@@ -16,16 +26,31 @@
 
 namespace dome::mesh {
 
+enum class DecimationMethod { kEdgeCollapse, kMeshoptimizer };
+
 struct DecimationOptions {
   // Target triangle count; 0: use target_ratio.
   int64_t target_triangles = 0;
   // Target as a fraction of the input triangles, in (0, 1].
   double target_ratio = 0.1;
-  // Stop before a collapse would move the surface more than this, in mm; 0 = no bound.
+  // Never make a collapse whose estimated error (root-mean-square distance to the planes
+  // of the input faces merged into the vertex) exceeds this, in mm; 0 = no bound.
   double max_error_mm = 0.0;
   // Keep vertices on open borders in place (a slab or volume edge, unobserved parts).
-  bool lock_border = true;
-  // Place surviving interior vertices at their quadric optimum (above).
+  // When false, borders may be simplified but are held by penalty planes through each
+  // border edge, perpendicular to its face, weighted border_weight times the edge
+  // length squared (kEdgeCollapse only). Off by default: a stereo mesh has so much
+  // border (holes, floaters) that locking it keeps the target out of reach.
+  bool lock_border = false;
+  double border_weight = 0.1;  // dimensionless, >= 0
+  // Drop connected components (faces joined by shared vertices) with fewer triangles than
+  // this before decimating; 0 = keep all. The default drops the lone triangles, pairs
+  // and triples that stereo noise leaves in a fused mesh (no real part is that small).
+  int64_t min_component_triangles = 4;
+  // Drop connected components whose bounding-box diagonal is below this, mm; 0 = keep.
+  double min_component_diagonal_mm = 0.0;
+  DecimationMethod method = DecimationMethod::kEdgeCollapse;
+  // kMeshoptimizer only: place surviving interior vertices at their quadric optimum.
   bool relocate_vertices = true;
 
   // Throws core::InputError naming the first option out of range.
@@ -35,12 +60,14 @@ struct DecimationOptions {
 struct DecimationSummary {
   int64_t triangles_in = 0;
   int64_t triangles_out = 0;
-  double error_mm = 0.0;  // the simplifier's estimate of the largest deviation, mm
+  int64_t components_removed = 0;  // dropped by the component filters
+  int64_t triangles_removed = 0;   // their triangles
+  double error_mm = 0.0;           // largest error estimate of a collapse made, mm
   double seconds = 0.0;
 };
 
-// The simplified mesh, vertices compacted (first-use order); colours and normals are
-// carried along for the vertices that remain.
+// The simplified mesh, vertices compacted (first-use order). Stops at the target, at the
+// error bound, or when no valid collapse is left.
 io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
                   DecimationSummary* summary = nullptr);
 

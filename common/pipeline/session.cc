@@ -70,6 +70,9 @@ runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& o) {
   s.set_front_clamp_mm(o.front_clamp_mm);
   s.set_max_depth_jump_ratio(o.max_depth_jump_ratio);
   s.set_min_depth_mm(o.min_depth_mm);
+  s.set_min_consistent_views(o.min_consistent_views);
+  s.set_consistency_tolerance_mm(o.consistency_tolerance_mm);
+  s.set_min_weight(o.min_weight);
   return s;
 }
 
@@ -80,6 +83,10 @@ fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& s, doubl
   o.front_clamp_mm = s.has_front_clamp_mm() ? s.front_clamp_mm() : 3 * voxel_size_mm;
   if (s.has_max_depth_jump_ratio()) o.max_depth_jump_ratio = s.max_depth_jump_ratio();
   if (s.has_min_depth_mm()) o.min_depth_mm = s.min_depth_mm();
+  if (s.has_min_consistent_views()) o.min_consistent_views = s.min_consistent_views();
+  o.consistency_tolerance_mm =
+      s.has_consistency_tolerance_mm() ? s.consistency_tolerance_mm() : voxel_size_mm;
+  if (s.has_min_weight()) o.min_weight = s.min_weight();
   try {
     o.Check();
   } catch (const core::InputError& e) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <mutex>
 #include <vector>
 
 #include "core/parallel_for.h"
@@ -246,19 +247,70 @@ __attribute__((target("avx512f,avx512bw,fma"))) void AccumulateRowAvx512(
   }
 }
 
+// Kernel buffers are taken from and given back to a process-wide pool: fresh pages
+// cost a page fault each on first touch, megabytes per call otherwise.
+class FloatPool {
+ public:
+  // A vector of n floats, contents unspecified.
+  static std::vector<float> Take(size_t n) {
+    std::vector<float> v;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      auto& free = Free();
+      size_t pick = free.size();
+      for (size_t i = 0; i < free.size(); ++i) {
+        const size_t cap = free[i].capacity();
+        if (cap >= n && (pick == free.size() || cap < free[pick].capacity())) pick = i;
+      }
+      if (pick < free.size()) {
+        v = std::move(free[pick]);
+        free.erase(free.begin() + pick);
+      }
+    }
+    v.resize(n);
+    return v;
+  }
+  static void Give(std::vector<float>* v) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto& free = Free();
+    if (free.size() < kMaxBuffers) free.push_back(std::move(*v));
+  }
+
+ private:
+  static constexpr size_t kMaxBuffers = 256;
+  static std::vector<std::vector<float>>& Free() {
+    static std::vector<std::vector<float>> free;
+    return free;
+  }
+  static inline std::mutex mutex_;
+};
+
+// A pooled buffer for the scope.
+struct Scratch {
+  std::vector<float> v;
+  explicit Scratch(size_t n = 0) : v(FloatPool::Take(n)) {}
+  ~Scratch() { FloatPool::Give(&v); }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  float* data() { return v.data(); }
+  const float* data() const { return v.data(); }
+  float& operator[](size_t i) { return v[i]; }
+  float operator[](size_t i) const { return v[i]; }
+};
+
 struct BandState {
   // Per pixel of the band (rows x stride), one set per window size.
-  std::vector<float> best, level, cm, cp, before, after, run, run_prev, prev;
+  Scratch best, level, cm, cp, before, after, run, run_prev, prev;
   void Reset(size_t n) {
-    best.assign(n, kInf);
-    level.assign(n, -1.0f);
-    cm.assign(n, kInf);
-    cp.assign(n, kInf);
-    before.assign(n, kInf);
-    after.assign(n, kInf);
-    run.assign(n, kInf);
-    run_prev.assign(n, kInf);
-    prev.assign(n, kInf);
+    best.v.assign(n, kInf);
+    level.v.assign(n, -1.0f);
+    cm.v.assign(n, kInf);
+    cp.v.assign(n, kInf);
+    before.v.assign(n, kInf);
+    after.v.assign(n, kInf);
+    run.v.assign(n, kInf);
+    run_prev.v.assign(n, kInf);
+    prev.v.assign(n, kInf);
   }
 };
 
@@ -297,6 +349,39 @@ __attribute__((noinline)) void UpdateRow(const float* __restrict cost, int n, fl
   }
 }
 
+// UpdateRow for two consecutive levels (lvl with cost c0, lvl + 1 with c1) in one pass
+// over the state: the same result, half the state traffic (the state of a band lives in
+// L2, and loading and storing it is most of UpdateRow's time).
+__attribute__((noinline)) void UpdateRow2(const float* __restrict c0, const float* __restrict c1,
+                                          int n, float lvl, float* __restrict best,
+                                          float* __restrict level, float* __restrict cm,
+                                          float* __restrict cp, float* __restrict before,
+                                          float* __restrict after, float* __restrict run,
+                                          float* __restrict run_prev, float* __restrict prev) {
+  for (int x = 0; x < n; ++x) {
+    float b = best[x], lv = level[x], rn = run[x], rp = run_prev[x], pv = prev[x];
+    float bf = before[x], cmv = cm[x], cpv = cp[x], af = after[x];
+    for (int k = 0; k < 2; ++k) {
+      const float c = k == 0 ? c0[x] : c1[x];
+      const float l = lvl + float(k);
+      const bool nb = c < b;
+      const bool adj = l == lv + 1.0f;
+      const float af_min = c < af ? c : af;
+      bf = nb ? rp : bf;
+      cmv = nb ? pv : cmv;
+      cpv = nb ? kInf : (adj ? c : cpv);
+      af = nb ? kInf : (adj ? af : af_min);
+      b = nb ? c : b;
+      lv = nb ? l : lv;
+      rp = rn;
+      rn = c < rn ? c : rn;
+      pv = c;
+    }
+    best[x] = b, level[x] = lv, run[x] = rn, run_prev[x] = rp, prev[x] = pv;
+    before[x] = bf, cm[x] = cmv, cp[x] = cpv, after[x] = af;
+  }
+}
+
 // c[x] = sum of v[x..x+2h], x in [0, n).
 __attribute__((noinline)) void WindowSum(const float* __restrict v, int n, int h,
                                          float* __restrict c) {
@@ -306,17 +391,262 @@ __attribute__((noinline)) void WindowSum(const float* __restrict v, int n, int h
   }
 }
 
+// Pre-warped neighbours (KernelInput::prewarp). With c = A^-1 b, x_n ~ A (p + w c): in
+// the neighbour resampled once by A onto the reference's pixel grid ("J", bilinear),
+// hypothesis w takes reference pixel p to m = (p + w c_xy) s with s = 1 / (1 + w c_z),
+// a scaling. So per level and neighbour a reference row reads one fixed J row pair
+// and J columns that are affine in x with the same pattern (column, fraction) for
+// every row: no per-pixel division and no per-pixel address logic. Each J row a level
+// needs is resampled along x once (two permutes of a contiguous pair of loads per
+// sixteen pixels) and serves the two reference rows that fall next to it.
+struct Prewarped {
+  int cols = 0, rows = 0, stride = 0;
+  double ox = 0.0, oy = 0.0;  // m of J pixel (0, 0), in reference pixels
+  double c[3] = {0.0, 0.0, 0.0};
+  std::vector<float> value;       // rows x stride, NaN = no data (always on the margin)
+  std::vector<uint8_t> has_data;  // per row: any value not NaN
+};
+
+struct LevelPattern {
+  double s = 1.0, my0 = 0.0;    // J row coordinate of reference row y: s y + my0
+  std::vector<int32_t> base;    // per block of 16 pixels: J column of its first pixel
+  std::vector<int32_t> rel;     // per pixel: J column - block base
+  std::vector<float> frac;      // per pixel: fraction of the J column
+  std::vector<uint8_t> gather;  // per block: rel + 1 passes 31, too far for the permutes
+};
+
+constexpr double kMaxPrewarpScale = 4.0;  // s beyond this: neighbour near the plane's horizon
+constexpr double kMaxPrewarpArea = 16.0;  // J larger than this many reference images: no
+// NaN J pixels around the reach of every hypothesis: clamped reads outside J land there.
+constexpr int kPrewarpMargin = 2;
+
+bool Invert3(const double a[3][3], double inv[3][3]) {
+  const double c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1];
+  const double c01 = a[1][2] * a[2][0] - a[1][0] * a[2][2];
+  const double c02 = a[1][0] * a[2][1] - a[1][1] * a[2][0];
+  const double det = a[0][0] * c00 + a[0][1] * c01 + a[0][2] * c02;
+  if (!(std::abs(det) > 1e-300)) return false;
+  inv[0][0] = c00 / det;
+  inv[0][1] = (a[0][2] * a[2][1] - a[0][1] * a[2][2]) / det;
+  inv[0][2] = (a[0][1] * a[1][2] - a[0][2] * a[1][1]) / det;
+  inv[1][0] = c01 / det;
+  inv[1][1] = (a[0][0] * a[2][2] - a[0][2] * a[2][0]) / det;
+  inv[1][2] = (a[0][2] * a[1][0] - a[0][0] * a[1][2]) / det;
+  inv[2][0] = c02 / det;
+  inv[2][1] = (a[0][1] * a[2][0] - a[0][0] * a[2][1]) / det;
+  inv[2][2] = (a[0][0] * a[1][1] - a[0][1] * a[1][0]) / det;
+  return true;
+}
+
+// Sets up J's extent for inverse depths [w0, w1]; false when the scaling leaves the
+// usable range (then the exact per-pixel warp runs).
+bool PlanPrewarp(const KernelNeighbour& nb, int width, int height, double w0, double w1,
+                 Prewarped* pw) {
+  double inv[3][3];
+  if (!Invert3(nb.a, inv)) return false;
+  for (int i = 0; i < 3; ++i) {
+    pw->c[i] = inv[i][0] * nb.b[0] + inv[i][1] * nb.b[1] + inv[i][2] * nb.b[2];
+  }
+  double xmin = kInf, xmax = -kInf, ymin = kInf, ymax = -kInf;
+  for (double w : {w0, w1}) {
+    const double d = 1.0 + w * pw->c[2];
+    if (!(d > 1.0 / kMaxPrewarpScale)) return false;
+    for (double x : {0.0, double(width - 1)}) {
+      for (double y : {0.0, double(height - 1)}) {
+        const double mx = (x + w * pw->c[0]) / d, my = (y + w * pw->c[1]) / d;
+        xmin = std::min(xmin, mx), xmax = std::max(xmax, mx);
+        ymin = std::min(ymin, my), ymax = std::max(ymax, my);
+      }
+    }
+  }
+  // Where J has data at all: the neighbour's image mapped back by A^-1, when all of it
+  // lies in front of the reference (else the reach above bounds J alone). Outside J,
+  // clamped reads land on its NaN margin.
+  double fxmin = kInf, fxmax = -kInf, fymin = kInf, fymax = -kInf;
+  bool bounded = true;
+  for (double u : {0.0, double(nb.width - 1)}) {
+    for (double v : {0.0, double(nb.height - 1)}) {
+      const double mz = inv[2][0] * u + inv[2][1] * v + inv[2][2];
+      if (!(mz > 0.0)) bounded = false;
+      const double mx = (inv[0][0] * u + inv[0][1] * v + inv[0][2]) / mz;
+      const double my = (inv[1][0] * u + inv[1][1] * v + inv[1][2]) / mz;
+      fxmin = std::min(fxmin, mx), fxmax = std::max(fxmax, mx);
+      fymin = std::min(fymin, my), fymax = std::max(fymax, my);
+    }
+  }
+  if (bounded) {
+    xmin = std::max(xmin, fxmin), xmax = std::min(xmax, fxmax);
+    ymin = std::max(ymin, fymin), ymax = std::min(ymax, fymax);
+    if (!(xmin <= xmax && ymin <= ymax)) xmin = xmax = ymin = ymax = 0.0;  // never seen
+  }
+  pw->ox = std::floor(xmin) - kPrewarpMargin;
+  pw->oy = std::floor(ymin) - kPrewarpMargin;
+  const double cols = std::ceil(xmax) - pw->ox + kPrewarpMargin + 1;
+  const double rows = std::ceil(ymax) - pw->oy + kPrewarpMargin + 1;
+  if (!(cols * rows <= kMaxPrewarpArea * width * height)) return false;
+  pw->cols = int(cols);
+  pw->rows = int(rows);
+  pw->stride = pw->cols + 48;  // the permutes load 32 columns from a block's base
+  return true;
+}
+
+// Fills J: the neighbour sampled bilinearly at A (m, 1), NaN where the quad leaves the
+// image or holds a pixel without data (as the exact warp counts it).
+void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  pw->value = FloatPool::Take(size_t(pw->rows) * pw->stride);
+  std::fill(pw->value.begin(), pw->value.end(), nan);
+  const double umax = nb.width - 1, vmax = nb.height - 1;
+  for (int j = 0; j < pw->rows; ++j) {
+    float* row = pw->value.data() + size_t(j) * pw->stride;
+    const double my = pw->oy + j;
+    if (j < kPrewarpMargin || j >= pw->rows - kPrewarpMargin) continue;
+    for (int i = kPrewarpMargin; i < pw->cols - kPrewarpMargin; ++i) {
+      const double mx = pw->ox + i;
+      const double qz = nb.a[2][0] * mx + nb.a[2][1] * my + nb.a[2][2];
+      if (!(qz > 0.0)) continue;
+      const double u = (nb.a[0][0] * mx + nb.a[0][1] * my + nb.a[0][2]) / qz;
+      const double v = (nb.a[1][0] * mx + nb.a[1][1] * my + nb.a[1][2]) / qz;
+      if (!(u >= 0.0 && v >= 0.0 && u < umax && v < vmax)) continue;
+      const int xi = int(u), yi = int(v);
+      const float ax = float(u - xi), ay = float(v - yi);
+      const float* p = nb.image + size_t(yi) * nb.width + xi;
+      const float top = p[0] + ax * (p[1] - p[0]);
+      const float bot = p[nb.width] + ax * (p[nb.width + 1] - p[nb.width]);
+      row[i] = top + ay * (bot - top);
+    }
+  }
+  pw->has_data.resize(pw->rows);
+  for (int j = 0; j < pw->rows; ++j) {
+    const float* row = pw->value.data() + size_t(j) * pw->stride;
+    pw->has_data[j] = std::any_of(row, row + pw->cols, [](float g) { return g == g; });
+  }
+}
+
+// The column pattern of inverse depth w over `n16` pixels (a multiple of 16; pixels at
+// and past `width` repeat the last one).
+inline __attribute__((always_inline)) void MakePattern(const Prewarped& pw, float w, int width,
+                                                       int n16, LevelPattern* pat) {
+  pat->s = 1.0 / (1.0 + double(w) * pw.c[2]);
+  pat->my0 = pat->s * double(w) * pw.c[1] - pw.oy;
+  const double s = pat->s, mx0 = pat->s * double(w) * pw.c[0] - pw.ox;
+  pat->base.resize(n16 / 16);
+  pat->gather.resize(n16 / 16);
+  pat->rel.resize(n16);
+  pat->frac.resize(n16);
+  int32_t* __restrict col = pat->rel.data();
+  float* __restrict frac = pat->frac.data();
+  const int last = pw.cols - 1;
+  // Plain loops that vectorize in the SIMD instances.
+  for (int x = 0; x < n16; ++x) {
+    const double mx = s * double(x < width ? x : width - 1) + mx0;
+    const double fl = std::floor(mx);
+    const int c = int(fl);
+    col[x] = c < 0 ? 0 : (c > last ? last : c);
+    frac[x] = x < width ? float(mx - fl) : 0.0f;
+  }
+  for (int k = 0; k < n16 / 16; ++k) {
+    const int32_t b = col[16 * k];
+    pat->base[k] = b;
+    for (int i = 0; i < 16; ++i) col[16 * k + i] -= b;
+    pat->gather[k] = col[16 * k + 15] > 30;
+  }
+}
+
+// J row and vertical fraction of reference row y.
+inline void PatternRow(const Prewarped& pw, const LevelPattern& pat, int y, int* r, float* ay) {
+  const double my = pat.s * y + pat.my0;
+  const double fl = std::floor(my);
+  *r = std::clamp(int(fl), 0, pw.rows - 2);
+  *ay = float(my - fl);
+}
+
+// One J row resampled at the level's column pattern: out[x] = J(col(x) + frac(x), j)
+// for x in [0, n16) (scalar).
+void HorizontalRowScalar(const float* __restrict jrow, const LevelPattern& pat, int n16,
+                         float* __restrict out) {
+  for (int x = 0; x < n16; ++x) {
+    const float* p = jrow + pat.base[x / 16] + pat.rel[x];
+    out[x] = p[0] + pat.frac[x] * (p[1] - p[0]);
+  }
+}
+
+// The same sixteen columns at a time.
+__attribute__((target("avx512f,avx512bw,fma"))) void HorizontalRowAvx512(
+    const float* __restrict jrow, const LevelPattern& pat, int n16, float* __restrict out) {
+  const __m512i one = _mm512_set1_epi32(1);
+  for (int x = 0; x < n16; x += 16) {
+    const float* p = jrow + pat.base[x / 16];
+    const __m512i rel = _mm512_loadu_si512(pat.rel.data() + x);
+    const __m512i rel1 = _mm512_add_epi32(rel, one);
+    __m512 a, b;
+    if (!pat.gather[x / 16]) {
+      // One pair of loads serves both taps.
+      const __m512 lo = _mm512_loadu_ps(p), hi = _mm512_loadu_ps(p + 16);
+      a = _mm512_permutex2var_ps(lo, rel, hi);
+      b = _mm512_permutex2var_ps(lo, rel1, hi);
+    } else {
+      a = _mm512_i32gather_ps(rel, p, 4);
+      b = _mm512_i32gather_ps(rel1, p, 4);
+    }
+    _mm512_storeu_ps(out + x,
+                     _mm512_fmadd_ps(_mm512_loadu_ps(pat.frac.data() + x), _mm512_sub_ps(b, a), a));
+  }
+}
+
+// The SSD of one reference row over all neighbours: per neighbour n the resampled J
+// rows top[n], bottom[n] and the vertical fraction ay[n]; ssd[x] = base + the sum over n
+// of the squared difference, or outside_cost where the sample is NaN (scalar, x in
+// [0, count)).
+void VerticalSsdScalar(const float* const* top, const float* const* bottom, const float* ay, int nn,
+                       float base, const float* __restrict ref, float outside_cost, int count,
+                       float* __restrict ssd) {
+  for (int x = 0; x < count; ++x) ssd[x] = base;
+  for (int n = 0; n < nn; ++n) {
+    const float* __restrict t = top[n];
+    const float* __restrict b = bottom[n];
+    const float a = ay[n];
+    for (int x = 0; x < count; ++x) {
+      const float d = t[x] + a * (b[x] - t[x]) - ref[x];
+      const float c = d * d;
+      ssd[x] += c == c ? c : outside_cost;
+    }
+  }
+}
+
+// The same sixteen pixels at a time (count a multiple of 16), the sum kept in a
+// register across neighbours; `ref_neg` is minus the reference grey.
+__attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdAvx512(
+    const float* const* top, const float* const* bottom, const float* ay, int nn, float base,
+    const float* __restrict ref_neg, float outside_cost, int count, float* __restrict ssd) {
+  const __m512 outside = _mm512_set1_ps(outside_cost);
+  for (int x = 0; x < count; x += 16) {
+    const __m512 r = _mm512_loadu_ps(ref_neg + x);
+    __m512 acc = _mm512_set1_ps(base);
+    for (int n = 0; n < nn; ++n) {
+      const __m512 t = _mm512_loadu_ps(top[n] + x);
+      const __m512 b = _mm512_loadu_ps(bottom[n] + x);
+      const __m512 d =
+          _mm512_add_ps(_mm512_fmadd_ps(_mm512_set1_ps(ay[n]), _mm512_sub_ps(b, t), t), r);
+      const __mmask16 ok = _mm512_cmp_ps_mask(d, d, _CMP_ORD_Q);
+      acc = _mm512_add_ps(acc, _mm512_mask_mul_ps(outside, ok, d, d));
+    }
+    _mm512_storeu_ps(ssd + x, acc);
+  }
+}
+
 // Everything a band needs besides its own buffers.
 struct Prepared {
   int stride = 0;                           // width rounded up to 8
   std::vector<float> ref_neg;               // minus the reference grey, rows x stride
   std::vector<std::vector<uint32_t>> taps;  // per neighbour (SIMD paths only)
   std::vector<bool> holes;                  // per neighbour: has pixels without data
+  std::vector<Prewarped> prewarped;         // per neighbour (pre-warped paths only)
 };
 
 // The band loop, instantiated once per path; the SIMD instances sit inside functions
 // with the matching target attribute, so the warp calls inline there.
-enum class Path { kScalar, kAvx2, kAvx512 };
+enum class Path { kScalar, kAvx2, kAvx512, kPrewarpScalar, kPrewarpAvx512 };
 
 template <Path kPath>
 inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, const Prepared& prep,
@@ -325,25 +655,99 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
   const int width = in.width, height = in.height, stride = prep.stride;
   const int nwin = static_cast<int>(in.half_windows.size());
   const int hmax = *std::max_element(in.half_windows.begin(), in.half_windows.end());
-  std::vector<float> ssd(size_t(kBandRows + 2 * hmax) * stride);
+  Scratch ssd(size_t(kBandRows + 2 * hmax) * stride);
   std::vector<float> vsum(stride), cost(stride);
   std::vector<BandState> states(nwin);
+  std::vector<Scratch> pending(nwin);  // per window: the band's costs at an even level
+  for (auto& p : pending) p.v.resize(size_t(kBandRows) * stride);
+  // The SSD rows a band shares with the next one (its last 2 hmax rows), per level:
+  // bands run in order on this thread, so the next band copies them instead of warping
+  // them again (at window 7 that is 6 rows in 38).
+  const int halo = 2 * hmax;
+  // Up to 64 MB per thread; beyond that (large images, many levels, wide windows) the
+  // shared rows are warped twice.
+  const bool keep_halo = size_t(halo) * stride * in.num_levels <= (size_t(1) << 24);
+  Scratch halo_cache(keep_halo ? size_t(halo) * stride * in.num_levels : 0);
+  // Pre-warped paths: the column pattern of each neighbour at the current level.
+  const int nn = static_cast<int>(prep.prewarped.size());
+  std::vector<LevelPattern> patterns(nn);
+  const int n16 = (width + 15) / 16 * 16;
+  // Resampled J rows, two slots per neighbour (by row parity), and the J row each holds.
+  std::vector<float> hrows(size_t(2 * nn) * n16);
+  std::vector<int> slot_row(2 * nn, -1);
+  std::vector<const float*> top(nn), bottom(nn);
+  std::vector<float> ay(nn);
+  int cached_end = -1;  // the halo cache holds rows [cached_end - halo, cached_end)
   for (int64_t band = band_begin; band < band_end; ++band) {
     const int y0 = static_cast<int>(band) * kBandRows;
     const int y1 = std::min(height, y0 + kBandRows);
     const int s0 = std::max(0, y0 - hmax), s1 = std::min(height, y1 + hmax);
+    // Rows [s0, c1) come from the cache when the previous band left them there.
+    const int c1 = cached_end == std::min(height, y0 + hmax) ? cached_end : s0;
+    // The rows this band leaves for the next one.
+    const int n0 = std::max(s0, s1 - halo);
     for (auto& s : states) s.Reset(size_t(y1 - y0) * stride);
     for (int l = 0; l < in.num_levels; ++l) {
       const float w = in.w_far + float(l) * in.w_step;
-      // The AVX-512 path stores the first neighbour's costs instead of adding them.
-      if constexpr (kPath != Path::kAvx512) {
-        std::fill(ssd.begin(), ssd.begin() + size_t(s1 - s0) * stride, 0.0f);
+      float* cache = keep_halo ? halo_cache.data() + size_t(halo) * stride * l : nullptr;
+      if constexpr (kPath == Path::kPrewarpAvx512 || kPath == Path::kPrewarpScalar) {
+        for (int n = 0; n < nn; ++n) MakePattern(prep.prewarped[n], w, width, n16, &patterns[n]);
+        std::fill(slot_row.begin(), slot_row.end(), -1);
       }
-      for (size_t n = 0; n < in.neighbours.size(); ++n) {
-        const KernelNeighbour& nb = in.neighbours[n];
-        for (int y = s0; y < s1; ++y) {
-          float* row = ssd.data() + size_t(y - s0) * stride;
+      if (c1 > s0) {
+        std::copy(cache + size_t(s0 - (c1 - halo)) * stride, cache + size_t(halo) * stride,
+                  ssd.data());
+      }
+      // Row by row, all neighbours: the row stays in L1 while they add to it.
+      for (int y = c1; y < s1; ++y) {
+        float* row = ssd.data() + size_t(y - s0) * stride;
+        if constexpr (kPath == Path::kPrewarpAvx512 || kPath == Path::kPrewarpScalar) {
+          // Reference row y reads J rows r and r + 1 of each neighbour, resampled along
+          // x once per level and kept in the slot of their parity (r grows with y). A
+          // neighbour whose two rows have no data at all (the row falls outside its
+          // image at this depth, often at near levels) adds the outside cost everywhere.
+          int active = 0;
+          float base_cost = 0.0f;
+          for (int n = 0; n < nn; ++n) {
+            const Prewarped& pw = prep.prewarped[n];
+            const LevelPattern& pat = patterns[n];
+            int r;
+            PatternRow(pw, pat, y, &r, &ay[active]);
+            if (!pw.has_data[r] && !pw.has_data[r + 1]) {
+              base_cost += in.outside_cost;
+              continue;
+            }
+            for (int j = r; j <= r + 1; ++j) {
+              const int slot = 2 * n + (j & 1);
+              float* out = hrows.data() + size_t(slot) * n16;
+              if (slot_row[slot] != j) {
+                const float* jrow = pw.value.data() + size_t(j) * pw.stride;
+                if constexpr (kPath == Path::kPrewarpAvx512) {
+                  HorizontalRowAvx512(jrow, pat, n16, out);
+                } else {
+                  HorizontalRowScalar(jrow, pat, n16, out);
+                }
+                slot_row[slot] = j;
+              }
+              (j == r ? top : bottom)[active] = out;
+            }
+            ++active;
+          }
+          if constexpr (kPath == Path::kPrewarpAvx512) {
+            VerticalSsdAvx512(top.data(), bottom.data(), ay.data(), active, base_cost,
+                              prep.ref_neg.data() + size_t(y) * stride, in.outside_cost, stride,
+                              row);
+          } else {
+            VerticalSsdScalar(top.data(), bottom.data(), ay.data(), active, base_cost,
+                              in.reference + size_t(y) * width, in.outside_cost, width, row);
+          }
+          continue;
+        }
+        if constexpr (kPath != Path::kAvx512) std::fill(row, row + stride, 0.0f);
+        for (size_t n = 0; n < in.neighbours.size(); ++n) {
+          const KernelNeighbour& nb = in.neighbours[n];
           if constexpr (kPath == Path::kAvx512) {
+            // The first neighbour stores its costs instead of adding them.
             const uint32_t* taps = prep.taps[n].data();
             const float* ref_neg = prep.ref_neg.data() + size_t(y) * stride;
             const bool holes = prep.holes[n];
@@ -365,6 +769,10 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
           }
         }
       }
+      if (keep_halo && s1 - n0 == halo) {
+        std::copy(ssd.data() + size_t(n0 - s0) * stride, ssd.data() + size_t(s1 - s0) * stride,
+                  cache);
+      }
       for (int k = 0; k < nwin; ++k) {
         const int h = in.half_windows[k];
         const int oy0 = std::max(y0, h), oy1 = std::min(y1, height - h);
@@ -383,15 +791,29 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
             for (int x = 0; x < width; ++x) vsum[x] += add[x] - sub[x];
           }
           const int n = width - 2 * h;
+          const size_t o = size_t(y - y0) * stride + h;
+          // Levels go to the state in pairs: an even level's costs wait in `pending`.
+          float* held = pending[k].data() + o;
+          if (l % 2 == 0 && l + 1 < in.num_levels) {
+            WindowSum(vsum.data(), n, h, held);
+            continue;
+          }
           float* c = cost.data();
           WindowSum(vsum.data(), n, h, c);
-          const size_t o = size_t(y - y0) * stride + h;
-          UpdateRow(c, n, float(l), st.best.data() + o, st.level.data() + o, st.cm.data() + o,
-                    st.cp.data() + o, st.before.data() + o, st.after.data() + o, st.run.data() + o,
-                    st.run_prev.data() + o, st.prev.data() + o);
+          if (l % 2 == 1) {
+            UpdateRow2(held, c, n, float(l - 1), st.best.data() + o, st.level.data() + o,
+                       st.cm.data() + o, st.cp.data() + o, st.before.data() + o,
+                       st.after.data() + o, st.run.data() + o, st.run_prev.data() + o,
+                       st.prev.data() + o);
+          } else {
+            UpdateRow(c, n, float(l), st.best.data() + o, st.level.data() + o, st.cm.data() + o,
+                      st.cp.data() + o, st.before.data() + o, st.after.data() + o,
+                      st.run.data() + o, st.run_prev.data() + o, st.prev.data() + o);
+          }
         }
       }
     }
+    cached_end = keep_halo && s1 - n0 == halo ? s1 : -1;
     // Write the band's results.
     for (int k = 0; k < nwin; ++k) {
       const BandState& st = states[k];
@@ -437,6 +859,36 @@ __attribute__((target("avx512f,avx512bw,fma"))) void RunBandsAvx512(
   RunBandsImpl<Path::kAvx512>(in, prep, b, e, outputs);
 }
 
+void RunBandsPrewarpScalar(const KernelInput& in, const Prepared& prep, int64_t b, int64_t e,
+                           std::vector<KernelOutput>* outputs) {
+  RunBandsImpl<Path::kPrewarpScalar>(in, prep, b, e, outputs);
+}
+
+__attribute__((target("avx512f,avx512bw,fma"))) void RunBandsPrewarpAvx512(
+    const KernelInput& in, const Prepared& prep, int64_t b, int64_t e,
+    std::vector<KernelOutput>* outputs) {
+  RunBandsImpl<Path::kPrewarpAvx512>(in, prep, b, e, outputs);
+}
+
+// Pre-warps every neighbour; false (and nothing set) when
+// a neighbour's geometry does not suit it.
+bool PreparePrewarp(const KernelInput& in, int num_threads, Prepared* prep) {
+  const size_t nn = in.neighbours.size();
+  std::vector<Prewarped> pws(nn);
+  const double w0 = in.w_far, w1 = double(in.w_far) + double(in.num_levels - 1) * in.w_step;
+  for (size_t n = 0; n < nn; ++n) {
+    if (!PlanPrewarp(in.neighbours[n], in.width, in.height, std::min(w0, w1), std::max(w0, w1),
+                     &pws[n])) {
+      return false;
+    }
+  }
+  core::ParallelFor(0, int64_t(nn), num_threads, [&](int64_t b, int64_t e) {
+    for (int64_t n = b; n < e; ++n) FillPrewarp(in.neighbours[n], &pws[n]);
+  });
+  prep->prewarped = std::move(pws);
+  return true;
+}
+
 }  // namespace
 
 SimdLevel CostKernelSimd() {
@@ -458,6 +910,10 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
     if (double(nb.width) * nb.height >= double(1 << 24)) simd = SimdLevel::kNone;
   }
   Prepared prep;
+  // The pre-warped kernel has AVX-512 and scalar paths; on an AVX2 CPU the exact AVX2
+  // warp is the faster of the two.
+  const bool prewarp =
+      input.prewarp && simd != SimdLevel::kAvx2 && PreparePrewarp(input, num_threads, &prep);
   const int lanes = simd == SimdLevel::kAvx512 ? 16 : 8;
   prep.stride = simd != SimdLevel::kNone ? (input.width + lanes - 1) / lanes * lanes : input.width;
   if (simd != SimdLevel::kNone) {
@@ -468,6 +924,7 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
       }
     }
     for (const auto& nb : input.neighbours) {
+      if (prewarp) break;  // J replaces the taps
       prep.taps.push_back(PackTaps(nb));
       const float* end = nb.image + size_t(nb.width) * nb.height;
       prep.holes.push_back(std::any_of(nb.image, end, [](float g) { return !(g == g); }));
@@ -475,6 +932,11 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
   }
   const int64_t bands = (input.height + kBandRows - 1) / kBandRows;
   core::ParallelFor(0, bands, num_threads, [&](int64_t b, int64_t e) {
+    if (prewarp) {
+      (simd == SimdLevel::kAvx512 ? RunBandsPrewarpAvx512 : RunBandsPrewarpScalar)(input, prep, b,
+                                                                                   e, outputs);
+      return;
+    }
     switch (simd) {
       case SimdLevel::kAvx512:
         RunBandsAvx512(input, prep, b, e, outputs);

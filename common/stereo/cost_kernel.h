@@ -1,14 +1,20 @@
 // The SSSD cost kernel of multi-baseline stereo (internal to dome_stereo; the
 // interface is multi_baseline.h, which validates everything before calling it).
 //
-// Work is cut into bands of reference rows; each thread takes contiguous bands. Per
-// band and per level, for every neighbour the homography is evaluated incrementally
-// along each row (q = q0 + x dq, one reciprocal per pixel), the neighbour sampled
-// bilinearly and the squared difference added to a band-sized SSD buffer; the window
-// sums come from a running vertical sum and a short horizontal sum (both vectorized
-// across x). The cost volume is never stored: per pixel the kernel keeps the running
-// minimum, the costs at the levels either side of it and the least cost outside them
-// (exact, see UpdateRow in cost_kernel.cc), so memory is O(band x width), not O(levels).
+// Work is cut into bands of reference rows; each thread takes contiguous bands, and
+// the SSD rows two bands share (the window's overlap) are computed once per thread and
+// handed on per level. Per band and per level, for every neighbour the homography is
+// evaluated incrementally along each row (q = q0 + x dq, one reciprocal per pixel), the
+// neighbour sampled bilinearly and the squared difference added to a band-sized SSD
+// buffer; the window sums come from a running vertical sum and a short horizontal sum
+// (both vectorized across x). The cost volume is never stored: per pixel the kernel
+// keeps the running minimum, the costs at the levels either side of it and the least
+// cost outside them (exact, see UpdateRow in cost_kernel.cc), updated two levels at a
+// time, so memory is O(band x width), not O(levels).
+//
+// With KernelInput::prewarp the neighbours are first resampled by the homography at
+// infinity; each level is then a scaling of that image, which a row reads with one
+// precomputed column pattern (cost_kernel.cc, "Pre-warped neighbours").
 //
 // Where the CPU has AVX-512 (F, BW) or AVX2 and FMA (checked at run time) the warp
 // runs sixteen or eight pixels at a time on a packed copy of each neighbour: one
@@ -44,6 +50,12 @@ struct KernelInput {
   std::vector<KernelNeighbour> neighbours;
   std::vector<int> half_windows;            // one per window size
   SimdLevel max_simd = SimdLevel::kAvx512;  // the best path the CPU has, up to this one
+  // Resample each neighbour once by the homography at infinity and warp that per level
+  // (cost_kernel.cc, "Pre-warped neighbours"): much faster, but a second bilinear
+  // interpolation. Falls back to the exact warp where a neighbour's geometry does not
+  // suit it, and on CPUs with AVX2 but not AVX-512 (the pre-warped kernel has an
+  // AVX-512 and a scalar path, and the exact AVX2 warp is faster than the latter).
+  bool prewarp = false;
 };
 
 // Per pixel (row-major), per window size. Pixels whose window leaves the image get

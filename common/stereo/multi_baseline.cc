@@ -248,6 +248,7 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
     kin.neighbours.push_back(kn);
   }
   for (int w : options.window_sizes_px) kin.half_windows.push_back(w / 2);
+  kin.prewarp = options.prewarp_neighbours;
   result.prepare_seconds = watch.ElapsedSeconds();
   watch.Restart();
 

@@ -79,18 +79,49 @@ std::vector<TargetPoint> FloorMarkPoints() {
   return points;
 }
 
+std::vector<TargetPoint> AllFloorMarkPoints() {
+  std::vector<TargetPoint> points = FloorMarkPoints();
+  int id = static_cast<int>(points.size());
+  for (int ring = 0; ring < kFloorRings; ++ring) {
+    for (int m = 0; m < kFloorRingMarks[ring]; ++m) {
+      const double angle = 2.0 * M_PI * (m + 0.5) / kFloorRingMarks[ring];
+      TargetPoint p;
+      p.id = id++;
+      p.position_mm = {kFloorRingRadiusMm[ring] * std::cos(angle),
+                       kFloorRingRadiusMm[ring] * std::sin(angle), 0.0};
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
 double FloorMarksAlbedo(double x_mm, double y_mm, double floor_albedo) {
   constexpr double kWhite = 0.9, kBlack = 0.04;
   const double half = 0.5 * (kFloorMarksPerSide - 1) * kFloorMarkPitchMm;
   const int col = static_cast<int>(std::lround((x_mm + half) / kFloorMarkPitchMm));
   const int row = static_cast<int>(std::lround((y_mm + half) / kFloorMarkPitchMm));
-  if (col < 0 || col >= kFloorMarksPerSide || row < 0 || row >= kFloorMarksPerSide) {
-    return floor_albedo;
+  double d = 0, radius = kFloorMarkDotRadiusMm;
+  if (col >= 0 && col < kFloorMarksPerSide && row >= 0 && row < kFloorMarksPerSide) {
+    d = std::hypot(x_mm - (-half + kFloorMarkPitchMm * col),
+                   y_mm - (-half + kFloorMarkPitchMm * row));
+    if (row == 0 && col == 0) radius = kFloorMarkKeyDotRadiusMm;
+  } else {
+    // the nearest ring, and on it the nearest mark
+    const double r = std::hypot(x_mm, y_mm);
+    int ring = 0;
+    for (int k = 1; k < kFloorRings; ++k) {
+      if (std::abs(r - kFloorRingRadiusMm[k]) < std::abs(r - kFloorRingRadiusMm[ring])) ring = k;
+    }
+    if (std::abs(r - kFloorRingRadiusMm[ring]) > kFloorMarkPadRadiusMm + kFloorRampMm) {
+      return floor_albedo;
+    }
+    const double step = 2.0 * M_PI / kFloorRingMarks[ring];
+    const double m = std::round(std::atan2(y_mm, x_mm) / step - 0.5);
+    const double angle = (m + 0.5) * step;
+    d = std::hypot(x_mm - kFloorRingRadiusMm[ring] * std::cos(angle),
+                   y_mm - kFloorRingRadiusMm[ring] * std::sin(angle));
   }
-  const double d = std::hypot(x_mm - (-half + kFloorMarkPitchMm * col),
-                              y_mm - (-half + kFloorMarkPitchMm * row));
   if (d > kFloorMarkPadRadiusMm + 0.5 * kFloorRampMm) return floor_albedo;
-  const double radius = (row == 0 && col == 0) ? kFloorMarkKeyDotRadiusMm : kFloorMarkDotRadiusMm;
   const double pad = Dot(d, kFloorMarkPadRadiusMm, kFloorRampMm, kWhite, floor_albedo);
   return d < radius + 0.5 * kFloorRampMm ? Dot(d, radius, kFloorRampMm, kBlack, kWhite) : pad;
 }

@@ -11,7 +11,13 @@
 //
 // Stage 2 (extrinsics): floor marks -- black dots on white pads -- in a 5 x 5 grid,
 // 250 mm apart, centred on the dome's axis (world frame, z = 0), visible to every
-// camera of the dome. The mark at (-500, -500) is the larger key mark.
+// camera of the dome; the mark at (-500, -500) is the larger key mark. Around it, plain
+// marks on three rings across the dome's floor (radius 1, 1.5 and 2 m, ~520 mm apart
+// along a ring) that each camera sees in part: a grid 1 m across seen from ~3 m leaves
+// a camera's rotation and sideways position trading off, marks over its whole view pin
+// them. The grid labels the marks (calib/target.h: the plain marks are found from the
+// pose it gives); on rings, the plain marks form no lattice with the grid's marks that
+// a grid detector could take for the grid.
 #pragma once
 
 #include <Eigen/Core>
@@ -48,8 +54,18 @@ inline constexpr double kFloorMarkDotRadiusMm = 45.0;
 inline constexpr double kFloorMarkKeyDotRadiusMm = 60.0;
 inline constexpr double kFloorMarkPadRadiusMm = 110.0;
 
-// The floor marks, world frame (z = 0); id = 5 * row + column, x and y increasing.
+// Plain marks: kFloorRingMarks[k] marks on a ring of radius kFloorRingRadiusMm[k]
+// about the axis, at angles (m + 1/2) 360 / count degrees from +x, m = 0, 1, ...
+inline constexpr int kFloorRings = 3;
+inline constexpr double kFloorRingRadiusMm[kFloorRings] = {1000.0, 1500.0, 2000.0};
+inline constexpr int kFloorRingMarks[kFloorRings] = {12, 18, 24};
+
+// The key-marked grid's marks, world frame (z = 0); id = 5 * row + column, x and y
+// increasing.
 std::vector<TargetPoint> FloorMarkPoints();
+// The grid's marks, then the plain marks (ids 25, 26, ... ring by ring, angle
+// increasing): the stage-2 target (TargetPoints.grid_points = 25).
+std::vector<TargetPoint> AllFloorMarkPoints();
 // Albedo of the floor with marks at world (x, y), given the plain floor's albedo
 // there; returns floor_albedo away from the marks.
 double FloorMarksAlbedo(double x_mm, double y_mm, double floor_albedo);

@@ -53,9 +53,11 @@ std::string ToJson(const google::protobuf::Message& message) {
 }
 
 proto::TargetPoints TargetProto(const std::vector<TargetPoint>& points, const std::string& frame,
-                                const std::string& description, double radius, double key_radius) {
+                                const std::string& description, double radius, double key_radius,
+                                int grid_points = 0) {
   proto::TargetPoints msg;
   msg.set_format_version(1);
+  msg.set_grid_points(static_cast<uint32_t>(grid_points));
   msg.set_frame(frame);
   msg.set_description(description);
   msg.set_marker_radius_mm(radius);
@@ -218,9 +220,10 @@ std::string SynthSummary::BriefReport() const {
                 bat_px_median, bat_px_min, bat_px_max, field_motion_px_max);
   out << line;
   std::snprintf(line, sizeof line,
-                "  calibration truth: at least %d of 147 object points (stage 1) and %d of 25 "
+                "  calibration truth: at least %d of 147 object points (stage 1) and %d of %d "
                 "floor marks (stage 2) per camera\n",
-                stage1_points_min, stage2_points_min);
+                stage1_points_min, stage2_points_min,
+                static_cast<int>(AllFloorMarkPoints().size()));
   out << line;
   std::snprintf(line, sizeof line, "  %d files in %.1f s\n", files_written, seconds);
   out << line;
@@ -319,10 +322,12 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
                            kPlateDotRadiusMm, kPlateKeyDotRadiusMm)));
     io::WriteFileAtomically(
         out_dir / "calib" / "stage2" / "target.json",
-        ToJson(TargetProto(FloorMarkPoints(), "world",
+        ToJson(TargetProto(AllFloorMarkPoints(), "world",
                            "floor marks: black dots on white pads, 5x5 grid 250 mm apart "
-                           "centred on the dome's axis; the mark at (-500,-500) is larger",
-                           kFloorMarkDotRadiusMm, kFloorMarkKeyDotRadiusMm)));
+                           "centred on the dome's axis, the mark at (-500,-500) larger; "
+                           "around it plain marks 500 mm apart out to 2 m from the axis",
+                           kFloorMarkDotRadiusMm, kFloorMarkKeyDotRadiusMm,
+                           static_cast<int>(FloorMarkPoints().size()))));
     files += 2;
   }
 
@@ -424,8 +429,8 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         request.noise_key = NoiseKey(options.seed, kStage2View, 0, job.camera);
         request.depth = false;
         const RenderedView view = RenderView(request);
-        const auto truth =
-            TrueImagePoints(cam->rig.model, FloorMarkPoints(), kFloorMarkDotRadiusMm, floor_caster);
+        const auto truth = TrueImagePoints(cam->rig.model, AllFloorMarkPoints(),
+                                           kFloorMarkDotRadiusMm, floor_caster);
         stage2_points[job.camera] = static_cast<int>(truth.size());
         const fs::path dir = out_dir / "calib" / "stage2";
         io::WriteImage(dir / (id + ".png"), view.image);

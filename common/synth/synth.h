@@ -82,7 +82,8 @@ struct SynthSummary {
   // The bat tip's displacement between the two fields of a frame, take-image pixels:
   // the largest over cameras and instants.
   double field_motion_px_max = 0.0;
-  // Calibration points with truth, fewest per camera: stage 1 (of 147), stage 2 (of 25).
+  // Calibration points with truth, fewest per camera: stage 1 (of 147), stage 2 (of
+  // AllFloorMarkPoints(): the 25 of the grid and the plain marks a camera sees).
   int stage1_points_min = 0;
   int stage2_points_min = 0;
   int files_written = 0;

@@ -176,6 +176,14 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--jump-ratio", a->fusion.max_depth_jump_ratio,
                   "depth jump (fraction of depth) that breaks the tessellation")
       ->capture_default_str();
+  cmd->add_option("--consistent-views", a->fusion.min_consistent_views,
+                  "fuse a depth sample only if this many other cameras agree (0: off)")
+      ->capture_default_str();
+  cmd->add_option("--consistency-mm", a->fusion.consistency_tolerance_mm,
+                  "largest depth difference that agrees, mm (default 1 voxel)");
+  cmd->add_option("--min-weight", a->fusion.min_weight,
+                  "voxels of less summed weight (images) are left unobserved (0: keep all)")
+      ->capture_default_str();
   cmd->add_option("--decimate-ratio", a->decimate_ratio, "decimation target, fraction of triangles")
       ->capture_default_str();
   cmd->add_flag("--texture", a->texture, "also write a textured OBJ (atlas)");
@@ -202,6 +210,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
     fusion::FusionOptions options = a->fusion;
     if (truncation->count() == 0) options.truncation_mm = 3 * a->voxel_mm;
     if (clamp->count() == 0) options.front_clamp_mm = 3 * a->voxel_mm;
+    if (cmd->count("--consistency-mm") == 0) options.consistency_tolerance_mm = a->voxel_mm;
     options.Check();
     core::Require(a->slab_planes > 0, "--slab-planes", "must be positive");
     if (!a->preview.empty()) FindCamera(take, a->preview);  // fail before any work
@@ -335,7 +344,7 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   struct DecArgs {
     std::string in, out;
     mesh::DecimationOptions options;
-    bool free_border = false;
+    bool free_border = false, lock_border = false, meshoptimizer = false;
   };
   auto d = std::make_shared<DecArgs>();
   auto* dec = cmd->add_subcommand("decimate", "Quadric-error decimation of a PLY mesh");
@@ -347,19 +356,30 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
                   "target triangle count (overrides --ratio)");
   dec->add_option("--max-error-mm", d->options.max_error_mm,
                   "stop before moving the surface more, mm");
-  dec->add_flag("--free-border", d->free_border, "let open borders move");
+  dec->add_flag("--free-border", d->free_border, "let open borders move (the default)");
+  dec->add_flag("--lock-border", d->lock_border, "keep open-border vertices in place");
   dec->add_flag("!--no-relocate", d->options.relocate_vertices,
-                "keep surviving vertices where the simplifier left them");
+                "meshoptimizer: keep surviving vertices where the simplifier left them");
+  dec->add_option("--min-component-triangles", d->options.min_component_triangles,
+                  "drop connected parts with fewer triangles first")
+      ->capture_default_str();
+  dec->add_option("--min-component-mm", d->options.min_component_diagonal_mm,
+                  "drop connected parts with a smaller bounding-box diagonal first, mm")
+      ->capture_default_str();
+  dec->add_flag("--meshoptimizer", d->meshoptimizer,
+                "meshoptimizer's topology-preserving simplifier instead of edge collapse");
   dec->callback([=] {
     mesh::DecimationOptions o = d->options;
-    o.lock_border = !d->free_border;
+    o.lock_border = d->lock_border && !d->free_border;
+    if (d->meshoptimizer) o.method = mesh::DecimationMethod::kMeshoptimizer;
     mesh::DecimationSummary s;
     const io::Mesh out = mesh::Decimate(io::ReadPly(d->in), o, &s);
     io::WritePly(d->out, out);
     std::printf(
-        "{\"triangles_in\": %lld, \"triangles_out\": %lld, \"error_mm\": %s, \"seconds\": %s}\n",
-        (long long)s.triangles_in, (long long)s.triangles_out, Num(s.error_mm).c_str(),
-        Num(s.seconds).c_str());
+        "{\"triangles_in\": %lld, \"triangles_out\": %lld, \"components_removed\": %lld, "
+        "\"triangles_removed\": %lld, \"error_mm\": %s, \"seconds\": %s}\n",
+        (long long)s.triangles_in, (long long)s.triangles_out, (long long)s.components_removed,
+        (long long)s.triangles_removed, Num(s.error_mm).c_str(), Num(s.seconds).c_str());
     *exit_code = 0;
   });
   struct TexArgs {

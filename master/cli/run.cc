@@ -3,11 +3,15 @@
 //   dome submit TAKE|SESSION.json [--out OUT] --master ADDR   prints the session id
 //   dome status [ID] --master ADDR                            instant answer
 //   dome watch ID --master ADDR [--events ADDR]               live progress
+//   dome watch --capture [--cameras N] --master ADDR           capture agents' progress
 //   dome cancel ID --master ADDR
 //   dome list --master ADDR
 // ADDR is the master's control endpoint (dome-master --control, default port 5556);
 // the status events are read from the next port unless --events names them. Without
 // --master, `dome run` starts an embedded master with N in-process workers.
+// Talking to a dome-master needs --master-key FILE (its .pub) and --key FILE (this
+// side's .key, its .pub on the master's allow-list), or --insecure for a plaintext
+// master; the embedded master of `dome run` is in-process and needs no keys.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -17,6 +21,7 @@
 #include "cli/commands.h"
 #include "client/client.h"
 #include "core/error.h"
+#include "net/security.h"
 #include "pipeline/session.h"
 
 namespace dome::cli {
@@ -82,13 +87,30 @@ runtime::Session MakeSession(const SessionArgs& a) {
 
 struct MasterArgs {
   std::string master = "tcp://localhost:5556", events;
+  std::string master_key, key;  // CURVE key files
+  bool insecure = false;
   std::string Events() const { return events.empty() ? client::EventsEndpointFor(master) : events; }
+  // The client sockets' options from the key flags (throws naming a missing flag).
+  net::SocketOptions Socket() const {
+    net::SocketOptions o;
+    net::ApplyClientKeys(master_key, key, insecure, &o);
+    return o;
+  }
 };
+
+void AddKeyFlags(CLI::App* cmd, MasterArgs* m) {
+  cmd->add_option("--master-key", m->master_key, "the master's public key file (CURVE)")
+      ->envname("DOME_MASTER_KEY");
+  cmd->add_option("--key", m->key, "this client's secret key file, its .pub allowed by the master")
+      ->envname("DOME_KEY");
+  cmd->add_flag("--insecure", m->insecure, "plaintext, for a master started with --insecure");
+}
 
 void AddMasterFlags(CLI::App* cmd, MasterArgs* m) {
   cmd->add_option("--master", m->master, "the master's control endpoint")->capture_default_str();
   cmd->add_option("--events", m->events,
                   "the master's status endpoint (default: control port + 1)");
+  AddKeyFlags(cmd, m);
 }
 
 int ExitCodeFor(const runtime::SessionStatus& st) {
@@ -98,8 +120,9 @@ int ExitCodeFor(const runtime::SessionStatus& st) {
 
 // Sends one control request and prints the sessions of the reply; the exit code.
 int RequestAndPrintSessions(const MasterArgs& m, const runtime::ControlRequest& req) {
+  const net::SocketOptions socket = m.Socket();
   zmq::context_t context;
-  for (const auto& s : client::Request(&context, m.master, req).sessions()) {
+  for (const auto& s : client::Request(&context, m.master, req, 10000, socket).sessions()) {
     std::fputs(client::FormatStatus(s).c_str(), stdout);
   }
   return 0;
@@ -118,23 +141,29 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--threads", e->threads_per_worker, "threads per in-process worker (0: share)")
       ->capture_default_str();
+  cmd->add_option("--heartbeat-liveness", e->master.heartbeat_liveness,
+                  "heartbeat intervals (1 s) of silence before an in-process worker or the "
+                  "master is presumed gone; raise it on a heavily loaded machine")
+      ->capture_default_str();
   auto* master = cmd->add_option("--master", m->master,
                                  "a dome-master's control endpoint (default: embedded master)");
   cmd->add_option("--events", m->events,
                   "the master's status endpoint (default: control port + 1)");
+  AddKeyFlags(cmd, m.get());
   cmd->callback([=] {
     const runtime::Session session = MakeSession(*a);
     if (master->count() == 0) {
       *exit_code = ExitCodeFor(client::RunEmbedded(session, *e, stdout));
       return;
     }
+    const net::SocketOptions socket = m->Socket();
     zmq::context_t context;
     runtime::ControlRequest req;
     *req.mutable_submit()->mutable_session() = session;
-    const auto reply = client::Request(&context, m->master, req);
+    const auto reply = client::Request(&context, m->master, req, 10000, socket);
     std::printf("session %s\n", reply.session_id().c_str());
-    *exit_code = ExitCodeFor(
-        client::WaitForSession(&context, m->master, m->Events(), reply.session_id(), stdout));
+    *exit_code = ExitCodeFor(client::WaitForSession(&context, m->master, m->Events(),
+                                                    reply.session_id(), stdout, 500, socket));
   });
 }
 
@@ -145,10 +174,12 @@ void AddSubmitCommand(CLI::App* app, int* exit_code) {
   AddSessionFlags(cmd, a.get(), false);
   AddMasterFlags(cmd, m.get());
   cmd->callback([=] {
+    const net::SocketOptions socket = m->Socket();
     zmq::context_t context;
     runtime::ControlRequest req;
     *req.mutable_submit()->mutable_session() = MakeSession(*a);
-    std::printf("%s\n", client::Request(&context, m->master, req).session_id().c_str());
+    std::printf("%s\n",
+                client::Request(&context, m->master, req, 10000, socket).session_id().c_str());
     *exit_code = 0;
   });
 }
@@ -170,11 +201,29 @@ void AddWatchCommand(CLI::App* app, int* exit_code) {
   auto* cmd = app->add_subcommand("watch", "Live progress of a session until it ends");
   auto id = std::make_shared<std::string>();
   auto m = std::make_shared<MasterArgs>();
-  cmd->add_option("ID", *id, "session id")->required();
+  cmd->add_option("ID", *id, "session id (capture progress shows too)");
   AddMasterFlags(cmd, m.get());
+  // Capture progress alone (dome-master --capture-bind), no session.
+  auto capture = std::make_shared<bool>(false);
+  auto cameras = std::make_shared<int>(0);
+  auto timeout_s = std::make_shared<double>(0);
+  cmd->add_flag("--capture", *capture, "capture agents' progress, a line per camera and update");
+  cmd->add_option("--cameras", *cameras, "--capture: end once this many cameras have finished");
+  cmd->add_option("--timeout", *timeout_s, "--capture: end after this many seconds (0: never)");
   cmd->callback([=] {
+    const net::SocketOptions socket = m->Socket();
     zmq::context_t context;
-    *exit_code = ExitCodeFor(client::WaitForSession(&context, m->master, m->Events(), *id, stdout));
+    if (*capture) {
+      const auto last = client::WatchCapture(&context, m->Events(), stdout, *cameras,
+                                             static_cast<int>(*timeout_s * 1000), socket);
+      int complete = 0;
+      for (const auto& [camera, c] : last) complete += c.state() == "complete";
+      *exit_code = complete == int(last.size()) && complete >= *cameras ? 0 : 1;
+      return;
+    }
+    core::Require(!id->empty(), "ID", "required: the session to watch (or --capture)");
+    *exit_code = ExitCodeFor(
+        client::WaitForSession(&context, m->master, m->Events(), *id, stdout, 500, socket));
   });
 }
 
@@ -196,10 +245,11 @@ void AddListCommand(CLI::App* app, int* exit_code) {
   auto m = std::make_shared<MasterArgs>();
   AddMasterFlags(cmd, m.get());
   cmd->callback([=] {
+    const net::SocketOptions socket = m->Socket();
     zmq::context_t context;
     runtime::ControlRequest req;
     req.mutable_list();
-    const runtime::ControlReply reply = client::Request(&context, m->master, req);
+    const runtime::ControlReply reply = client::Request(&context, m->master, req, 10000, socket);
     for (const auto& s : reply.sessions()) {
       std::printf("%s  %-9s  %d/%d jobs  %.1f s  %s\n", s.id().c_str(), s.state().c_str(),
                   s.jobs_done(), s.jobs_total(), s.elapsed_s(), s.out().c_str());

@@ -18,10 +18,11 @@ namespace dome::client {
 using Clock = std::chrono::steady_clock;
 
 runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoint,
-                              const runtime::ControlRequest& request, int timeout_ms) {
+                              const runtime::ControlRequest& request, int timeout_ms,
+                              const net::SocketOptions& options) {
   const std::string where = "master " + endpoint;
   zmq::socket_t socket(*context, zmq::socket_type::req);
-  net::ConfigureSocket(&socket, net::SocketOptions{});
+  net::ConfigureSocket(&socket, options);
   try {
     socket.connect(endpoint);
   } catch (const zmq::error_t& e) {
@@ -35,11 +36,16 @@ runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoi
   zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
   zmq::message_t reply;
   if (!(items[0].revents & ZMQ_POLLIN) || !socket.recv(reply, zmq::recv_flags::dontwait)) {
-    throw core::InputError(where, "no answer within " + std::to_string(timeout_ms) +
-                                      " ms (is dome-master running there?)");
+    // A refused CURVE handshake looks the same from here: no answer.
+    throw core::InputError(
+        where, "no answer within " + std::to_string(timeout_ms) +
+                   " ms (is dome-master running there" +
+                   (options.curve_client() ? ", with this --master-key, and is the public key "
+                                             "of --key on its allow-list?)"
+                                           : "? a secure master ignores plaintext clients)"));
   }
   const runtime::Envelope answer =
-      net::DecodeEnvelope(reply.to_string_view(), where, net::SocketOptions{}.max_message_bytes);
+      net::DecodeEnvelope(reply.to_string_view(), where, options.max_message_bytes);
   if (answer.has_refusal()) throw core::InputError(where, "refused: " + answer.refusal().reason());
   core::Require(answer.has_control_reply(), where, "answered with something else than a reply");
   if (!answer.control_reply().ok()) throw core::InputError(where, answer.control_reply().error());
@@ -78,10 +84,10 @@ std::string FormatStatus(const runtime::SessionStatus& s) {
 namespace {
 
 runtime::SessionStatus QueryStatus(zmq::context_t* context, const std::string& control,
-                                   const std::string& id) {
+                                   const std::string& id, const net::SocketOptions& options) {
   runtime::ControlRequest req;
   req.mutable_status()->set_session_id(id);
-  const runtime::ControlReply reply = Request(context, control, req);
+  const runtime::ControlReply reply = Request(context, control, req, 10000, options);
   core::Require(reply.sessions_size() == 1, "master " + control, "status without the session");
   return reply.sessions(0);
 }
@@ -90,11 +96,12 @@ runtime::SessionStatus QueryStatus(zmq::context_t* context, const std::string& c
 
 runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string& control,
                                       const std::string& events, const std::string& id,
-                                      std::FILE* out, int poll_ms) {
+                                      std::FILE* out, int poll_ms,
+                                      const net::SocketOptions& options) {
   std::unique_ptr<zmq::socket_t> sub;
   if (!events.empty()) {
     sub = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::sub);
-    net::ConfigureSocket(sub.get(), net::SocketOptions{});
+    net::ConfigureSocket(sub.get(), options);
     sub->set(zmq::sockopt::subscribe, "");
     sub->connect(events);
   }
@@ -103,7 +110,7 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   int first_done = -1;
   while (true) {
     if (Clock::now() >= next_poll) {
-      const runtime::SessionStatus st = QueryStatus(context, control, id);
+      const runtime::SessionStatus st = QueryStatus(context, control, id, options);
       if (st.state() != "running") return st;
       if (first_done < 0) first_done = st.jobs_done();
       next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);
@@ -118,16 +125,23 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
     while (sub->recv(m, zmq::recv_flags::dontwait)) {
       runtime::Envelope env;
       try {
-        env = net::DecodeEnvelope(m.to_string_view(), "status " + events,
-                                  net::SocketOptions{}.max_message_bytes);
+        env =
+            net::DecodeEnvelope(m.to_string_view(), "status " + events, options.max_message_bytes);
       } catch (const core::InputError&) {
+        continue;
+      }
+      if (out != nullptr && env.has_status() && env.status().has_capture()) {
+        std::fprintf(out, "%s\n", FormatCaptureStatus(env.status().capture()).c_str());
+        std::fflush(out);
         continue;
       }
       if (!env.has_status() || env.status().session_id() != id || out == nullptr) continue;
       const auto& ev = env.status();
       if (ev.stage().empty()) {
-        std::fprintf(out, "[%7.1f s] session %s %s %s\n", ev.elapsed_s(), id.c_str(),
-                     ev.state().c_str(), ev.message().c_str());
+        // "submitted", or an error; the message of a state change repeats the state.
+        const std::string message = ev.message() == ev.state() ? "" : " " + ev.message();
+        std::fprintf(out, "[%7.1f s] session %s %s%s\n", ev.elapsed_s(), id.c_str(),
+                     ev.state().c_str(), message.c_str());
         continue;
       }
       // Rate over the jobs finished since we started watching; ETA from it.
@@ -200,6 +214,58 @@ runtime::SessionStatus RunEmbedded(const runtime::Session& session, const Embedd
   }
   shut_down();
   return status;
+}
+
+std::string FormatCaptureStatus(const runtime::CaptureStatus& c) {
+  const int width = 20;
+  const int filled = c.wanted() > 0 ? width * c.captured() / c.wanted() : 0;
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "capture %-8s pass %-2d [%s%s] %4d/%-4d frames  pass yield %d  stored %lld  %s%s%s",
+                c.camera_id().c_str(), c.pass(), std::string(filled, '#').c_str(),
+                std::string(width - filled, '.').c_str(), c.captured(), c.wanted(), c.pass_yield(),
+                static_cast<long long>(c.stored()), c.state().c_str(),
+                c.error().empty() ? "" : ": ", c.error().c_str());
+  return line;
+}
+
+std::map<std::string, runtime::CaptureStatus> WatchCapture(zmq::context_t* context,
+                                                           const std::string& events,
+                                                           std::FILE* out, int cameras,
+                                                           int timeout_ms,
+                                                           const net::SocketOptions& options) {
+  zmq::socket_t sub(*context, zmq::socket_type::sub);
+  net::ConfigureSocket(&sub, options);
+  sub.set(zmq::sockopt::subscribe, "");
+  sub.connect(events);
+  std::map<std::string, runtime::CaptureStatus> last;
+  const auto end = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  auto finished = [&] {
+    int n = 0;
+    for (const auto& [camera, c] : last) n += c.state() != "capturing";
+    return cameras > 0 && n >= cameras;
+  };
+  while (!finished() && (timeout_ms <= 0 || Clock::now() < end)) {
+    zmq::pollitem_t items[] = {{sub.handle(), 0, ZMQ_POLLIN, 0}};
+    zmq::poll(items, 1, std::chrono::milliseconds(100));
+    zmq::message_t m;
+    while (sub.recv(m, zmq::recv_flags::dontwait)) {
+      runtime::Envelope env;
+      try {
+        env =
+            net::DecodeEnvelope(m.to_string_view(), "status " + events, options.max_message_bytes);
+      } catch (const core::InputError&) {
+        continue;
+      }
+      if (!env.has_status() || !env.status().has_capture()) continue;
+      last[env.status().capture().camera_id()] = env.status().capture();
+      if (out != nullptr) {
+        std::fprintf(out, "%s\n", FormatCaptureStatus(env.status().capture()).c_str());
+        std::fflush(out);
+      }
+    }
+  }
+  return last;
 }
 
 }  // namespace dome::client

@@ -6,9 +6,11 @@
 
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <string>
 #include <zmq.hpp>
 
+#include "net/wire.h"
 #include "runtime.pb.h"
 #include "scheduler/master.h"
 
@@ -16,9 +18,11 @@ namespace dome::client {
 
 // Sends one control request and waits up to timeout_ms for the reply. Throws
 // core::InputError naming the endpoint when the master does not answer, refuses the
-// request, or answers with an error (the master's message).
+// request, or answers with an error (the master's message). `socket`: CURVE keys
+// (net/security.h ApplyClientKeys); the default is plaintext.
 runtime::ControlReply Request(zmq::context_t* context, const std::string& control_endpoint,
-                              const runtime::ControlRequest& request, int timeout_ms = 10000);
+                              const runtime::ControlRequest& request, int timeout_ms = 10000,
+                              const net::SocketOptions& socket = net::SocketOptions{});
 
 // The status endpoint next to a control endpoint: the same address, port + 1
 // (dome-master's defaults: workers 5555, control 5556, events 5557).
@@ -29,11 +33,25 @@ std::string FormatStatus(const runtime::SessionStatus& status);
 
 // Follows a session until it is done, failed or cancelled: prints progress from the
 // status socket to `out` (null: silent) with job rates and an ETA, asks the control
-// socket for the state every poll_ms. Returns the final status.
+// socket for the state every poll_ms. Returns the final status. `socket` as for Request
+// (both the control and the status socket use it).
 runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string& control_endpoint,
                                       const std::string& events_endpoint,
                                       const std::string& session_id, std::FILE* out,
-                                      int poll_ms = 500);
+                                      int poll_ms = 500,
+                                      const net::SocketOptions& socket = net::SocketOptions{});
+
+// One line for a capture agent's progress (StatusEvent.capture, dome-master
+// --capture-bind): camera, pass, a bar, frames captured of wanted, the pass's yield,
+// frames the master stored, the state and any error.
+std::string FormatCaptureStatus(const runtime::CaptureStatus& capture);
+
+// Prints the capture progress events of the status socket, a line each, until
+// `cameras` cameras have finished (0: no such end) or timeout_ms passes (0: no limit).
+// Returns the last event of each camera heard from.
+std::map<std::string, runtime::CaptureStatus> WatchCapture(
+    zmq::context_t* context, const std::string& events_endpoint, std::FILE* out, int cameras,
+    int timeout_ms, const net::SocketOptions& socket = net::SocketOptions{});
 
 struct EmbeddedOptions {
   int workers = 2;                  // in-process workers (count)

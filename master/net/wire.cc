@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "net/security.h"
 
 namespace dome::net {
 
@@ -10,6 +11,13 @@ void SocketOptions::Check() const {
   core::Require(max_message_bytes >= 1024, "max_message_bytes",
                 "must be at least 1024 bytes, got " + std::to_string(max_message_bytes));
   core::Require(linger_ms >= 0, "linger_ms", "must not be negative");
+  if (curve_client()) {
+    core::Require(IsZ85Key(server_key), "server key", "is not a Z85 CURVE public key");
+    core::Require(IsZ85Key(public_key) && IsZ85Key(secret_key), "key",
+                  "a CURVE client needs its own Z85 public and secret keys");
+  } else if (!secret_key.empty()) {
+    core::Require(IsZ85Key(secret_key), "secret key", "is not a Z85 CURVE secret key");
+  }
 }
 
 void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options) {
@@ -18,6 +26,15 @@ void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options) {
   // Queues bounded in messages; a peer that stops reading does not grow us forever.
   socket->set(zmq::sockopt::sndhwm, 10000);
   socket->set(zmq::sockopt::rcvhwm, 10000);
+  if (options.curve_client()) {
+    socket->set(zmq::sockopt::curve_serverkey, options.server_key);
+    socket->set(zmq::sockopt::curve_publickey, options.public_key);
+    socket->set(zmq::sockopt::curve_secretkey, options.secret_key);
+  } else if (options.curve_server()) {
+    socket->set(zmq::sockopt::curve_server, 1);
+    socket->set(zmq::sockopt::curve_secretkey, options.secret_key);
+    socket->set(zmq::sockopt::zap_domain, options.zap_domain);
+  }
 }
 
 std::string BoundEndpoint(const zmq::socket_t& socket) {

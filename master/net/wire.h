@@ -1,6 +1,6 @@
 // The runtime's wire layer (proto/runtime.proto over ZeroMQ): one place that sets
-// socket options (where CURVE keys and ZAP will be applied), envelope framing with the
-// protocol version and the message size cap, and peer names for logs.
+// socket options (CURVE keys and the ZAP domain included, net/security.h), envelope
+// framing with the protocol version and the message size cap, and peer names for logs.
 //
 // Framing: every message's payload is one frame holding a serialized Envelope. A
 // ROUTER sees [routing id, payload] from DEALER peers and [routing id, empty,
@@ -25,12 +25,24 @@ struct SocketOptions {
   int64_t max_message_bytes = int64_t{256} << 20;
   // How long unsent messages are kept after close, in ms.
   int linger_ms = 0;
+  // CURVE (net/security.h), all keys Z85. Empty keys: plaintext (the embedded cluster
+  // over inproc://, or --insecure). A server socket (bound by the master) sets
+  // secret_key only; a client socket (worker, dome client) sets server_key, the
+  // master's public key, and its own public_key + secret_key.
+  std::string public_key;
+  std::string secret_key;
+  std::string server_key;
+  // The ZAP domain of CURVE server sockets (the ZAP handler sees it in each request).
+  std::string zap_domain = "dome";
+
+  bool curve_server() const { return server_key.empty() && !secret_key.empty(); }
+  bool curve_client() const { return !server_key.empty(); }
   // Throws core::InputError naming the first option out of range.
   void Check() const;
 };
 
 // Applies `options` to a socket before it binds or connects (every runtime socket goes
-// through here).
+// through here): the one switch between CURVE server, CURVE client and plaintext.
 void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options);
 
 // The endpoint a socket actually bound (resolves "tcp://127.0.0.1:*" to the port).

@@ -22,6 +22,7 @@
 #include "pipeline/session.h"
 #include "pipeline/stages.h"
 #include "scheduler/blob_store.h"
+#include "scheduler/capture_host.h"
 #include "scheduler/graph.h"
 #include "scheduler/journal.h"
 #include "stereo/cluster.h"
@@ -69,8 +70,9 @@ struct WorkerRec {
 };
 
 struct StageStats {
-  double job_seconds = 0;                   // summed over jobs
-  double first_start = -1, last_done = -1;  // seconds since the session started
+  double job_seconds = 0;                                // summed over jobs
+  double first_start = -1, last_done = -1;               // seconds since the session started
+  int64_t bytes_to_workers = 0, bytes_from_workers = 0;  // blobs served, outputs received
 };
 
 struct InstantStats {
@@ -101,6 +103,7 @@ struct SessionRec {
   std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera]
   int64_t bytes_to_workers = 0, bytes_from_workers = 0;
   int requeued = 0, duplicates = 0, resumed = 0;
+  std::map<std::string, int> jobs_by_worker;  // worker name -> results accepted from it
   // The surface stage of one instant, running beside the loop.
   std::map<int, std::future<runtime::BlobRef>> surface;
 
@@ -119,6 +122,7 @@ struct Master::Impl {
   std::map<std::string, WorkerRec> workers;
   std::map<std::string, std::unique_ptr<SessionRec>> sessions;
   std::vector<std::string> session_order;
+  std::unique_ptr<capture::FrameIngest> capture_ingest;  // with capture_endpoint
   BlobStore blobs;
   int next_seq = 0;
   Clock::time_point next_heartbeat = Clock::now();
@@ -133,6 +137,16 @@ struct Master::Impl {
     Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
     Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
     Bind(&events_socket, options.events_endpoint, "--events", &endpoints.events);
+    if (!options.capture_endpoint.empty()) {
+      capture_ingest =
+          HostCaptureIngest(context, options.capture_endpoint, options.capture_take, options.socket,
+                            [this](const runtime::StatusEvent& ev) {
+                              runtime::Envelope env;
+                              *env.mutable_status() = ev;
+                              net::SendFrames(&events_socket, {net::EncodeEnvelope(env)});
+                            });
+      endpoints.capture = capture_ingest->endpoint();
+    }
   }
 
   void Bind(zmq::socket_t* s, const std::string& endpoint, const std::string& flag,
@@ -203,7 +217,8 @@ struct Master::Impl {
   // option (not the session id, not the output folder).
   static std::string SessionDigest(const SessionRec& s) {
     runtime::Session canon;
-    canon.set_take(fs::absolute(s.take.dir).lexically_normal().string());
+    // No take for benchmark sessions of no-op jobs (fs::absolute throws on "").
+    if (!s.take.dir.empty()) canon.set_take(fs::absolute(s.take.dir).lexically_normal().string());
     for (const auto& in : s.graph->instants()) canon.add_instants(in);
     *canon.mutable_stereo() = stereo::ToStereoSettings(s.options.stereo);
     *canon.mutable_volume() = pipeline::ToVolume(s.options.grid);
@@ -537,6 +552,7 @@ struct Master::Impl {
     }
     for (auto& o : outs) {
       s->bytes_from_workers += int64_t(o.size());
+      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.size());
     }
     return outs;
   }
@@ -592,7 +608,20 @@ struct Master::Impl {
       j += std::string(first ? "" : ",") + "\n    \"" + StageName(Stage(k)) +
            "\": {\"jobs\": " + std::to_string(total) + ", \"job_seconds\": " + Num(st.job_seconds) +
            ", \"wall_seconds\": " +
-           Num(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0) + "}";
+           Num(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0) +
+           ", \"bytes_to_workers\": " + std::to_string(st.bytes_to_workers) +
+           ", \"bytes_from_workers\": " + std::to_string(st.bytes_from_workers) + "}";
+      first = false;
+    }
+    j += "\n  },\n  \"jobs_by_worker\": {";
+    first = true;
+    for (const auto& [name, count] : s.jobs_by_worker) {
+      std::string quoted;
+      for (const char c : name) {
+        if (c == '"' || c == '\\') quoted += '\\';
+        if (static_cast<unsigned char>(c) >= 0x20) quoted += c;
+      }
+      j += std::string(first ? "" : ",") + "\n    \"" + quoted + "\": " + std::to_string(count);
       first = false;
     }
     j += "\n  },\n  \"per_instant\": [";
@@ -714,7 +743,12 @@ struct Master::Impl {
         auto w = workers.find(id);
         if (w != workers.end() && !w->second.job.empty()) {
           auto found = FindJob(w->second.job);
-          if (found) found->first->bytes_to_workers += int64_t(b->data().size());
+          if (found) {
+            SessionRec* s = found->first;
+            s->bytes_to_workers += int64_t(b->data().size());
+            s->stage_stats[int(s->graph->node(found->second).stage)].bytes_to_workers +=
+                int64_t(b->data().size());
+          }
         }
       }
       SendToWorker(id, env);
@@ -727,7 +761,14 @@ struct Master::Impl {
     if (w != workers.end() && w->second.job == r.job_id()) w->second.job.clear();
     auto found = FindJob(r.job_id());
     if (!found) {
-      throw core::InputError(peer, "result for unknown job id '" + r.job_id().substr(0, 200) + "'");
+      const std::string what = "result for unknown job id '" + r.job_id().substr(0, 200) + "'";
+      if (w != workers.end() && !w->second.job.empty()) {
+        // A job of the master before a restart, finished by a worker that has joined
+        // this one and is running a job of ours: that job is not lost.
+        spdlog::warn("{}: {} dropped", peer, what);
+        return;
+      }
+      throw core::InputError(peer, what);
     }
     auto [s, node] = *found;
     const JobNode& n = s->graph->node(node);
@@ -768,6 +809,7 @@ struct Master::Impl {
       auto other = workers.find(s->running_on[node]);
       if (other != workers.end() && other->second.job == r.job_id()) other->second.job.clear();
     }
+    ++s->jobs_by_worker[w != workers.end() ? w->second.name : net::PeerName(id)];
     Completed(s, node, outs, r.seconds());
   }
 
@@ -962,16 +1004,19 @@ struct Master::Impl {
   void Run(const std::atomic<bool>* stop) {
     const int interval = options.heartbeat_interval_ms;
     while (!stop->load()) {
-      zmq::pollitem_t items[] = {{workers_socket.handle(), 0, ZMQ_POLLIN, 0},
-                                 {control_socket.handle(), 0, ZMQ_POLLIN, 0}};
+      zmq::pollitem_t items[] = {
+          {workers_socket.handle(), 0, ZMQ_POLLIN, 0},
+          {control_socket.handle(), 0, ZMQ_POLLIN, 0},
+          {capture_ingest ? capture_ingest->socket().handle() : nullptr, 0, ZMQ_POLLIN, 0}};
       try {
-        zmq::poll(items, 2, std::chrono::milliseconds(std::min(interval, 20)));
+        zmq::poll(items, capture_ingest ? 3 : 2, std::chrono::milliseconds(std::min(interval, 20)));
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;
         continue;  // a signal; *stop says whether to go on
       }
       if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
+      if (capture_ingest && (items[2].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
       PollSurfaces();
       const auto now = Clock::now();
       std::vector<std::string> expired;

@@ -18,7 +18,9 @@
 //   OUT/<instant>/mesh.ply            marching cubes, binary PLY, world mm
 //   OUT/<instant>/mesh_decimated.ply  decimated, per-vertex colours
 //   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
-//   OUT/report.json                   per-stage and per-instant seconds and counts
+//   OUT/report.json                   per-stage and per-instant seconds and counts,
+//                                     bytes to and from workers per stage, results
+//                                     accepted per worker (jobs_by_worker)
 //   OUT/journal.log, OUT/.blobs/      the journal and the job outputs it names
 #pragma once
 
@@ -40,6 +42,10 @@ struct MasterOptions {
   int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
   int max_job_losses = 5;      // a job lost with this many workers fails its session
   net::SocketOptions socket;
+  // ROUTER for capture agents (capture_host.h); "" = no capture. Frames go into
+  // capture_take (required with it).
+  std::string capture_endpoint;
+  std::string capture_take;
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;
@@ -47,6 +53,7 @@ struct MasterOptions {
 
 struct MasterEndpoints {
   std::string workers, control, events;  // as bound (ports resolved)
+  std::string capture;                    // "" without capture_endpoint
 };
 
 class Master {

@@ -70,6 +70,36 @@ TEST(Target, UnknownFieldAndMissingFile) {
   testing::ExpectInputError([&] { ReadTarget(dir / "absent.json"); }, {"absent.json"});
 }
 
+// A grid and, after it, plain marks in its plane (grid_points = 9): the layout lists
+// them apart; a plain mark off the plane, or more grid points than points, is an error.
+TEST(Target, GridWithPlainMarks) {
+  const fs::path dir = TempDir("plain");
+  std::string json = GridTargetJson(3, 100,
+                                    R"(,{"id": 20, "x_mm": 900, "y_mm": -50, "z_mm": 0},
+                                       {"id": 11, "x_mm": -700, "y_mm": 420, "z_mm": 0})");
+  json.insert(json.find(R"("points")"), R"("grid_points": 9, )");
+  Write(dir / "target.json", json);
+  const Target t = ReadTarget(dir / "target.json");
+  EXPECT_EQ(t.grid_points, 9);
+  const GridLayout layout = InferGridLayout(t);
+  ASSERT_EQ(layout.grids.size(), 1u);
+  EXPECT_EQ(layout.grids[0].n, 3);
+  EXPECT_EQ(layout.plain_ids, (std::vector<int>{11, 20}));
+
+  std::string off = GridTargetJson(3, 100, R"(,{"id": 20, "x_mm": 900, "y_mm": 0, "z_mm": 40})");
+  off.insert(off.find(R"("points")"), R"("grid_points": 9, )");
+  Write(dir / "off.json", off);
+  const Target t_off = ReadTarget(dir / "off.json");
+  testing::ExpectInputError([&] { InferGridLayout(t_off); },
+                            {"off.json", "plain mark id 20", "not in the plane"});
+
+  std::string many = GridTargetJson(3, 100);
+  many.insert(many.find(R"("points")"), R"("grid_points": 10, )");
+  Write(dir / "many.json", many);
+  testing::ExpectInputError([&] { ReadTarget(dir / "many.json"); },
+                            {"many.json: grid_points", "10 grid points", "only 9"});
+}
+
 TEST(Target, NotAGridIsAnError) {
   const fs::path dir = TempDir("nogrid");
   Write(dir / "target.json",

@@ -118,8 +118,9 @@ TEST_F(CaptureCli, CapturesATapeIntoTheIngestsTake) {
   ASSERT_FALSE(ingest.Endpoint().empty());
   const auto result = dome::testing::RunDomeBinary(
       "--camera c00 --deck sim:" + (Synth() / "tape" / "c00.avi").string() +
-          " --digitizer sim --range " + Range() + " --every 5 --keep-per-second 10 --master " +
-          ingest.Endpoint() + " --spool " + work.File("spool"),
+          " --digitizer sim --range " + Range() +
+          " --every 5 --keep-per-second 10 --insecure --master " + ingest.Endpoint() + " --spool " +
+          work.File("spool"),
       "dome-capture");
   EXPECT_EQ(result.exit_code, 0) << result.output;
   EXPECT_NE(result.output.find("captured 3 of 3 frames"), std::string::npos) << result.output;
@@ -130,8 +131,9 @@ TEST_F(CaptureCli, CapturesATapeIntoTheIngestsTake) {
 TEST_F(CaptureCli, FramesCapturedWhileTheIngestIsDownArriveOnTheNextRun) {
   dome::testing::TempDir work;
   const std::string args = "--camera c01 --deck sim:" + (Synth() / "tape" / "c01.avi").string() +
-                           " --digitizer sim --range " + Range() + " --every 5 --spool " +
-                           work.File("spool") + " --ack-timeout-ms 200 --flush-timeout-ms 600";
+                           " --digitizer sim --range " + Range() +
+                           " --every 5 --insecure --spool " + work.File("spool") +
+                           " --ack-timeout-ms 200 --flush-timeout-ms 600";
   // Nothing listens on the port yet.
   std::string endpoint;
   {
@@ -159,21 +161,30 @@ TEST_F(CaptureCli, SerialDeckThatNeverAnswersIsAClearError) {
   const auto result = dome::testing::RunDomeBinary(
       "--camera c02 --deck serial:" + device +
           " --digitizer file:" + (Synth() / "tape" / "c02.avi").string() + " --range " + Range() +
-          " --every 5 --master tcp://127.0.0.1:1 --spool " + work.File("spool"),
+          " --every 5 --insecure --master tcp://127.0.0.1:1 --spool " + work.File("spool"),
       "dome-capture");
   EXPECT_EQ(result.exit_code, 2) << result.output;
   EXPECT_NE(result.output.find("serial:" + device), std::string::npos) << result.output;
   EXPECT_NE(result.output.find("no reply"), std::string::npos) << result.output;
 }
 
+TEST_F(CaptureCli, WithoutKeysOrInsecureTheMissingKeyFlagIsNamed) {
+  const auto r = dome::testing::RunDomeBinary(
+      "--camera c00 --deck sim:x.avi --range 00:00:10:00-00:00:10:10 --master tcp://x:1",
+      "dome-capture");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--master-key"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--insecure"), std::string::npos) << r.output;
+}
+
 TEST_F(CaptureCli, BadFlagsNameTheFlag) {
   auto r = dome::testing::RunDomeBinary(
-      "--camera c00 --deck tape.avi --range 00:00:10:00-00:00:10:10 --master tcp://x:1",
+      "--camera c00 --deck tape.avi --range 00:00:10:00-00:00:10:10 --insecure --master tcp://x:1",
       "dome-capture");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("--deck"), std::string::npos) << r.output;
   r = dome::testing::RunDomeBinary(
-      "--camera c00 --deck sim:x.avi --range 00:00:10:99-00:00:10:10 --master tcp://x:1",
+      "--camera c00 --deck sim:x.avi --range 00:00:10:99-00:00:10:10 --insecure --master tcp://x:1",
       "dome-capture");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("--range"), std::string::npos) << r.output;

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <thread>
+#include <vector>
 #include <zmq.hpp>
 
 #include "capture.pb.h"
@@ -177,6 +178,48 @@ TEST(Publish, TheIngestRejectsGarbageAndKeepsServing) {
   EXPECT_EQ(ack.status(), proto::CaptureAck::STORED);
   EXPECT_EQ(ingest.ingest().rejected(), 4);
   EXPECT_TRUE(fs::exists(dir / "take" / "frames" / "00-00-10-00" / "c03.png"));
+}
+
+// Progress that an agent's socket rebuild let overtake a newer message is not shown;
+// a new run of the agent is; a final progress is acknowledged even when stale.
+TEST(Publish, OvertakenProgressIsNotShownAndTheFinalOneIsAcknowledged) {
+  testing::TempDir dir;
+  std::vector<std::pair<uint32_t, int>> shown;  // (sequence, captured)
+  IngestOptions options{.bind = "tcp://127.0.0.1:*", .take_dir = dir / "take"};
+  options.on_progress = [&](const IngestProgress& p) {
+    shown.emplace_back(p.sequence, p.agent.captured);
+  };
+  FrameIngest ingest(options);
+  zmq::context_t context;
+  zmq::socket_t peer(context, zmq::socket_type::dealer);
+  peer.set(zmq::sockopt::linger, 0);
+  peer.set(zmq::sockopt::rcvtimeo, 50);
+  peer.connect(ingest.endpoint());
+  auto send = [&](uint64_t run, uint32_t sequence, int captured, bool done) {
+    proto::CaptureMessage m;
+    m.set_protocol(kCaptureProtocol);
+    auto* p = m.mutable_progress();
+    p->set_camera_id("c04");
+    p->set_run_id(run);
+    p->set_sequence(sequence);
+    p->set_captured(captured);
+    p->set_wanted(9);
+    p->set_done(done);
+    peer.send(zmq::buffer(m.SerializeAsString()));
+    ingest.Poll(1000);
+    zmq::message_t reply;
+    if (!peer.recv(reply)) return false;
+    proto::CaptureAck ack;
+    return ack.ParseFromArray(reply.data(), static_cast<int>(reply.size())) && ack.progress();
+  };
+  EXPECT_FALSE(send(7, 2, 5, false));  // progress is not acknowledged ...
+  EXPECT_FALSE(send(7, 1, 3, false));  // overtaken: not shown
+  EXPECT_TRUE(send(7, 3, 9, true));    // ... the final one is
+  EXPECT_TRUE(send(7, 3, 9, true));    // resent: acknowledged again, not shown again
+  EXPECT_FALSE(send(8, 1, 0, false));  // the agent's next run
+  const std::vector<std::pair<uint32_t, int>> expected = {{2, 5}, {3, 9}, {1, 0}};
+  EXPECT_EQ(shown, expected);
+  EXPECT_EQ(ingest.progress().at("c04").agent.captured, 0);
 }
 
 }  // namespace

@@ -8,11 +8,24 @@ make_small_take() {
     { echo "FAIL: dome synth"; cat "$work/synth.log"; return 1; }
 }
 
-# Starts dome-master on free loopback ports; sets master_pid, workers_ep,
-# control_ep, events_ep.
+# CURVE keys as a lab sets them up (README "Security and keys"): the master's pair in
+# $work/keys (master.key, master.pub), a worker's and a client's pair, and the
+# allow-list $work/keys/allowed_keys with the worker's and the client's public keys.
+make_keys() {
+  mkdir -p "$work/keys" && chmod 700 "$work/keys"
+  local who
+  for who in master worker client; do
+    "$bin/bin/dome" keygen "$work/keys/$who" >"$work/keygen.log" 2>&1 ||
+      { echo "FAIL: dome keygen"; cat "$work/keygen.log"; return 1; }
+  done
+  cat "$work/keys/worker.pub" "$work/keys/client.pub" >"$work/keys/allowed_keys"
+}
+
+# Starts a secure dome-master (make_keys first) on free loopback ports; sets
+# master_pid, workers_ep, control_ep, events_ep.
 start_master() {
   "$bin/bin/dome-master" --bind tcp://127.0.0.1:0 --control tcp://127.0.0.1:0 \
-    --events tcp://127.0.0.1:0 --endpoints-file "$work/endpoints" \
+    --events tcp://127.0.0.1:0 --endpoints-file "$work/endpoints" --keys "$work/keys" \
     >"$work/master.log" 2>&1 &
   master_pid=$!
   local i
@@ -28,7 +41,9 @@ start_master() {
 # the same take on the embedded cluster, and compares every output byte for byte.
 run_and_compare() {
   timeout 300 "$bin/bin/dome" run "$work/take" --out "$work/out-remote" \
-    --master "$control_ep" --events "$events_ep" >"$work/run-remote.log" 2>&1 ||
+    --master "$control_ep" --events "$events_ep" \
+    --master-key "$work/keys/master.pub" --key "$work/keys/client.key" \
+    >"$work/run-remote.log" 2>&1 ||
     { echo "FAIL: the session on the remote workers"; cat "$work/run-remote.log";
       tail -20 "$work/master.log"; return 1; }
   timeout 300 "$bin/bin/dome" run "$work/take" --out "$work/out-embedded" \

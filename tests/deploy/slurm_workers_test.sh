@@ -21,9 +21,16 @@ cleanup() {
 }
 trap cleanup EXIT
 make_small_take || exit 1
+make_keys || exit 1
 slurm_up "$work/slurm" || { echo "FAIL: could not start Slurm"; exit 1; }
 start_master || exit 1
+# Without keys the script refuses before submitting anything to srun.
+if err="$(DOME_MASTER="$workers_ep" bash "$src/deploy/slurm/dome-workers.sbatch" 2>&1)"; then
+  echo "FAIL: the batch script ran without keys"; exit 1
+fi
+grep -q "DOME_KEY" <<<"$err" || { echo "FAIL: unclear error without keys: $err"; exit 1; }
 out="$(DOME_MASTER="$workers_ep" DOME_WORKER="$bin/bin/dome-worker" DOME_CACHE_MB=256 \
+  DOME_MASTER_KEY="$work/keys/master.pub" DOME_KEY="$work/keys/worker.key" \
   sbatch --parsable --nodes=1 --cpus-per-task="$(nproc)" --chdir="$work" \
   "$src/deploy/slurm/dome-workers.sbatch" 2>&1)" || { echo "FAIL: sbatch: $out"; exit 1; }
 job="${out%%;*}"

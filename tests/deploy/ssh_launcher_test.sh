@@ -52,16 +52,23 @@ done
 
 # A malformed hosts file is refused line by line.
 printf 'good-host 2\nbad host line here\n' >"$work/bad_hosts"
-if err="$("$launcher" start "$work/bad_hosts" --master tcp://127.0.0.1:1 2>&1)"; then
+if err="$("$launcher" start "$work/bad_hosts" --master tcp://127.0.0.1:1 --insecure 2>&1)"; then
   echo "FAIL: a malformed hosts file was accepted"; exit 1
 fi
 grep -q "bad_hosts:2: expected" <<<"$err" || { echo "FAIL: unclear error: $err"; exit 1; }
 
 make_small_take || exit 1
+make_keys || exit 1
 start_master || exit 1
 hosts="$work/hosts"
 printf '# one worker on this machine, reached through sshd\n%s@127.0.0.1:%s 1\n' "$user" "$port" >"$hosts"
+# Without keys (nor --insecure) the launcher refuses to start anything.
+if err="$("$launcher" start "$hosts" --master "$workers_ep" "${ssh_args[@]}" 2>&1)"; then
+  echo "FAIL: start without keys was accepted"; exit 1
+fi
+grep -q -- "--master-key" <<<"$err" || { echo "FAIL: unclear error without keys: $err"; exit 1; }
 "$launcher" start "$hosts" --master "$workers_ep" --worker "$bin/bin/dome-worker" \
+  --master-key "$work/keys/master.pub" --key "$work/keys/worker.key" \
   --cache-mb 256 "${ssh_args[@]}" || { echo "FAIL: start"; cat "$work/sshd.log"; exit 1; }
 "$launcher" status "$hosts" "${ssh_args[@]}" | grep -q running ||
   { echo "FAIL: status does not see the worker"; exit 1; }

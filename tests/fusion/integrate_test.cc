@@ -190,6 +190,48 @@ TEST(Integrate, SlabRoundTripsThroughBytes) {
   ExpectInputError([&] { DecodeSlab("garbage", "slab.bin"); }, {"slab.bin", "DOMESLAB"});
 }
 
+TEST(Integrate, SlabsTravelCompressedAndVersionOneStillReads) {
+  // A slab like fusion's: mostly unobserved voxels (0, 0), a band of free space at the
+  // truncation distance, a few surface crossings.
+  Slab s;
+  s.k0 = 16;
+  s.k1 = 32;
+  s.nx = 100;
+  s.ny = 100;
+  const size_t n = size_t(16) * 100 * 100;
+  s.distance_mm.assign(n, 0.0f);
+  s.weight.assign(n, 0.0f);
+  for (size_t m = n / 4; m < n / 2; ++m) {
+    s.distance_mm[m] = (m % 100 == 50) ? -3.25f : 60.0f;
+    s.weight[m] = float(1 + m % 3);
+  }
+  const std::string bytes = EncodeSlab(s);
+  EXPECT_LT(bytes.size(), n * 8 / 20) << "8 bytes a voxel raw";
+  const Slab back = DecodeSlab(bytes, "slab.bin");
+  EXPECT_EQ(back.k0, 16);
+  EXPECT_EQ(back.k1, 32);
+  EXPECT_EQ(back.distance_mm, s.distance_mm);
+  EXPECT_EQ(back.weight, s.weight);
+  // Version 1: the floats as they are.
+  std::string v1(bytes.substr(0, 28));
+  const uint32_t one = 1;
+  std::memcpy(v1.data() + 8, &one, 4);
+  v1.append(reinterpret_cast<const char*>(s.distance_mm.data()), n * 4);
+  v1.append(reinterpret_cast<const char*>(s.weight.data()), n * 4);
+  const Slab old = DecodeSlab(v1, "old.bin");
+  EXPECT_EQ(old.distance_mm, s.distance_mm);
+  EXPECT_EQ(old.weight, s.weight);
+  // A corrupt payload and a header naming a huge slab are input errors, not crashes.
+  std::string corrupt = bytes;
+  corrupt[corrupt.size() / 2] ^= 0x5a;
+  corrupt[corrupt.size() / 2 + 1] ^= 0x5a;
+  ExpectInputError([&] { DecodeSlab(corrupt, "corrupt.bin"); }, {"corrupt.bin"});
+  std::string huge = bytes;
+  const int32_t big = 1 << 30;
+  std::memcpy(huge.data() + 16, &big, 4);
+  ExpectInputError([&] { DecodeSlab(huge, "huge.bin"); }, {"huge.bin", "voxels"});
+}
+
 TEST(Integrate, BadInputGivesClearErrors) {
   const VolumeGrid ok = OneVoxel({0, 0, 900});
   // Depth map size not matching its camera.

@@ -15,7 +15,9 @@
 #include "client/client.h"
 #include "io/file_util.h"
 #include "io/ply.h"
+#include "net/security.h"
 #include "net/wire.h"
+#include "runtime/cluster_fixture.h"
 #include "runtime/process.h"
 #include "testing/run_command.h"
 
@@ -23,142 +25,12 @@ namespace dome {
 namespace {
 namespace fs = std::filesystem;
 using testing::ChildProcess;
+using testing::ExpectSameOutputs;
+using testing::Join;
+using testing::kSessionFlags;
 using testing::RunDomeBinary;
 
-// Small volume and slabs so that one instant is a few seconds on two busy cores.
-const std::vector<std::string> kSessionFlags = {"--voxel-mm", "40", "--slab-planes", "10"};
-
-std::string Join(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& x : v) s += " " + x;
-  return s;
-}
-
-// Every output file under `dir` (not the journal, the blob store or the report,
-// whose timings differ), relative path -> bytes.
-std::map<std::string, std::string> Outputs(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string rel = fs::relative(e.path(), dir).string();
-    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json") {
-      continue;
-    }
-    files[rel] = io::ReadFileBytes(e.path());
-  }
-  return files;
-}
-
-void ExpectSameOutputs(const fs::path& reference, const fs::path& out) {
-  const auto a = Outputs(reference), b = Outputs(out);
-  ASSERT_EQ(a.size(), b.size()) << out;
-  for (const auto& [rel, bytes] : a) {
-    auto it = b.find(rel);
-    ASSERT_NE(it, b.end()) << rel << " missing in " << out;
-    EXPECT_TRUE(it->second == bytes) << rel << " differs in " << out;
-  }
-}
-
-class Cluster : public ::testing::Test {
- protected:
-  static fs::path root_, take_, reference_;
-  static std::vector<std::string> instants_;
-
-  static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("dome_runtime_test_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    take_ = root_ / "take";
-    reference_ = root_ / "reference";
-    const auto synth = RunDomeBinary("synth --preset small --instants 2 --out " + take_.string());
-    ASSERT_EQ(synth.exit_code, 0) << synth.output;
-    const auto run = RunDomeBinary("run " + take_.string() + " --out " + reference_.string() +
-                                   " --workers 2 --threads 1" + Join(kSessionFlags));
-    ASSERT_EQ(run.exit_code, 0) << run.output;
-    for (const auto& e : fs::directory_iterator(take_ / "frames")) {
-      instants_.push_back(e.path().filename().string());
-    }
-    std::sort(instants_.begin(), instants_.end());
-  }
-  static void TearDownTestSuite() {
-    std::error_code ec;
-    fs::remove_all(root_, ec);
-  }
-
-  // A master on loopback with fast heartbeats; endpoints read back from its file.
-  struct Master {
-    std::unique_ptr<ChildProcess> process;
-    std::string workers, control, events;
-  };
-  Master StartMaster(const std::string& name, std::vector<std::string> extra = {}) {
-    Master m;
-    const fs::path file = root_ / (name + ".endpoints");
-    fs::remove(file);
-    std::vector<std::string> args = {"--bind",           "tcp://127.0.0.1:*",
-                                     "--control",        "tcp://127.0.0.1:*",
-                                     "--events",         "tcp://127.0.0.1:*",
-                                     "--heartbeat-ms",   "200",
-                                     "--liveness",       "3",
-                                     "--endpoints-file", file.string()};
-    args.insert(args.end(), extra.begin(), extra.end());
-    m.process =
-        std::make_unique<ChildProcess>("dome-master", args, (root_ / (name + ".log")).string());
-    for (int i = 0; i < 500 && !fs::exists(file); ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    std::istringstream in(io::ReadFileBytes(file));
-    in >> m.workers >> m.control >> m.events;
-    return m;
-  }
-  std::unique_ptr<ChildProcess> StartWorker(const Master& m, const std::string& name) {
-    return std::make_unique<ChildProcess>(
-        "dome-worker",
-        std::vector<std::string>{"--master", m.workers, "--threads", "1", "--cache-mb", "256",
-                                 "--heartbeat-ms", "200", "--liveness", "3", "--name", name},
-        (root_ / (name + ".log")).string());
-  }
-
-  runtime::Session MakeSession(const fs::path& out) {
-    runtime::Session s;
-    s.set_take(take_.string());
-    s.set_out(out.string());
-    s.mutable_volume()->set_voxel_size_mm(40);
-    s.set_slab_planes(10);
-    return s;
-  }
-  std::string Submit(const Master& m, const runtime::Session& s) {
-    runtime::ControlRequest req;
-    *req.mutable_submit()->mutable_session() = s;
-    return client::Request(&context_, m.control, req).session_id();
-  }
-  runtime::SessionStatus Status(const Master& m, const std::string& id) {
-    runtime::ControlRequest req;
-    req.mutable_status()->set_session_id(id);
-    return client::Request(&context_, m.control, req).sessions(0);
-  }
-  // Polls until `pred(status)` or the session ends; true when pred held.
-  template <typename Pred>
-  bool WaitFor(const Master& m, const std::string& id, Pred pred, double timeout_s = 60) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < end) {
-      const auto st = Status(m, id);
-      if (pred(st)) return true;
-      if (st.state() != "running") return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return false;
-  }
-  static int Done(const runtime::SessionStatus& st, int instant, const std::string& stage) {
-    for (const auto& s : st.instants(instant).stages()) {
-      if (s.stage() == stage) return s.done();
-    }
-    return -1;
-  }
-
-  zmq::context_t context_;
-};
-fs::path Cluster::root_, Cluster::take_, Cluster::reference_;
-std::vector<std::string> Cluster::instants_;
+using Cluster = testing::ClusterFixture;
 
 TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   ASSERT_EQ(instants_.size(), 2u);
@@ -211,13 +83,28 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   }
 }
 
+// As deployed: CURVE on every socket, the workers' and the client's keys allowed.
 TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
-  Master m = StartMaster("master3");
+  const fs::path keys = root_ / "keys";
+  fs::create_directories(keys);
+  for (const char* who : {"master", "worker", "client"}) {
+    net::WriteKeyPair((keys / who).string(), net::GenerateKeyPair());
+  }
+  io::WriteFileAtomically(keys / "allowed_keys", io::ReadFileBytes(keys / "worker.pub") +
+                                                     io::ReadFileBytes(keys / "client.pub"));
+  const std::string client_keys = " --master-key " + (keys / "master.pub").string() + " --key " +
+                                  (keys / "client.key").string();
+  Master m = StartMaster("master3", {"--keys", keys.string()});
   std::vector<std::unique_ptr<ChildProcess>> workers;
-  for (int w = 0; w < 3; ++w) workers.push_back(StartWorker(m, "w" + std::to_string(w)));
+  for (int w = 0; w < 3; ++w) {
+    workers.push_back(StartWorker(
+        m, "w" + std::to_string(w),
+        {"--master-key", (keys / "master.pub").string(), "--key", (keys / "worker.key").string()}));
+  }
   const fs::path out = root_ / "three";
-  const auto run = RunDomeBinary("run " + take_.string() + " --out " + out.string() + " --master " +
-                                 m.control + " --events " + m.events + Join(kSessionFlags));
+  const auto run =
+      RunDomeBinary("run " + take_.string() + " --out " + out.string() + " --master " + m.control +
+                    " --events " + m.events + client_keys + Join(kSessionFlags));
   ASSERT_EQ(run.exit_code, 0) << run.output << m.process->Log();
   EXPECT_NE(run.output.find("fusion"), std::string::npos) << run.output;  // live progress
   ExpectSameOutputs(reference_, out);
@@ -226,7 +113,7 @@ TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
   for (int w = 0; w < 3; ++w)
     EXPECT_NE(log.find("worker w" + std::to_string(w) + " joined"), std::string::npos);
   // `dome list` and `dome status` answer from the same master.
-  const auto list = RunDomeBinary("list --master " + m.control);
+  const auto list = RunDomeBinary("list --master " + m.control + client_keys);
   EXPECT_NE(list.output.find("done"), std::string::npos) << list.output;
 }
 

@@ -75,9 +75,11 @@ Scene MakeScene() {
   return s;
 }
 
-std::vector<KernelOutput> RunKernel(const KernelInput& in, SimdLevel simd) {
+std::vector<KernelOutput> RunKernel(const KernelInput& in, SimdLevel simd, bool prewarp = false,
+                                    int num_threads = 2) {
   KernelInput copy = in;
   copy.max_simd = simd;
+  copy.prewarp = prewarp;
   std::vector<KernelOutput> outs(in.half_windows.size());
   const size_t n = size_t(in.width) * in.height;
   for (auto& o : outs) {
@@ -87,7 +89,7 @@ std::vector<KernelOutput> RunKernel(const KernelInput& in, SimdLevel simd) {
     o.best_cost.assign(n, 0.0f);
     o.second_cost.assign(n, 0.0f);
   }
-  RunCostKernel(copy, 2, &outs);
+  RunCostKernel(copy, num_threads, &outs);
   return outs;
 }
 
@@ -131,6 +133,114 @@ TEST(CostKernelTest, SimdPathsAgreeWithScalar) {
       EXPECT_GT(same, 0.995 * total) << "simd " << int(simd) << " window " << k;
       EXPECT_LT(max_offset_diff, 0.02) << "simd " << int(simd) << " window " << k;
       EXPECT_LT(max_rel_cost_diff, 1e-3) << "simd " << int(simd) << " window " << k;
+    }
+  }
+}
+
+// A thread hands the SSD rows its bands share on to its next band instead of warping
+// them again: one thread (every band after the first reuses them) and four (one band
+// each, none does) give the same output, bit for bit, on every path.
+TEST(CostKernelTest, SharedBandRowsDoNotDependOnTheThreadCount) {
+  const Scene scene = MakeScene();
+  for (SimdLevel simd : {SimdLevel::kNone, SimdLevel::kAvx2, SimdLevel::kAvx512}) {
+    if (CostKernelSimd() < simd) continue;
+    for (bool prewarp : {false, true}) {
+      const auto one = RunKernel(scene.input, simd, prewarp, 1);
+      const auto four = RunKernel(scene.input, simd, prewarp, 4);
+      for (size_t k = 0; k < one.size(); ++k) {
+        EXPECT_EQ(one[k].best_level, four[k].best_level) << int(simd) << " " << prewarp;
+        EXPECT_EQ(one[k].offset, four[k].offset) << int(simd) << " " << prewarp;
+        EXPECT_EQ(one[k].second_cost, four[k].second_cost) << int(simd) << " " << prewarp;
+      }
+    }
+  }
+}
+
+// Fraction of interior pixels (window inside the image) whose level plus offset is
+// within 0.5 of `true_level`, for window k.
+double NearTruth(const std::vector<KernelOutput>& out, size_t k, int width, double true_level) {
+  int near_truth = 0, interior = 0;
+  for (int y = 30; y < 90; ++y) {
+    for (int x = 40; x < 120; ++x) {
+      const size_t i = size_t(y) * width + x;
+      ++interior;
+      near_truth += std::abs(out[k].best_level[i] + out[k].offset[i] - true_level) < 0.5;
+    }
+  }
+  return double(near_truth) / interior;
+}
+
+// The pre-warped kernel (neighbours resampled once by the homography at infinity, each
+// level a scaling of that): its SIMD and scalar paths agree to float rounding, and it
+// recovers the plane as well as the exact per-pixel warp, at the same levels for almost
+// every pixel (it interpolates the neighbours twice, so not bit for bit).
+TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
+  const Scene scene = MakeScene();
+  const int width = scene.input.width;
+  const double true_level = (1.0 / 1800 - 1.0 / 5000) / scene.input.w_step;
+  const auto exact = RunKernel(scene.input, SimdLevel::kNone);
+  const auto pre_scalar = RunKernel(scene.input, SimdLevel::kNone, true);
+  for (size_t k = 0; k < exact.size(); ++k) {
+    EXPECT_GT(NearTruth(pre_scalar, k, width, true_level), 0.8) << "window " << k;
+    EXPECT_GE(NearTruth(pre_scalar, k, width, true_level),
+              NearTruth(exact, k, width, true_level) - 0.02)
+        << "window " << k;
+    size_t same = 0, total = 0;
+    double max_level_diff = 0.0;
+    for (size_t i = 0; i < exact[k].best_level.size(); ++i) {
+      if (exact[k].best_level[i] < 0) {
+        EXPECT_EQ(pre_scalar[k].best_level[i], -1.0f);
+        continue;
+      }
+      const int y = int(i) / width, x = int(i) % width;
+      if (y < 30 || y >= 90 || x < 40 || x >= 120) continue;  // every neighbour sees it
+      ++total;
+      same += pre_scalar[k].best_level[i] == exact[k].best_level[i];
+      max_level_diff = std::max(
+          max_level_diff, double(std::abs(pre_scalar[k].best_level[i] + pre_scalar[k].offset[i] -
+                                          exact[k].best_level[i] - exact[k].offset[i])));
+    }
+    EXPECT_GT(same, 0.9 * total) << "window " << k;
+    EXPECT_LT(max_level_diff, 1.0) << "window " << k;
+  }
+  if (CostKernelSimd() < SimdLevel::kAvx512) return;  // this CPU cannot run the SIMD path
+  const auto pre_simd = RunKernel(scene.input, SimdLevel::kAvx512, true);
+  for (size_t k = 0; k < exact.size(); ++k) {
+    size_t same = 0, total = 0;
+    double max_rel_cost_diff = 0.0;
+    for (size_t i = 0; i < pre_simd[k].best_level.size(); ++i) {
+      if (pre_scalar[k].best_level[i] < 0) continue;
+      ++total;
+      if (pre_simd[k].best_level[i] != pre_scalar[k].best_level[i]) continue;
+      ++same;
+      max_rel_cost_diff = std::max(max_rel_cost_diff,
+                                   std::abs(pre_simd[k].best_cost[i] - pre_scalar[k].best_cost[i]) /
+                                       (pre_scalar[k].best_cost[i] + 100.0));
+    }
+    EXPECT_GT(same, 0.999 * total) << "window " << k;
+    EXPECT_LT(max_rel_cost_diff, 1e-4) << "window " << k;
+  }
+}
+
+// Where a neighbour's geometry does not suit the pre-warp (it would magnify more than
+// 4x: here a neighbour moved 1.5 m forward along the reference axis sees the near
+// planes from behind), the kernel runs the exact warp instead: the same output.
+TEST(CostKernelTest, PrewarpFallsBackToTheExactWarp) {
+  Scene scene = MakeScene();
+  KernelNeighbour& nb = scene.input.neighbours[1];
+  // Centre moved by dz along the reference axis: b = K_n t loses dz K_n R_n e3 =
+  // dz A K_r e3 (the reference sits at the origin unrotated).
+  const double dz = 1500.0;
+  const Eigen::Vector3d k_e3 = TurnedCamera("ref", 0, 0, 0, 0).K().col(2);
+  for (int i = 0; i < 3; ++i) {
+    nb.b[i] -= dz * (nb.a[i][0] * k_e3.x() + nb.a[i][1] * k_e3.y() + nb.a[i][2] * k_e3.z());
+  }
+  for (SimdLevel simd : {SimdLevel::kNone, CostKernelSimd()}) {
+    const auto exact = RunKernel(scene.input, simd);
+    const auto pre = RunKernel(scene.input, simd, true);
+    for (size_t k = 0; k < exact.size(); ++k) {
+      EXPECT_EQ(pre[k].best_level, exact[k].best_level) << "window " << k;
+      EXPECT_EQ(pre[k].best_cost, exact[k].best_cost) << "window " << k;
     }
   }
 }

@@ -37,10 +37,12 @@ StereoInput PlaneInput(double plane_mm, bool textured) {
   return in;
 }
 
-void ExpectPlaneRecovered(double plane_mm, double median_tolerance, double max_tolerance) {
+void ExpectPlaneRecovered(double plane_mm, double median_tolerance, double max_tolerance,
+                          bool prewarp = false) {
   StereoOptions opt;
   opt.window_sizes_px = {5, 9};
   opt.num_threads = 2;
+  opt.prewarp_neighbours = prewarp;
   const StereoResult r = ComputeDepth(PlaneInput(plane_mm, true), opt);
   // 200 px * 120 mm * (1/750 - 1/5000) = 27.2 px -> 29 levels.
   EXPECT_EQ(r.num_levels, 29);
@@ -76,6 +78,13 @@ TEST(MultiBaselineTest, RecoversFrontoParallelTexturedPlaneExactly) {
 // to a fraction of a level: < 1% of the depth everywhere.
 TEST(MultiBaselineTest, RecoversFrontoParallelTexturedPlaneBetweenLevels) {
   ExpectPlaneRecovered(2000.0, 0.006, 0.01);
+}
+
+// The same with the neighbours pre-warped (StereoOptions::prewarp_neighbours): the same
+// tolerances on and between levels.
+TEST(MultiBaselineTest, RecoversPlaneWithPrewarpedNeighbours) {
+  ExpectPlaneRecovered(LevelDepthMm(7, 29, 750, 5000), 1e-3, 5e-3, true);
+  ExpectPlaneRecovered(2000.0, 0.006, 0.01, true);
 }
 
 TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {

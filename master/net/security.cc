@@ -1,0 +1,350 @@
+#include "net/security.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zmq.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "net/wire.h"
+#include "spdlog/spdlog.h"
+
+namespace dome::net {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr size_t kZ85KeyChars = 40;
+
+// Splits a key-file line into its first word and the rest. Z85 uses '#', so a line is
+// a comment only when its first word is not a key and starts with '#'; after a key,
+// only a comment may follow. Returns "" for blank and comment lines.
+std::string KeyToken(const std::string& line, std::string* rest) {
+  std::istringstream in(line);
+  std::string token;
+  in >> token;
+  std::string more;
+  std::getline(in, more);
+  more.erase(0, more.find_first_not_of(" \t\r"));
+  if (!more.empty() && more[0] == '#') more.clear();
+  if (rest) *rest = more;
+  if (!IsZ85Key(token) && !token.empty() && token[0] == '#') return "";
+  return token;
+}
+
+std::string ReadText(const fs::path& path, const std::string& what) {
+  std::ifstream in(path);
+  if (!in) {
+    throw core::InputError(path.string(),
+                           "cannot read the " + what + " (" + std::strerror(errno) + ")");
+  }
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The single key of a key file (comment lines allowed).
+std::string ReadSingleKey(const fs::path& path, const std::string& what) {
+  std::istringstream in(ReadText(path, what));
+  std::string line, key;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::string rest;
+    const std::string token = KeyToken(line, &rest);
+    if (token.empty()) continue;
+    const std::string where = path.string() + ":" + std::to_string(line_no);
+    core::Require(key.empty(), where, "a second key; a " + what + " holds one Z85 key");
+    core::Require(IsZ85Key(token) && rest.empty(), where,
+                  "expected a Z85 CURVE key (40 characters, as written by `dome keygen`)");
+    key = token;
+  }
+  core::Require(!key.empty(), path.string(), "holds no key; expected the " + what);
+  return key;
+}
+
+std::string Z85(const uint8_t* bytes32) {
+  char text[kZ85KeyChars + 1];
+  zmq_z85_encode(text, bytes32, 32);
+  return text;
+}
+
+}  // namespace
+
+KeyPair GenerateKeyPair() {
+  char pub[kZ85KeyChars + 1], sec[kZ85KeyChars + 1];
+  if (zmq_curve_keypair(pub, sec) != 0) {
+    throw core::InputError("zmq_curve_keypair",
+                           std::string("libzmq cannot make CURVE keys: ") + zmq_strerror(errno));
+  }
+  return {pub, sec};
+}
+
+bool IsZ85Key(const std::string& key) {
+  if (key.size() != kZ85KeyChars) return false;
+  uint8_t bytes[32];
+  return zmq_z85_decode(bytes, key.c_str()) != nullptr;
+}
+
+std::string PublicKeyOf(const std::string& secret_key, const std::string& where) {
+  core::Require(IsZ85Key(secret_key), where, "expected a Z85 CURVE secret key (40 characters)");
+  char pub[kZ85KeyChars + 1];
+  if (zmq_curve_public(pub, secret_key.c_str()) != 0) {
+    throw core::InputError(where,
+                           std::string("cannot derive the public key: ") + zmq_strerror(errno));
+  }
+  return pub;
+}
+
+void WriteKeyPair(const std::string& prefix, const KeyPair& keys) {
+  const std::string secret = prefix + ".key", pub = prefix + ".pub";
+  for (const auto& f : {secret, pub}) {
+    core::Require(!fs::exists(f), f,
+                  "exists already; keys are never overwritten (remove it first)");
+  }
+  auto write = [](const std::string& path, const std::string& text, mode_t mode) {
+    // O_EXCL: never replace a file that appeared meanwhile; the mode is set at creation
+    // so the secret is never readable by others, not even for a moment.
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL, mode);
+    if (fd < 0) throw core::InputError(path, std::string("cannot create: ") + std::strerror(errno));
+    const bool ok = ::write(fd, text.data(), text.size()) == ssize_t(text.size()) &&
+                    ::fchmod(fd, mode) == 0 && ::fsync(fd) == 0;
+    ::close(fd);
+    if (!ok) throw core::InputError(path, std::string("cannot write: ") + std::strerror(errno));
+  };
+  write(secret, keys.secret_key + "\n", 0600);
+  write(pub, keys.public_key + "\n", 0644);
+}
+
+KeyPair ReadSecretKeyFile(const fs::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    throw core::InputError(path.string(), std::string("cannot read the secret key file (") +
+                                              std::strerror(errno) + ")");
+  }
+  if ((st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", unsigned(st.st_mode & 07777));
+    throw core::InputError(path.string(),
+                           std::string("secret key file has mode ") + mode +
+                               ": the group or others may read it; allow only its owner "
+                               "(chmod 600)");
+  }
+  KeyPair keys;
+  keys.secret_key = ReadSingleKey(path, "secret key file");
+  keys.public_key = PublicKeyOf(keys.secret_key, path.string());
+  return keys;
+}
+
+std::string ReadPublicKeyFile(const fs::path& path) {
+  return ReadSingleKey(path, "public key file");
+}
+
+std::set<std::string> ReadAllowList(const fs::path& path) {
+  std::istringstream in(ReadText(path, "allow-list"));
+  std::set<std::string> keys;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::string rest;
+    const std::string token = KeyToken(line, &rest);
+    if (token.empty()) continue;
+    core::Require(IsZ85Key(token) && rest.empty(), path.string() + ":" + std::to_string(line_no),
+                  "expected one Z85 CURVE public key a line (40 characters, a .pub file's "
+                  "line), optionally followed by '# comment'");
+    keys.insert(token);
+  }
+  core::Require(!keys.empty(), path.string(),
+                "lists no public key; nobody could connect (add the workers' and clients' .pub "
+                "lines)");
+  return keys;
+}
+
+void ApplyClientKeys(const std::string& master_key_file, const std::string& key_file, bool insecure,
+                     SocketOptions* socket) {
+  const bool any = !master_key_file.empty() || !key_file.empty();
+  if (insecure) {
+    core::Require(!any, "--insecure", "conflicts with --master-key and --key (choose one)");
+    return;
+  }
+  const std::string why =
+      " (a secure master admits only CURVE clients whose key it allows; make keys with "
+      "`dome keygen PREFIX`), or --insecure for a master started with --insecure";
+  core::Require(
+      !master_key_file.empty(), "--master-key",
+      "missing: give the master's public key file (its .pub) with --master-key FILE" + why);
+  core::Require(!key_file.empty(), "--key",
+                "missing: give this side's secret key file (a .key whose .pub is on the "
+                "master's allow-list) with --key FILE" +
+                    why);
+  socket->server_key = ReadPublicKeyFile(master_key_file);
+  const KeyPair own = ReadSecretKeyFile(key_file);
+  socket->public_key = own.public_key;
+  socket->secret_key = own.secret_key;
+}
+
+std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
+                                      const std::string& secret_key_file,
+                                      const std::string& allow_file, bool insecure,
+                                      SocketOptions* socket) {
+  const bool any = !keys_dir.empty() || !secret_key_file.empty() || !allow_file.empty();
+  if (insecure) {
+    core::Require(!any, "--insecure", "conflicts with --keys, --secret-key and --allow (choose)");
+    return {};
+  }
+  std::string secret = secret_key_file, allow = allow_file;
+  if (!keys_dir.empty()) {
+    core::Require(secret.empty() && allow.empty(), "--keys",
+                  "conflicts with --secret-key and --allow (--keys DIR means DIR/master.key and "
+                  "DIR/allowed_keys)");
+    secret = (fs::path(keys_dir) / "master.key").string();
+    allow = (fs::path(keys_dir) / "allowed_keys").string();
+  }
+  const std::string how =
+      "--keys DIR (DIR/master.key and DIR/allowed_keys), or --secret-key FILE and --allow "
+      "FILE (make keys with `dome keygen PREFIX`), or --insecure for plaintext";
+  core::Require(!secret.empty() || !allow.empty(), "--keys", "missing: no keys given; give " + how);
+  core::Require(!secret.empty(), "--secret-key",
+                "missing: the master's secret key file; give " + how);
+  core::Require(!allow.empty(), "--allow",
+                "missing: the allow-list of worker and client public keys; give " + how);
+  socket->secret_key = ReadSecretKeyFile(secret).secret_key;
+  socket->public_key.clear();
+  socket->server_key.clear();
+  return ReadAllowList(allow);
+}
+
+// ---- ZAP ---------------------------------------------------------------------------
+
+struct ZapHandler::Impl {
+  zmq::socket_t socket;
+  std::set<std::string> allowed;
+  bool allow_plaintext;
+  std::atomic<bool> stop{false};
+  std::atomic<int64_t> accepted{0}, refused{0};
+  std::thread thread;
+  // Refused peers retry every reconnect interval: one log line per peer and key every
+  // kLogEvery, with the count of refusals in between.
+  static constexpr std::chrono::seconds kLogEvery{10};
+  struct Logged {
+    std::chrono::steady_clock::time_point last;
+    int64_t since = 0;
+  };
+  std::map<std::string, Logged> logged;
+
+  Impl(zmq::context_t* context, std::set<std::string> keys, bool plaintext)
+      : socket(*context, zmq::socket_type::rep),
+        allowed(std::move(keys)),
+        allow_plaintext(plaintext) {
+    socket.set(zmq::sockopt::linger, 0);
+    try {
+      socket.bind("inproc://zeromq.zap.01");
+    } catch (const zmq::error_t& e) {
+      throw core::InputError("inproc://zeromq.zap.01",
+                             std::string("cannot start the ZAP handler: ") + e.what());
+    }
+  }
+
+  void Serve() {
+    while (!stop) {
+      zmq::pollitem_t items[] = {{socket.handle(), 0, ZMQ_POLLIN, 0}};
+      zmq::poll(items, 1, std::chrono::milliseconds(50));
+      if (!(items[0].revents & ZMQ_POLLIN)) continue;
+      std::vector<zmq::message_t> frames;
+      while (true) {
+        zmq::message_t m;
+        if (!socket.recv(m, zmq::recv_flags::dontwait)) break;
+        const bool more = m.more();
+        frames.push_back(std::move(m));
+        if (!more) break;
+      }
+      if (!frames.empty()) Answer(frames);  // REP: answer only what was received
+    }
+  }
+
+  // The refusals of `peer` since its last log line, or nothing when it is too soon.
+  std::optional<int64_t> ShouldLog(const std::string& peer) {
+    const auto now = std::chrono::steady_clock::now();
+    auto [it, fresh] = logged.try_emplace(peer, Logged{now, 0});
+    if (!fresh && now - it->second.last < kLogEvery) {
+      ++it->second.since;
+      return std::nullopt;
+    }
+    const int64_t n = it->second.since;
+    it->second = Logged{now, 0};
+    if (logged.size() > 10000) logged.clear();  // bounded, whatever the peers do
+    return n;
+  }
+  static std::string Repeats(int64_t n) {
+    return n > 0 ? " (" + std::to_string(n) + " more refusals since the last line)" : "";
+  }
+
+  // RFC 27: version, request id, domain, address, identity, mechanism, credentials...
+  void Answer(const std::vector<zmq::message_t>& f) {
+    std::string request_id = f.size() > 1 ? f[1].to_string() : "";
+    std::string code = "400", text;
+    if (f.size() < 6 || f[0].to_string_view() != "1.0") {
+      text = "malformed ZAP request";
+      spdlog::warn("ZAP: malformed request of {} frames refused", f.size());
+    } else {
+      const std::string address = f[3].to_string(), mechanism = f[5].to_string();
+      if (mechanism == "CURVE" && f.size() == 7 && f[6].size() == 32) {
+        const std::string key = Z85(static_cast<const uint8_t*>(f[6].data()));
+        if (allowed.count(key)) {
+          code = "200";
+          text = "OK";
+          spdlog::debug("ZAP: CURVE client {} from {} accepted", key, address);
+        } else {
+          text = "public key not on the allow-list";
+          if (auto n = ShouldLog(address + " " + key)) {
+            spdlog::warn("refused CURVE client from {}: public key {} is not on the allow-list{}",
+                         address, key, Repeats(*n));
+          }
+        }
+      } else if (mechanism == "NULL" && allow_plaintext) {
+        code = "200";
+        text = "OK";
+      } else {
+        text = "mechanism " + mechanism + " not allowed";
+        if (auto n = ShouldLog(address + " " + mechanism)) {
+          spdlog::warn("refused {} client from {}: only CURVE clients with allowed keys{}",
+                       mechanism, address, Repeats(*n));
+        }
+      }
+    }
+    (code == "200" ? accepted : refused)++;
+    const std::string user = code == "200" ? "dome" : "";
+    const std::string reply[] = {"1.0", request_id, code, text, user, ""};
+    for (size_t i = 0; i < 6; ++i) {
+      socket.send(zmq::buffer(reply[i]),
+                  i + 1 < 6 ? zmq::send_flags::sndmore : zmq::send_flags::none);
+    }
+  }
+};
+
+ZapHandler::ZapHandler(zmq::context_t* context, std::set<std::string> allowed, bool allow_plaintext)
+    : impl_(std::make_unique<Impl>(context, std::move(allowed), allow_plaintext)) {
+  impl_->thread = std::thread([this] { impl_->Serve(); });
+}
+
+ZapHandler::~ZapHandler() {
+  impl_->stop = true;
+  impl_->thread.join();
+}
+
+int64_t ZapHandler::accepted() const { return impl_->accepted; }
+int64_t ZapHandler::refused() const { return impl_->refused; }
+
+}  // namespace dome::net

@@ -1,0 +1,98 @@
+// CURVE keys, allow-lists and the ZAP handler that secure the runtime's sockets
+// (ZeroMQ RFC 26 CurveZMQ, RFC 27 ZAP).
+//
+// CURVE alone encrypts but lets in any client that knows the server's public key; the
+// master therefore also runs a ZapHandler that accepts a CURVE client only when its
+// public key is on the allow-list, and refuses NULL and PLAIN peers unless insecure.
+//
+// Key files (written by `dome keygen PREFIX`):
+//   PREFIX.key  the secret key, Z85 (40 characters) on one line; mode 0600. A secret
+//               key file that the group or others may read is refused.
+//   PREFIX.pub  the public key, Z85 on one line; may be shared freely.
+// Allow-list file: one Z85 public key a line (a .pub file's line, optionally followed
+// by a `# name` comment); blank lines and other lines starting with # are ignored (Z85
+// itself uses '#': a line whose first word is a key is a key). Errors name FILE:LINE.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <set>
+#include <string>
+#include <zmq.hpp>
+
+namespace dome::net {
+
+struct SocketOptions;  // net/wire.h
+
+// A CURVE key pair, both keys Z85-encoded (40 characters each).
+struct KeyPair {
+  std::string public_key;
+  std::string secret_key;
+};
+
+// A fresh key pair from libzmq (zmq_curve_keypair).
+KeyPair GenerateKeyPair();
+
+// The public key of a Z85 secret key (zmq_curve_public); throws InputError naming
+// `where` when `secret_key` is not a Z85 key.
+std::string PublicKeyOf(const std::string& secret_key, const std::string& where);
+
+// True when `key` is 40 characters of Z85 that decode to 32 bytes.
+bool IsZ85Key(const std::string& key);
+
+// Writes PREFIX.key (mode 0600) and PREFIX.pub. Throws InputError naming the file when
+// either exists already (keys are never overwritten) or cannot be written.
+void WriteKeyPair(const std::string& prefix, const KeyPair& keys);
+
+// Reads a secret key file and derives its public key. Throws InputError naming the
+// file when it is missing, readable by group or others, or holds no Z85 key.
+KeyPair ReadSecretKeyFile(const std::filesystem::path& path);
+
+// Reads a public key file (one Z85 key). Throws InputError naming the file.
+std::string ReadPublicKeyFile(const std::filesystem::path& path);
+
+// Reads an allow-list. Throws InputError naming FILE:LINE for a line that is not a
+// Z85 key, and the file when it is missing or lists no key.
+std::set<std::string> ReadAllowList(const std::filesystem::path& path);
+
+// The client side from the --master-key FILE (the master's .pub) and --key FILE (this
+// side's .key) flags: sets socket->server_key, public_key and secret_key. With
+// `insecure` (--insecure) and no files the socket stays plaintext. Throws InputError
+// naming the missing or conflicting flag, or the unreadable file.
+void ApplyClientKeys(const std::string& master_key_file, const std::string& key_file, bool insecure,
+                     SocketOptions* socket);
+
+// The master side from --keys DIR (DIR/master.key and DIR/allowed_keys), or
+// --secret-key FILE and --allow FILE: sets socket->secret_key and returns the
+// allow-list for the ZapHandler. With `insecure` and no keys: plaintext, an empty
+// list. Throws InputError naming the missing or conflicting flag, or the bad file.
+std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
+                                      const std::string& secret_key_file,
+                                      const std::string& allow_file, bool insecure,
+                                      SocketOptions* socket);
+
+// The ZAP handler of one ZeroMQ context: a REP socket bound to
+// inproc://zeromq.zap.01, served on its own thread from construction to destruction.
+// Every CURVE handshake on a server socket of that context asks it; NULL handshakes
+// ask it only on sockets with a ZAP domain (net::ConfigureSocket sets one on every
+// server socket). Refusals are logged (warn) with the peer's address and key.
+class ZapHandler {
+ public:
+  // `allowed`: Z85 public keys let in. `allow_plaintext`: accept NULL peers (the
+  // --insecure mode); PLAIN is always refused (dome never sends passwords).
+  ZapHandler(zmq::context_t* context, std::set<std::string> allowed, bool allow_plaintext);
+  ~ZapHandler();
+  ZapHandler(const ZapHandler&) = delete;
+  ZapHandler& operator=(const ZapHandler&) = delete;
+
+  int64_t accepted() const;
+  int64_t refused() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dome::net

@@ -1,0 +1,152 @@
+// Faults of the distributed runtime with real processes on loopback (issue 8's
+// acceptance): a worker frozen past the heartbeat timeout and resumed, the master
+// killed and restarted on the same output folder, a worker joining mid-session. Each
+// run must end with the same bytes as the undisturbed embedded `dome run` and a log
+// line saying what was retried. (Workers killed during stereo and fusion:
+// cluster_test.cc.)
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "io/file_util.h"
+#include "runtime/cluster_fixture.h"
+#include "runtime/process.h"
+
+namespace dome {
+namespace {
+namespace fs = std::filesystem;
+using testing::ChildProcess;
+using testing::CountOf;
+using testing::ExpectSameOutputs;
+
+class Faults : public testing::ClusterFixture {
+ protected:
+  // The integer after "\"key\": " in report.json text; -1 when absent.
+  static int ReportInt(const std::string& report, const std::string& key) {
+    const std::string needle = "\"" + key + "\": ";
+    const auto p = report.find(needle);
+    if (p == std::string::npos) return -1;
+    return std::stoi(report.substr(p + needle.size()));
+  }
+  // Waits until `pred()` holds, checking every 10 ms; false after timeout_s.
+  template <typename Pred>
+  static bool Eventually(Pred pred, double timeout_s = 30) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < end) {
+      if (pred()) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
+  // The stage totals of one instant of a status.
+  static int Total(const runtime::SessionStatus& st, int instant, const std::string& stage) {
+    for (const auto& s : st.instants(instant).stages()) {
+      if (s.stage() == stage) return s.total();
+    }
+    return -1;
+  }
+};
+
+TEST_F(Faults, FrozenWorkerIsRequeuedAndItsLateResultDropped) {
+  Master m = StartMaster("master_freeze");
+  auto frozen = StartWorker(m, "f1");
+  const fs::path out = root_ / "frozen";
+  const std::string id = Submit(m, MakeSession(out));
+  // One worker: once a depth map is in, it is busy with the next stereo job. Freeze it
+  // well inside that job (a stereo job takes a good part of a second here).
+  ASSERT_TRUE(WaitFor(m, id, [](const auto& st) { return Done(st, 0, "stereo") >= 1; }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  frozen->Signal(SIGSTOP);
+  // Past 3 x 200 ms without a heartbeat the master re-queues its job; a second worker
+  // runs it.
+  const std::string requeued = "lost (no heartbeat for 600 ms); re-queued job " + id + "/";
+  ASSERT_TRUE(Eventually([&] { return m.process->Log().find(requeued) != std::string::npos; }))
+      << m.process->Log();
+  auto helper = StartWorker(m, "f2");
+  const std::string log = m.process->Log();
+  const auto at = log.find(requeued) + requeued.size() - id.size() - 1;
+  const std::string job =
+      log.substr(at, log.find(' ', at) - at);  // "<id>/<instant>/<stage>/<part>"
+  const std::string key = job.substr(id.size() + 1);
+  const std::string instant = key.substr(0, key.find('/'));
+  const std::string stage = key.substr(instant.size() + 1, key.rfind('/') - instant.size() - 1);
+  const int t = instant == instants_[0] ? 0 : 1;
+  ASSERT_TRUE(WaitFor(m, id, [&](const auto& st) {
+    return Done(st, t, stage) == Total(st, t, stage);
+  })) << job;
+  // Resumed, the frozen worker finishes its job: the master has it already.
+  frozen->Signal(SIGCONT);
+  const auto final = WaitForEnd(m, id);
+  ASSERT_EQ(final.state(), "done") << final.error() << m.process->Log();
+  ExpectSameOutputs(reference_, out);
+  EXPECT_NE(m.process->Log().find("late or duplicate result for " + job + " dropped"),
+            std::string::npos)
+      << m.process->Log();
+  const std::string report = io::ReadFileBytes(out / "report.json");
+  EXPECT_GE(ReportInt(report, "jobs_requeued"), 1) << report;
+  EXPECT_GE(ReportInt(report, "duplicate_results_dropped"), 1) << report;
+}
+
+TEST_F(Faults, KilledMasterRestartsFromItsJournal) {
+  Master m1 = StartMaster("master_before");
+  auto w1 = StartWorker(m1, "r1");
+  auto w2 = StartWorker(m1, "r2");
+  const fs::path out = root_ / "restarted";
+  const runtime::Session session = MakeSession(out);
+  const std::string id1 = Submit(m1, session);
+  // Mid-session: the first instant done, the second under way.
+  ASSERT_TRUE(WaitFor(m1, id1, [](const auto& st) { return st.instants(0).done(); }));
+  m1.process->Kill();
+  // A new master on the same worker port; the workers find it by themselves.
+  Master m2 = StartMaster("master_after", {}, m1.workers);
+  ASSERT_EQ(m2.workers, m1.workers);
+  const std::string id2 = Submit(m2, session);
+  const auto resumed = Status(m2, id2);
+  const int total = resumed.jobs_total();
+  EXPECT_GE(resumed.jobs_done(), total / 2) << "the first instant's jobs are in the journal";
+  const auto final = WaitForEnd(m2, id2);
+  ASSERT_EQ(final.state(), "done") << final.error() << m2.process->Log();
+  ExpectSameOutputs(reference_, out);
+  const std::string log = m2.process->Log();
+  EXPECT_NE(log.find("session " + id2 + ": resumed from " + (out / "journal.log").string() + ": " +
+                     std::to_string(resumed.jobs_done()) + " jobs already done"),
+            std::string::npos)
+      << log;
+  // The restarted master ran only what the journal lacked.
+  const std::string report = io::ReadFileBytes(out / "report.json");
+  EXPECT_EQ(ReportInt(report, "jobs_resumed_from_journal"), resumed.jobs_done()) << report;
+  const int after = std::max(0, ReportInt(report, "r1")) + std::max(0, ReportInt(report, "r2"));
+  EXPECT_GT(after, 0) << report;
+  EXPECT_LT(after, total) << report;
+  EXPECT_LE(after, total - resumed.jobs_done()) << report;
+  EXPECT_NE(log.find("worker r1 joined"), std::string::npos) << log;
+  EXPECT_NE(log.find("worker r2 joined"), std::string::npos) << log;
+}
+
+TEST_F(Faults, WorkerJoiningMidSessionGetsJobs) {
+  Master m = StartMaster("master_join");
+  auto first = StartWorker(m, "j1");
+  const fs::path out = root_ / "joined";
+  const std::string id = Submit(m, MakeSession(out));
+  ASSERT_TRUE(WaitFor(m, id, [](const auto& st) { return st.jobs_done() >= 3; }));
+  const int done_before = Status(m, id).jobs_done();
+  auto second = StartWorker(m, "j2");
+  const auto final = WaitForEnd(m, id);
+  ASSERT_EQ(final.state(), "done") << final.error() << m.process->Log();
+  ExpectSameOutputs(reference_, out);
+  const std::string log = m.process->Log();
+  EXPECT_NE(log.find("worker j2 joined"), std::string::npos) << log;
+  EXPECT_EQ(CountOf(log, " joined ("), 2) << log;
+  const std::string report = io::ReadFileBytes(out / "report.json");
+  const int by_first = ReportInt(report, "j1"), by_second = ReportInt(report, "j2");
+  EXPECT_GE(by_first, done_before) << report;
+  EXPECT_GT(by_second, 0) << report;
+  // Every worker job ran once: the surface is the master's own stage.
+  EXPECT_EQ(by_first + by_second + int(instants_.size()), final.jobs_total()) << report;
+}
+
+}  // namespace
+}  // namespace dome

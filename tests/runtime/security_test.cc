@@ -1,0 +1,342 @@
+// CURVE + ZAP on the runtime's sockets (net/security.h) with real processes on
+// loopback: allowed workers and clients are served; a key not on the allow-list and a
+// plaintext peer get nothing from any master socket (control, workers, events) and
+// the master log names the refused key; the binaries refuse to start without keys
+// unless --insecure; key and allow-list files are checked.
+#include "net/security.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <thread>
+#include <zmq.hpp>
+
+#include "client/client.h"
+#include "io/file_util.h"
+#include "net/wire.h"
+#include "runtime/process.h"
+#include "testing/expect_error.h"
+#include "testing/run_command.h"
+#include "testing/temp_dir.h"
+
+namespace dome {
+namespace {
+namespace fs = std::filesystem;
+using testing::ChildProcess;
+using testing::ExpectInputError;
+using testing::RunDomeBinary;
+using Clock = std::chrono::steady_clock;
+
+std::string Trimmed(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+TEST(Keys, KeygenWritesAnOwnerOnlySecretAndItsPublicKeyAndNeverOverwrites) {
+  testing::TempDir dir;
+  const std::string prefix = dir.File("w1");
+  const auto made = RunDomeBinary("keygen " + prefix);
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  struct stat st {};
+  ASSERT_EQ(::stat((prefix + ".key").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0600u);
+  const std::string pub = Trimmed(io::ReadFileBytes(prefix + ".pub"));
+  EXPECT_TRUE(net::IsZ85Key(pub)) << pub;
+  EXPECT_NE(made.output.find(pub), std::string::npos) << made.output;
+  // The secret key's own public key is the one in the .pub file.
+  const net::KeyPair keys = net::ReadSecretKeyFile(prefix + ".key");
+  EXPECT_EQ(keys.public_key, pub);
+  EXPECT_NE(keys.secret_key, pub);
+  const std::string secret_before = io::ReadFileBytes(prefix + ".key");
+  const auto again = RunDomeBinary("keygen " + prefix);
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.output.find(prefix + ".key"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("never overwritten"), std::string::npos) << again.output;
+  EXPECT_EQ(io::ReadFileBytes(prefix + ".key"), secret_before);
+  // Two pairs differ.
+  ASSERT_EQ(RunDomeBinary("keygen " + dir.File("w2")).exit_code, 0);
+  EXPECT_NE(Trimmed(io::ReadFileBytes(dir.File("w2.pub"))), pub);
+}
+
+TEST(Keys, SecretKeyReadableByOthersIsRefusedNamingTheFile) {
+  testing::TempDir dir;
+  const std::string prefix = dir.File("k");
+  net::WriteKeyPair(prefix, net::GenerateKeyPair());
+  ASSERT_EQ(::chmod((prefix + ".key").c_str(), 0644), 0);
+  ExpectInputError([&] { net::ReadSecretKeyFile(prefix + ".key"); },
+                   {prefix + ".key", "0644", "chmod 600"});
+  // The worker refuses it too, before connecting anywhere.
+  const auto worker = RunDomeBinary(
+      "--master tcp://127.0.0.1:1 --master-key " + prefix + ".pub --key " + prefix + ".key",
+      "dome-worker");
+  EXPECT_EQ(worker.exit_code, 1);
+  EXPECT_NE(worker.output.find(prefix + ".key"), std::string::npos) << worker.output;
+  EXPECT_NE(worker.output.find("0644"), std::string::npos) << worker.output;
+  // Not a key at all.
+  io::WriteFileAtomically(dir / "bad.key", "not a key\n");
+  ::chmod(dir.File("bad.key").c_str(), 0600);
+  ExpectInputError([&] { net::ReadSecretKeyFile(dir / "bad.key"); }, {"bad.key:1", "Z85"});
+}
+
+TEST(Keys, AllowListBadLineIsNamedByFileAndLine) {
+  testing::TempDir dir;
+  const net::KeyPair a = net::GenerateKeyPair(), b = net::GenerateKeyPair();
+  const std::string file = dir.File("allowed_keys");
+  io::WriteFileAtomically(file, "# workers\n" + a.public_key + "  # w1\n\n" + b.public_key + "\n" +
+                                    a.secret_key.substr(0, 39) + "\n");
+  ExpectInputError([&] { net::ReadAllowList(file); }, {file + ":5", "Z85"});
+  io::WriteFileAtomically(file, "# workers\n" + a.public_key + "  # w1\n\n" + b.public_key + "\n");
+  const auto keys = net::ReadAllowList(file);
+  EXPECT_EQ(keys, (std::set<std::string>{a.public_key, b.public_key}));
+  io::WriteFileAtomically(file, "# nobody yet\n");
+  ExpectInputError([&] { net::ReadAllowList(file); }, {file, "lists no public key"});
+  io::WriteFileAtomically(file, a.public_key + " " + b.public_key + "\n");
+  ExpectInputError([&] { net::ReadAllowList(file); }, {file + ":1"});
+  // Z85 has '#' in its alphabet (never first in a group of five): a key holding one is
+  // a key, and a key commented out with a leading '#' is a comment.
+  const std::string hash_inside = "0000#" + std::string(35, '0');
+  ASSERT_TRUE(net::IsZ85Key(hash_inside));
+  io::WriteFileAtomically(file, "#" + a.public_key + " commented out\n" + hash_inside +
+                                    " # w2\r\n" + b.public_key + "\t#tab comment\n");
+  EXPECT_EQ(net::ReadAllowList(file), (std::set<std::string>{hash_inside, b.public_key}));
+}
+
+TEST(Keys, BinariesRefuseToStartWithoutKeysUnlessInsecure) {
+  const std::string ports =
+      "--bind tcp://127.0.0.1:* --control tcp://127.0.0.1:* --events "
+      "tcp://127.0.0.1:*";
+  const auto master = RunDomeBinary(ports, "dome-master");
+  EXPECT_EQ(master.exit_code, 1);
+  for (const char* part : {"--keys", "missing", "--secret-key", "--allow", "--insecure"}) {
+    EXPECT_NE(master.output.find(part), std::string::npos) << part << " in " << master.output;
+  }
+  testing::TempDir dir;
+  net::WriteKeyPair(dir.File("m"), net::GenerateKeyPair());
+  const auto no_allow = RunDomeBinary(ports + " --secret-key " + dir.File("m.key"), "dome-master");
+  EXPECT_EQ(no_allow.exit_code, 1);
+  EXPECT_NE(no_allow.output.find("--allow: missing"), std::string::npos) << no_allow.output;
+  const auto both =
+      RunDomeBinary(ports + " --keys " + dir.path().string() + " --insecure", "dome-master");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE(both.output.find("--insecure: conflicts"), std::string::npos) << both.output;
+  const auto worker = RunDomeBinary("--master tcp://127.0.0.1:1", "dome-worker");
+  EXPECT_EQ(worker.exit_code, 1);
+  EXPECT_NE(worker.output.find("--master-key: missing"), std::string::npos) << worker.output;
+  const auto worker_half =
+      RunDomeBinary("--master tcp://127.0.0.1:1 --master-key " + dir.File("m.pub"), "dome-worker");
+  EXPECT_NE(worker_half.output.find("--key: missing"), std::string::npos) << worker_half.output;
+  for (const char* cmd : {"list", "status", "cancel x", "watch x"}) {
+    const auto client = RunDomeBinary(std::string(cmd) + " --master tcp://127.0.0.1:1");
+    EXPECT_EQ(client.exit_code, 1) << cmd;
+    EXPECT_NE(client.output.find("--master-key: missing"), std::string::npos)
+        << cmd << ": " << client.output;
+  }
+}
+
+// A secure dome-master on loopback and the key files of its peers.
+class SecureMaster : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (const char* who : {"master", "worker", "client", "stranger"}) {
+      net::WriteKeyPair(dir_.File(who), net::GenerateKeyPair());
+    }
+    // Workers and clients allowed; "stranger" has a valid key pair that is not listed.
+    io::WriteFileAtomically(dir_ / "allowed_keys",
+                            "# dome allow-list\n" + io::ReadFileBytes(dir_ / "worker.pub") +
+                                Trimmed(io::ReadFileBytes(dir_ / "client.pub")) + "  # client\n");
+    const fs::path file = dir_ / "endpoints";
+    master_ = std::make_unique<ChildProcess>(
+        "dome-master",
+        std::vector<std::string>{"--bind", "tcp://127.0.0.1:*", "--control", "tcp://127.0.0.1:*",
+                                 "--events", "tcp://127.0.0.1:*", "--heartbeat-ms", "200",
+                                 "--secret-key", dir_.File("master.key"), "--allow",
+                                 dir_.File("allowed_keys"), "--endpoints-file", file.string()},
+        dir_.File("master.log"));
+    for (int i = 0; i < 500 && !fs::exists(file); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::istringstream in(io::ReadFileBytes(file));
+    in >> workers_ >> control_ >> events_;
+    ASSERT_FALSE(events_.empty()) << master_->Log();
+  }
+
+  // Client socket options for the key pair `who` (empty: plaintext).
+  net::SocketOptions Keys(const std::string& who) {
+    net::SocketOptions o;
+    if (!who.empty()) {
+      net::ApplyClientKeys(dir_.File("master.pub"), dir_.File(who + ".key"), false, &o);
+    }
+    return o;
+  }
+  std::string PublicKey(const std::string& who) {
+    return Trimmed(io::ReadFileBytes(dir_ / (who + ".pub")));
+  }
+  runtime::ControlReply List(const std::string& who, int timeout_ms = 10000) {
+    runtime::ControlRequest req;
+    req.mutable_list();
+    return client::Request(&context_, control_, req, timeout_ms, Keys(who));
+  }
+  std::string SubmitNoop(const std::string& who, int jobs) {
+    runtime::ControlRequest req;
+    req.mutable_submit()->mutable_session()->set_out(
+        (dir_ / ("noop" + std::to_string(++n_))).string());
+    req.mutable_submit()->mutable_session()->set_noop_jobs(jobs);
+    return client::Request(&context_, control_, req, 10000, Keys(who)).session_id();
+  }
+
+  testing::TempDir dir_;
+  zmq::context_t context_;
+  std::unique_ptr<ChildProcess> master_;
+  std::string workers_, control_, events_;
+  int n_ = 0;
+};
+
+TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
+  ChildProcess worker(
+      "dome-worker",
+      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
+       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
+      dir_.File("worker.log"));
+  const std::string id = SubmitNoop("client", 40);
+  // Progress through the (CURVE) status socket and the final state from the control one.
+  const fs::path progress = dir_ / "progress.txt";
+  std::FILE* out = std::fopen(progress.c_str(), "w");
+  ASSERT_NE(out, nullptr);
+  const auto st =
+      client::WaitForSession(&context_, control_, events_, id, out, 100, Keys("client"));
+  std::fclose(out);
+  ASSERT_EQ(st.state(), "done") << st.error() << master_->Log();
+  EXPECT_EQ(st.jobs_done(), 40);
+  EXPECT_EQ(st.jobs_total(), 40);
+  EXPECT_NE(master_->Log().find("worker kw joined"), std::string::npos) << master_->Log();
+  EXPECT_NE(master_->Log().find("CURVE: 2 public keys allowed"), std::string::npos);
+  // The dome client binary with its key files lists the session.
+  const auto list = RunDomeBinary("list --master " + control_ + " --master-key " +
+                                  dir_.File("master.pub") + " --key " + dir_.File("client.key"));
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find(id), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("done"), std::string::npos) << list.output;
+  EXPECT_EQ(master_->Log().find("refused"), std::string::npos) << master_->Log();
+  EXPECT_EQ(worker.Stop(), 0);
+  EXPECT_EQ(master_->Stop(), 0);
+}
+
+TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
+  // A stranger's request gets no answer; the master names its key and address.
+  ExpectInputError([&] { List("stranger", 1500); }, {"no answer", "allow-list"});
+  // A plaintext client neither.
+  ExpectInputError([&] { List("", 1500); }, {"no answer"});
+  // Meanwhile an allowed client is served.
+  EXPECT_TRUE(List("client").sessions().empty());
+  const std::string log = master_->Log();
+  EXPECT_NE(log.find("public key " + PublicKey("stranger") + " is not on the allow-list"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("refused CURVE client from 127.0.0.1"), std::string::npos) << log;
+  EXPECT_EQ(log.find(PublicKey("client")), std::string::npos) << "allowed key logged as refused";
+
+  // The worker socket: a stranger's Hello and a plaintext Hello are never answered,
+  // and neither joins; both would be heartbeated within 200 ms if they had.
+  runtime::Envelope hello;
+  hello.mutable_hello()->set_threads(1);
+  hello.mutable_hello()->set_name("intruder");
+  const std::string hello_bytes = net::EncodeEnvelope(hello);
+  std::vector<std::unique_ptr<zmq::socket_t>> dealers;
+  for (const std::string who : {"stranger", ""}) {
+    dealers.push_back(std::make_unique<zmq::socket_t>(context_, zmq::socket_type::dealer));
+    net::ConfigureSocket(dealers.back().get(), Keys(who));
+    dealers.back()->connect(workers_);
+    dealers.back()->send(zmq::buffer(hello_bytes), zmq::send_flags::dontwait);
+  }
+  // The events socket: an allowed SUB hears the next session; a stranger's and a
+  // plaintext SUB hear nothing.
+  std::vector<std::unique_ptr<zmq::socket_t>> subs;
+  for (const std::string who : {"client", "stranger", ""}) {
+    subs.push_back(std::make_unique<zmq::socket_t>(context_, zmq::socket_type::sub));
+    net::ConfigureSocket(subs.back().get(), Keys(who));
+    subs.back()->set(zmq::sockopt::subscribe, "");
+    subs.back()->connect(events_);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // subscriptions travel
+  ChildProcess worker(
+      "dome-worker",
+      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
+       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
+      dir_.File("worker.log"));
+  const std::string id = SubmitNoop("client", 10);
+  std::vector<int> heard(subs.size(), 0), answered(dealers.size(), 0);
+  const auto end = Clock::now() + std::chrono::seconds(3);
+  while (Clock::now() < end) {
+    std::vector<zmq::pollitem_t> items;
+    for (auto& s : subs) items.push_back({s->handle(), 0, ZMQ_POLLIN, 0});
+    for (auto& d : dealers) items.push_back({d->handle(), 0, ZMQ_POLLIN, 0});
+    zmq::poll(items, std::chrono::milliseconds(50));
+    zmq::message_t m;
+    for (size_t i = 0; i < subs.size(); ++i) {
+      while (subs[i]->recv(m, zmq::recv_flags::dontwait)) {
+        runtime::Envelope env;
+        if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status() &&
+            env.status().session_id() == id) {
+          ++heard[i];
+        }
+      }
+    }
+    for (size_t i = 0; i < dealers.size(); ++i) {
+      while (dealers[i]->recv(m, zmq::recv_flags::dontwait)) ++answered[i];
+    }
+  }
+  EXPECT_GE(heard[0], 10) << "the allowed subscriber hears every finished job";
+  EXPECT_EQ(heard[1], 0) << "stranger subscriber";
+  EXPECT_EQ(heard[2], 0) << "plaintext subscriber";
+  EXPECT_EQ(answered[0], 0) << "stranger worker";
+  EXPECT_EQ(answered[1], 0) << "plaintext worker";
+  const std::string after = master_->Log();
+  EXPECT_EQ(after.find("worker intruder joined"), std::string::npos) << after;
+  EXPECT_NE(after.find("worker kw joined"), std::string::npos) << after;
+  // Refused peers retry; the log names each peer and key once per interval, not per try.
+  size_t refusals = 0;
+  for (size_t p = after.find(PublicKey("stranger")); p != std::string::npos;
+       p = after.find(PublicKey("stranger"), p + 1)) {
+    ++refusals;
+  }
+  EXPECT_GE(refusals, 1u) << after;
+  EXPECT_LE(refusals, 2u) << after;
+  runtime::ControlRequest req;
+  req.mutable_status()->set_session_id(id);
+  EXPECT_EQ(client::Request(&context_, control_, req, 10000, Keys("client")).sessions(0).state(),
+            "done");
+  for (auto& s : subs) s->set(zmq::sockopt::linger, 0);
+  for (auto& d : dealers) d->set(zmq::sockopt::linger, 0);
+}
+
+TEST(InsecureMaster, ServesPlaintextPeersOnlyWhenAskedTo) {
+  testing::TempDir dir;
+  const fs::path file = dir / "endpoints";
+  ChildProcess master("dome-master",
+                      {"--bind", "tcp://127.0.0.1:*", "--control", "tcp://127.0.0.1:*", "--events",
+                       "tcp://127.0.0.1:*", "--insecure", "--endpoints-file", file.string()},
+                      dir.File("master.log"));
+  for (int i = 0; i < 500 && !fs::exists(file); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::istringstream in(io::ReadFileBytes(file));
+  std::string workers, control;
+  in >> workers >> control;
+  ChildProcess worker("dome-worker", {"--master", workers, "--threads", "1", "--insecure"},
+                      dir.File("worker.log"));
+  zmq::context_t context;
+  runtime::ControlRequest req;
+  req.mutable_submit()->mutable_session()->set_out((dir / "noop").string());
+  req.mutable_submit()->mutable_session()->set_noop_jobs(5);
+  const std::string id = client::Request(&context, control, req).session_id();
+  const auto st = client::WaitForSession(&context, control, "", id, nullptr, 50);
+  EXPECT_EQ(st.state(), "done") << master.Log();
+  EXPECT_NE(master.Log().find("insecure: plaintext"), std::string::npos);
+  EXPECT_EQ(master.Stop(), 0);
+}
+
+}  // namespace
+}  // namespace dome
