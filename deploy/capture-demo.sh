@@ -58,5 +58,5 @@ echo "agents by passes needed:"
 for cam in "${cameras[@]}"; do grep -h "^captured .* passes$" "$out.logs/$cam.log"; done | sort | uniq -c
 printf 'capture: %d cameras x %d instants through dome-master: %d of %d frames in %s, %d failures, %.1f s\n' \
   "${#cameras[@]}" "${#instants[@]}" "$frames" "$wanted" "$out" "$failed" \
-  "$(echo "$(date +%s.%N) - $start" | bc)"
+  "$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')"
 [ "$failed" -eq 0 ] && [ "$frames" -eq "$wanted" ]

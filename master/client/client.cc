@@ -17,6 +17,28 @@
 namespace dome::client {
 using Clock = std::chrono::steady_clock;
 
+namespace {
+// Waits up to wait_ms for status events on `sub`, then hands every queued StatusEvent
+// to on_event. Messages that do not decode are skipped: the events socket is
+// best-effort progress, and the control socket stays the source of truth.
+template <class OnEvent>
+void DrainStatusEvents(zmq::socket_t* sub, const std::string& events, int64_t max_bytes,
+                       int wait_ms, OnEvent on_event) {
+  zmq::pollitem_t items[] = {{sub->handle(), 0, ZMQ_POLLIN, 0}};
+  zmq::poll(items, 1, std::chrono::milliseconds(wait_ms));
+  zmq::message_t m;
+  while (sub->recv(m, zmq::recv_flags::dontwait)) {
+    runtime::Envelope env;
+    try {
+      env = net::DecodeEnvelope(m.to_string_view(), "status " + events, max_bytes);
+    } catch (const core::InputError&) {
+      continue;
+    }
+    if (env.has_status()) on_event(env.status());
+  }
+}
+}  // namespace
+
 runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoint,
                               const runtime::ControlRequest& request, int timeout_ms,
                               const net::SocketOptions& options) {
@@ -119,46 +141,36 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
       std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
       continue;
     }
-    zmq::pollitem_t items[] = {{sub->handle(), 0, ZMQ_POLLIN, 0}};
-    zmq::poll(items, 1, std::chrono::milliseconds(poll_ms));
-    zmq::message_t m;
-    while (sub->recv(m, zmq::recv_flags::dontwait)) {
-      runtime::Envelope env;
-      try {
-        env =
-            net::DecodeEnvelope(m.to_string_view(), "status " + events, options.max_message_bytes);
-      } catch (const core::InputError&) {
-        continue;
-      }
-      if (out != nullptr && env.has_status() && env.status().has_capture()) {
-        std::fprintf(out, "%s\n", FormatCaptureStatus(env.status().capture()).c_str());
-        std::fflush(out);
-        continue;
-      }
-      if (!env.has_status() || env.status().session_id() != id || out == nullptr) continue;
-      const auto& ev = env.status();
-      if (ev.stage().empty()) {
-        // "submitted", or an error; the message of a state change repeats the state.
-        const std::string message = ev.message() == ev.state() ? "" : " " + ev.message();
-        std::fprintf(out, "[%7.1f s] session %s %s%s\n", ev.elapsed_s(), id.c_str(),
-                     ev.state().c_str(), message.c_str());
-        continue;
-      }
-      // Rate over the jobs finished since we started watching; ETA from it.
-      const double watched = std::chrono::duration<double>(Clock::now() - start).count();
-      const int since = ev.jobs_done() - std::max(first_done, 0);
-      const double rate = watched > 0 ? since / watched : 0;
-      char eta[64] = "?";
-      if (rate > 0)
-        std::snprintf(eta, sizeof eta, "%.0f s", (ev.jobs_total() - ev.jobs_done()) / rate);
-      const int width = 20;
-      const int filled = ev.total() > 0 ? width * ev.done() / ev.total() : 0;
-      std::fprintf(out, "[%7.1f s] %s %-8s [%s%s] %3d/%-3d  jobs %d/%d  %.2f jobs/s  ETA %s\n",
-                   ev.elapsed_s(), ev.instant().c_str(), ev.stage().c_str(),
-                   std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
-                   ev.done(), ev.total(), ev.jobs_done(), ev.jobs_total(), rate, eta);
-      std::fflush(out);
-    }
+    DrainStatusEvents(
+        sub.get(), events, options.max_message_bytes, poll_ms, [&](const runtime::StatusEvent& ev) {
+          if (out != nullptr && ev.has_capture()) {
+            std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
+            std::fflush(out);
+            return;
+          }
+          if (ev.session_id() != id || out == nullptr) return;
+          if (ev.stage().empty()) {
+            // "submitted", or an error; the message of a state change repeats the state.
+            const std::string message = ev.message() == ev.state() ? "" : " " + ev.message();
+            std::fprintf(out, "[%7.1f s] session %s %s%s\n", ev.elapsed_s(), id.c_str(),
+                         ev.state().c_str(), message.c_str());
+            return;
+          }
+          // Rate over the jobs finished since we started watching; ETA from it.
+          const double watched = std::chrono::duration<double>(Clock::now() - start).count();
+          const int since = ev.jobs_done() - std::max(first_done, 0);
+          const double rate = watched > 0 ? since / watched : 0;
+          char eta[64] = "?";
+          if (rate > 0)
+            std::snprintf(eta, sizeof eta, "%.0f s", (ev.jobs_total() - ev.jobs_done()) / rate);
+          const int width = 20;
+          const int filled = ev.total() > 0 ? width * ev.done() / ev.total() : 0;
+          std::fprintf(out, "[%7.1f s] %s %-8s [%s%s] %3d/%-3d  jobs %d/%d  %.2f jobs/s  ETA %s\n",
+                       ev.elapsed_s(), ev.instant().c_str(), ev.stage().c_str(),
+                       std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
+                       ev.done(), ev.total(), ev.jobs_done(), ev.jobs_total(), rate, eta);
+          std::fflush(out);
+        });
   }
 }
 
@@ -246,24 +258,15 @@ std::map<std::string, runtime::CaptureStatus> WatchCapture(zmq::context_t* conte
     return cameras > 0 && n >= cameras;
   };
   while (!finished() && (timeout_ms <= 0 || Clock::now() < end)) {
-    zmq::pollitem_t items[] = {{sub.handle(), 0, ZMQ_POLLIN, 0}};
-    zmq::poll(items, 1, std::chrono::milliseconds(100));
-    zmq::message_t m;
-    while (sub.recv(m, zmq::recv_flags::dontwait)) {
-      runtime::Envelope env;
-      try {
-        env =
-            net::DecodeEnvelope(m.to_string_view(), "status " + events, options.max_message_bytes);
-      } catch (const core::InputError&) {
-        continue;
-      }
-      if (!env.has_status() || !env.status().has_capture()) continue;
-      last[env.status().capture().camera_id()] = env.status().capture();
-      if (out != nullptr) {
-        std::fprintf(out, "%s\n", FormatCaptureStatus(env.status().capture()).c_str());
-        std::fflush(out);
-      }
-    }
+    DrainStatusEvents(&sub, events, options.max_message_bytes, 100,
+                      [&](const runtime::StatusEvent& ev) {
+                        if (!ev.has_capture()) return;
+                        last[ev.capture().camera_id()] = ev.capture();
+                        if (out != nullptr) {
+                          std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
+                          std::fflush(out);
+                        }
+                      });
   }
   return last;
 }

@@ -54,24 +54,33 @@ std::string ReadText(const fs::path& path, const std::string& what) {
   return s.str();
 }
 
-// The single key of a key file (comment lines allowed).
-std::string ReadSingleKey(const fs::path& path, const std::string& what) {
+// The keys of a key file, each with its line number; blank and comment lines are
+// skipped. A line that is not one Z85 key (plus an optional comment) is named
+// FILE:LINE with `expected`.
+std::vector<std::pair<std::string, int>> ReadKeyLines(const fs::path& path, const std::string& what,
+                                                      const std::string& expected) {
   std::istringstream in(ReadText(path, what));
-  std::string line, key;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
+  std::vector<std::pair<std::string, int>> keys;
+  std::string line;
+  for (int line_no = 1; std::getline(in, line); ++line_no) {
     std::string rest;
     const std::string token = KeyToken(line, &rest);
     if (token.empty()) continue;
-    const std::string where = path.string() + ":" + std::to_string(line_no);
-    core::Require(key.empty(), where, "a second key; a " + what + " holds one Z85 key");
-    core::Require(IsZ85Key(token) && rest.empty(), where,
-                  "expected a Z85 CURVE key (40 characters, as written by `dome keygen`)");
-    key = token;
+    core::Require(IsZ85Key(token) && rest.empty(), path.string() + ":" + std::to_string(line_no),
+                  expected);
+    keys.emplace_back(token, line_no);
   }
-  core::Require(!key.empty(), path.string(), "holds no key; expected the " + what);
-  return key;
+  return keys;
+}
+
+// The single key of a key file (comment lines allowed).
+std::string ReadSingleKey(const fs::path& path, const std::string& what) {
+  const auto keys = ReadKeyLines(
+      path, what, "expected a Z85 CURVE key (40 characters, as written by `dome keygen`)");
+  core::Require(!keys.empty(), path.string(), "holds no key; expected the " + what);
+  core::Require(keys.size() == 1, path.string() + ":" + std::to_string(keys[1].second),
+                "a second key; a " + what + " holds one Z85 key");
+  return keys[0].first;
 }
 
 std::string Z85(const uint8_t* bytes32) {
@@ -152,19 +161,12 @@ std::string ReadPublicKeyFile(const fs::path& path) {
 }
 
 std::set<std::string> ReadAllowList(const fs::path& path) {
-  std::istringstream in(ReadText(path, "allow-list"));
   std::set<std::string> keys;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    std::string rest;
-    const std::string token = KeyToken(line, &rest);
-    if (token.empty()) continue;
-    core::Require(IsZ85Key(token) && rest.empty(), path.string() + ":" + std::to_string(line_no),
-                  "expected one Z85 CURVE public key a line (40 characters, a .pub file's "
-                  "line), optionally followed by '# comment'");
-    keys.insert(token);
+  for (const auto& [key, line] :
+       ReadKeyLines(path, "allow-list",
+                    "expected one Z85 CURVE public key a line (40 characters, a .pub file's "
+                    "line), optionally followed by '# comment'")) {
+    keys.insert(key);
   }
   core::Require(!keys.empty(), path.string(),
                 "lists no public key; nobody could connect (add the workers' and clients' .pub "

@@ -12,6 +12,7 @@
 
 #include "io/image_io.h"
 #include "synth/synth.h"
+#include "synth_tapes_fixture.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
 
@@ -78,39 +79,12 @@ struct IngestProcess : BackgroundCapture {
   std::string Endpoint() const { return After("listening on ", ','); }
 };
 
-class CaptureCli : public ::testing::Test {
+class CaptureCli : public test_tapes::SmallTakeWithTapes {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = new dome::testing::TempDir();
-    synth::SynthOptions options;
-    options.preset = "small";
-    options.write_calibration = false;
-    options.write_tape_video = true;
-    summary_ = new synth::SynthSummary(synth::GenerateTake(options, dir_->path() / "synth"));
-  }
-  static void TearDownTestSuite() {
-    delete summary_;
-    delete dir_;
-  }
-  static fs::path Synth() { return dir_->path() / "synth"; }
-  static std::string Range() {
-    return "00:00:10:00-00:00:10:" + summary_->instants.back().substr(9);  // every instant
-  }
   static void ExpectTakeEqualsSynth(const fs::path& take, const std::string& camera) {
-    for (const std::string& instant : summary_->instants) {
-      const fs::path got = take / "frames" / instant / (camera + ".png");
-      ASSERT_TRUE(fs::exists(got)) << got;
-      const cv::Mat a = io::ReadImage(got, io::ImageMode::kGray8);
-      const cv::Mat b =
-          io::ReadImage(Synth() / "frames" / instant / (camera + ".png"), io::ImageMode::kGray8);
-      EXPECT_EQ(cv::countNonZero(a != b), 0) << got;
-    }
+    ExpectFramesEqualSynth(take, camera);
   }
-  static dome::testing::TempDir* dir_;
-  static synth::SynthSummary* summary_;
 };
-dome::testing::TempDir* CaptureCli::dir_ = nullptr;
-synth::SynthSummary* CaptureCli::summary_ = nullptr;
 
 TEST_F(CaptureCli, CapturesATapeIntoTheIngestsTake) {
   dome::testing::TempDir work;

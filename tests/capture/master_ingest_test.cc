@@ -22,6 +22,7 @@
 #include "runtime.pb.h"
 #include "runtime/process.h"
 #include "synth/synth.h"
+#include "synth_tapes_fixture.h"
 #include "testing/temp_dir.h"
 
 namespace dome::capture {
@@ -132,27 +133,8 @@ class CaptureEventWatcher {
   std::thread thread_;
 };
 
-class MasterIngest : public ::testing::Test {
+class MasterIngest : public test_tapes::SmallTakeWithTapes {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = new dome::testing::TempDir();
-    synth::SynthOptions options;
-    options.preset = "small";
-    options.write_calibration = false;
-    options.write_tape_video = true;
-    summary_ = new synth::SynthSummary(synth::GenerateTake(options, dir_->path() / "synth"));
-  }
-  static void TearDownTestSuite() {
-    delete summary_;
-    delete dir_;
-  }
-  static fs::path Synth() { return dir_->path() / "synth"; }
-  // Every instant of the small take: the range 10:00 to its last, every 5th frame.
-  static std::string Range() {
-    return "00:00:10:00-00:00:10:" + summary_->instants.back().substr(9);
-  }
-  static int Wanted() { return static_cast<int>(summary_->instants.size()); }
-
   // One agent; `extra` adds flags (pace, bandwidth).
   static std::unique_ptr<ChildProcess> StartAgent(
       const std::string& camera, const std::string& master, const fs::path& work,
@@ -176,15 +158,7 @@ class MasterIngest : public ::testing::Test {
   // Every wanted frame of `camera` in `take`, identical to the synthetic take's image,
   // and no frame of it under any other instant.
   static void ExpectTakeEqualsSynth(const fs::path& take, const std::string& camera) {
-    for (const std::string& instant : summary_->instants) {
-      const fs::path got = take / "frames" / instant / (camera + ".png");
-      ASSERT_TRUE(fs::exists(got)) << got;
-      const cv::Mat a = io::ReadImage(got, io::ImageMode::kGray8);
-      const cv::Mat b =
-          io::ReadImage(Synth() / "frames" / instant / (camera + ".png"), io::ImageMode::kGray8);
-      ASSERT_EQ(a.size(), b.size()) << got;
-      EXPECT_EQ(cv::countNonZero(a != b), 0) << got;
-    }
+    ExpectFramesEqualSynth(take, camera);
     int files = 0;
     for (const auto& e : fs::recursive_directory_iterator(take / "frames")) {
       files += e.is_regular_file() && e.path().filename() == camera + ".png";
@@ -199,12 +173,7 @@ class MasterIngest : public ::testing::Test {
       n += e.path().extension() == ".png";
     return n;
   }
-
-  static dome::testing::TempDir* dir_;
-  static synth::SynthSummary* summary_;
 };
-dome::testing::TempDir* MasterIngest::dir_ = nullptr;
-synth::SynthSummary* MasterIngest::summary_ = nullptr;
 
 const std::vector<std::string> kCameras = {"c00", "c01"};
 
