@@ -77,26 +77,25 @@ struct Worker::Impl {
     return std::chrono::milliseconds(options.heartbeat_interval_ms * options.heartbeat_liveness);
   }
 
-  // Asks for the queued job's missing blobs; starts it when all are here.
+  // Asks for the missing blobs of the next queued job, also while a job runs (a job
+  // sent ahead then finds its inputs here when the running one ends); starts it when
+  // nothing runs and all its blobs are here. Only the next one: a small cache holding
+  // the inputs of one job is never asked to hold two.
   void MaybeStart() {
-    if (running.valid() || queue.empty()) return;
+    if (queue.empty()) return;
     const runtime::Job& job = queue.front();
-    std::vector<std::string> missing;
     for (const auto& b : job.blobs()) {
-      if (!cache.Get(b.sha256()) && requested.count(b.sha256()) == 0) missing.push_back(b.sha256());
+      const std::string& sha = b.sha256();
+      if (requested.count(sha) != 0 || cache.Get(sha)) continue;
+      // One blob per request: replies stay under the message cap, and they pipeline.
+      runtime::Envelope env;
+      env.mutable_blob_request()->add_sha256(sha);
+      Send(env);
+      requested.insert(sha);
     }
+    if (running.valid()) return;
     for (const auto& b : job.blobs()) {
       if (requested.count(b.sha256()) != 0) return;  // on its way
-    }
-    if (!missing.empty()) {
-      // One blob per request: replies stay under the message cap, and they pipeline.
-      for (const auto& sha : missing) {
-        runtime::Envelope env;
-        env.mutable_blob_request()->add_sha256(sha);
-        Send(env);
-        requested.insert(sha);
-      }
-      return;
     }
     std::vector<std::shared_ptr<const std::string>> held;
     for (const auto& b : job.blobs()) {

@@ -3,7 +3,8 @@
 //
 // It says Hello with its capacity, runs one job at a time on a job thread (with
 // `threads` threads inside the job), fetches the blobs a job names that are not in its
-// LRU cache (bounded by cache_mb) and returns the outputs. Heartbeats go both ways
+// LRU cache (bounded by cache_mb) and returns the outputs. Jobs the master sends ahead
+// wait in a queue, their blobs fetched while the running job computes. Heartbeats go both ways
 // every heartbeat_interval_ms; a master silent for heartbeat_liveness intervals is
 // presumed gone: the worker rebuilds its socket and says Hello again after a back-off
 // that doubles from one interval up to reconnect_max_ms. Malformed messages from the

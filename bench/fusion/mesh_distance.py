@@ -18,3 +18,15 @@ def quality(m, orig):
     return {"triangles": len(m.triangles), "to_original_mean_mm": float(d1.mean()),
             "to_original_max_mm": float(d1.max()), "from_original_mean_mm": float(d2.mean()),
             "from_original_max_mm": float(d2.max())}
+
+
+def largest_part_to_original(m, orig, n=300000):
+    """Mean and max distance (mm) of the largest connected part of m (by area) to orig."""
+    ids, _, areas = m.cluster_connected_triangles()
+    ids, areas = np.asarray(ids), np.asarray(areas)
+    part = o3d.geometry.TriangleMesh(m)
+    part.remove_triangles_by_mask(ids != int(np.argmax(areas)))
+    part.remove_unreferenced_vertices()
+    d = distances(part, orig, int(n * areas.max() / areas.sum()))
+    return {"triangles": len(part.triangles), "to_original_mean_mm": float(d.mean()),
+            "to_original_max_mm": float(d.max())}

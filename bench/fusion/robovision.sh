@@ -1,23 +1,38 @@
 #!/bin/bash
-# Robovision scenes end to end, one `dome run` per scene:
+# Robovision scenes end to end, one reconstruction per scene (the issue's table):
 #   bench/fusion/robovision.sh DOME OUT [SCENE...]
 # For each scene of ../shared/data/robovision (default: all):
-#   1. dome import halcon SCENE --out OUT/SCENE/take
-#   2. OUT/SCENE/session.json (proto/runtime.proto Session), from the scene:
-#      * volume: the reference's bounding box + MARGIN (default 10 %) on every side
-#        (a stated choice: the reference only bounds the region; nothing else of it is
-#        used), voxels of VOXEL_MM (default 0.15 mm);
-#      * stereo: depth range = the nearest and farthest volume corner over all cameras
-#        (+-2 mm); contrast normalisation (the images are dark); NEIGHBOURS (default 2)
-#        nearest cameras, i.e. the two ring neighbours 30 degrees away (those 60 degrees
-#        away see the surface too obliquely for square windows and take most pixels'
-#        minima below the uniqueness margin); uniqueness margin UNIQ (default 0.1);
-#        window(s) WINDOWS (default 17);
-#      * fusion: truncation and free-space clamp TRUNC_VOXELS voxels (default 1.5);
-#        optionally CONSISTENT other cameras must agree with a depth sample
-#        (fusion/consistency.h) and voxels need MIN_WEIGHT images (both off by default);
-#   3. dome run session.json --out OUT/SCENE/run (timed: the whole pipeline);
-#   4. ../shared/tools/eval_cloud.py --recon-unit 1 of OUT/SCENE/run/<instant>/mesh.ply
+#   1. the volume box: the reference's bounding box + MARGIN (default 5 %) of its size on
+#      every side (a stated choice: the reference only bounds the region; nothing else
+#      of it is used);
+#   2. dome import halcon SCENE --out OUT/SCENE/take, with CROP=1 (default) every frame
+#      cut to where the box projects, CROP_MARGIN_PX (default 16) pixels around it
+#      (pipeline/take_crop.h: nothing the volume can hold is lost);
+#   3. OUT/SCENE/session.json (proto/runtime.proto Session): voxels of VOXEL_MM (default
+#      0.15 mm) over the box; stereo depth range = the nearest and farthest box corner
+#      over all cameras (+-2 mm), level step STEP_PX (default 1 px), contrast
+#      normalisation (the images are dark), NEIGHBOURS (default 2) nearest cameras, i.e.
+#      the two ring neighbours 30 degrees away, uniqueness margin UNIQ (default 0.07),
+#      window(s) WINDOWS (default 17); fusion truncation and free-space clamp
+#      TRUNC_VOXELS voxels (default 1.5), optionally CONSISTENT other cameras must agree
+#      with a depth sample to CONSISTENCY_MM (default one voxel; fusion/consistency.h)
+#      and voxels need MIN_WEIGHT images;
+#   4. the reconstruction, timed (wall and CPU seconds, user + system; the import is
+#      not timed):
+#      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS;
+#        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
+#        values below and the volume box as clip box (each camera's depth range: its
+#        nearest and farthest box corner +-2 mm); C2F=0: the full-range search;
+#      * STEREO=c2f: bench/fusion/c2f_stereo.cc beside DOME, every camera in
+#        turn: depth range from its nearest and farthest box corner (+-2 mm), coarse to
+#        fine (pipeline/coarse_to_fine.h): images reduced C2F_FACTOR (4) times and
+#        matched with window C2F_WINDOW (7) and uniqueness C2F_UNIQ (0.5); tiles of
+#        C2F_TILE (64) px with at least C2F_MIN_COARSE (8) coarse depths around them
+#        search those depths (C2F_TRIM (0.2) of them dropped at each end) +- C2F_MARGIN
+#        (2) coarse levels with the first window of WINDOWS; EXACT_WARP=1: no pre-warped
+#        neighbours. Then `dome fuse --depth-dir` with the session's volume and fusion
+#        options;
+#   5. ../shared/tools/eval_cloud.py --recon-unit 1 of OUT/SCENE/run/<instant>/mesh.ply
 #      against reference.ply.
 # Prints one JSON line per scene (OUT/SCENE/result.json) and a table of every scene under
 # OUT beside the best figures of the issue's baselines.
@@ -27,13 +42,27 @@ ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 DATA=${DATA:-$ROOT/../shared/data/robovision}
 EVAL=$ROOT/../shared/tools/eval_cloud.py
 VOXEL_MM=${VOXEL_MM:-0.15}
-MARGIN=${MARGIN:-0.1}
-UNIQ=${UNIQ:-0.1}
+MARGIN=${MARGIN:-0.05}
+UNIQ=${UNIQ:-0.07}
 WINDOWS=${WINDOWS:-17}
 NEIGHBOURS=${NEIGHBOURS:-2}
 CONSISTENT=${CONSISTENT:-0}
 TRUNC_VOXELS=${TRUNC_VOXELS:-1.5}
 MIN_WEIGHT=${MIN_WEIGHT:-0}
+CONSISTENCY_MM=${CONSISTENCY_MM:-0}
+STEP_PX=${STEP_PX:-1}
+STEREO=${STEREO:-run}
+C2F=${C2F:-1}
+EXACT_WARP=${EXACT_WARP:-}
+C2F_FACTOR=${C2F_FACTOR:-4}
+C2F_WINDOW=${C2F_WINDOW:-7}
+C2F_TILE=${C2F_TILE:-64}
+C2F_MARGIN=${C2F_MARGIN:-2}
+C2F_MIN_COARSE=${C2F_MIN_COARSE:-8}
+C2F_TRIM=${C2F_TRIM:-0.2}
+C2F_UNIQ=${C2F_UNIQ:-0.5}
+CROP=${CROP:-1}
+CROP_MARGIN_PX=${CROP_MARGIN_PX:-16}
 WORKERS=${WORKERS:-2}
 # Heartbeat intervals before an in-process worker is presumed lost (dome run
 # --heartbeat-liveness; empty: dome's default). On a loaded machine the master can be
@@ -46,19 +75,30 @@ for scene in "${SCENES[@]}"; do
   src=$DATA/$scene; dst=$OUT/$scene
   [ -f "$src/reference.ply" ] || continue
   rm -rf "$dst"; mkdir -p "$dst"
-  "$DOME" import halcon "$src" --out "$dst/take" > "$dst/import.log" 2>&1
-  /usr/bin/python3 - "$src/reference.ply" "$dst/take" "$dst/session.json" <<PY
-import json, sys
+  # The volume box: the reference's bounding box + MARGIN of its size on every side.
+  /usr/bin/python3 - "$src/reference.ply" > "$dst/box.txt" <<PY
+import sys
 import numpy as np
-ply, take, session = sys.argv[1:4]
-vox, margin = float("$VOXEL_MM"), float("$MARGIN")
-lines = open(ply).read().splitlines()
+lines = open(sys.argv[1]).read().splitlines()
 n = next(int(l.split()[-1]) for l in lines if l.startswith("element vertex"))
 start = lines.index("end_header") + 1
 pts = np.array([[float(v) for v in l.split()[:3]] for l in lines[start:start + n]]) * 1000.0
 lo, hi = pts.min(0), pts.max(0)
-pad = margin * (hi - lo)
-lo, hi = lo - pad, hi + pad
+pad = float("$MARGIN") * (hi - lo)
+print(" ".join("%.4f" % v for v in list(lo - pad) + list(hi + pad)))
+PY
+  crop=()
+  if [ "$CROP" = 1 ]; then
+    crop=(--crop-box $(cat "$dst/box.txt") --crop-margin-px "$CROP_MARGIN_PX")
+  fi
+  "$DOME" import halcon "$src" --out "$dst/take" "${crop[@]}" > "$dst/import.log" 2>&1
+  /usr/bin/python3 - "$dst/box.txt" "$dst/take" "$dst/session.json" <<PY
+import json, sys
+import numpy as np
+box, take, session = sys.argv[1:4]
+vox = float("$VOXEL_MM")
+b = np.array([float(v) for v in open(box).read().split()])
+lo, hi = b[:3], b[3:]
 dims = np.ceil((hi - lo) / vox).astype(int)
 corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
 zs = []
@@ -68,6 +108,7 @@ for c in json.load(open(take + "/rig.json"))["cameras"]:
 s = {"take": take, "out": "",
      "stereo": {"z_min_mm": max(1.0, min(zs) - 2), "z_max_mm": max(zs) + 2,
                 "window_sizes_px": [int(w) for w in "$WINDOWS".split()],
+                "level_step_px": float("$STEP_PX"),
                 "normalize_contrast": True, "min_uniqueness": float("$UNIQ"),
                 "max_neighbours": int("$NEIGHBOURS")},
      "volume": {"origin_mm": [float(v) for v in lo], "voxel_size_mm": vox,
@@ -78,12 +119,56 @@ s = {"take": take, "out": "",
      "write_previews": False}
 # Only what is asked for: the fields stay readable by builds without them.
 if int("$CONSISTENT") > 0: s["fusion"]["min_consistent_views"] = int("$CONSISTENT")
+if float("$CONSISTENCY_MM") > 0: s["fusion"]["consistency_tolerance_mm"] = float("$CONSISTENCY_MM")
 if float("$MIN_WEIGHT") > 0: s["fusion"]["min_weight"] = float("$MIN_WEIGHT")
+if "$STEREO" == "run" and "$C2F" == "1":
+    # Coarse to fine in dome run with the c2f path's values; each camera's depth range
+    # clipped to the volume box's corners (+-2 mm), as c2f_stereo does.
+    s["stereo"]["coarse_to_fine"] = {
+        "coarse_factor": int("$C2F_FACTOR"), "coarse_window_px": int("$C2F_WINDOW"),
+        "tile_px": int("$C2F_TILE"), "margin_levels": float("$C2F_MARGIN"),
+        "trim_fraction": float("$C2F_TRIM"), "min_coarse_depths": int("$C2F_MIN_COARSE"),
+        "coarse_min_uniqueness": float("$C2F_UNIQ"),
+        "clip_min_mm": [float(v) for v in lo], "clip_max_mm": [float(v) for v in hi],
+        "clip_pad_mm": 2.0}
+if "$EXACT_WARP" != "": s["stereo"]["prewarp_neighbours"] = False  # EXACT_WARP=1
 json.dump(s, open(session, "w"), indent=1)
 PY
   t0=$(date +%s.%N)
-  if ! "$DOME" run "$dst/session.json" --out "$dst/run" --workers "$WORKERS" \
-    ${LIVENESS:+--heartbeat-liveness "$LIVENESS"} > "$dst/run.log" 2>&1; then
+  if [ "$STEREO" = c2f ]; then
+    # The same volume and fusion options through `dome fuse`, on the depth maps of
+    # bench/fusion/c2f_stereo.cc (per-camera depth range from the box, coarse to fine).
+    fuse_args=($(/usr/bin/python3 -c "
+import json; s = json.load(open('$dst/session.json')); v = s['volume']; f = s['fusion']
+print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for x in v['origin_mm']]
+               + ['--dims'] + [str(x) for x in v['dims']] + ['--slab-planes', str(s['slab_planes']),
+               '--truncation-mm', str(f['truncation_mm']), '--clamp-mm', str(f['front_clamp_mm']),
+               '--decimate-ratio', str(s['decimate_ratio'])]
+               + ['--consistent-views', str(f.get('min_consistent_views', 0)),
+                  '--consistency-mm', str(f.get('consistency_tolerance_mm', v['voxel_size_mm'])),
+                  '--min-weight', str(f.get('min_weight', 0))]))"))
+    if ! /usr/bin/time -f "%U %S" -o "$dst/cpu_stereo.txt" "$(dirname "$DOME")/c2f_stereo" \
+        "$dst/take" "$dst/depth" --box $(cat "$dst/box.txt") --window "${WINDOWS%% *}" \
+        --uniqueness "$UNIQ" --neighbours "$NEIGHBOURS" --factor "$C2F_FACTOR" \
+        --coarse-window "$C2F_WINDOW" --tile "$C2F_TILE" --margin-levels "$C2F_MARGIN" \
+        --min-coarse "$C2F_MIN_COARSE" --trim "$C2F_TRIM" --coarse-uniqueness "$C2F_UNIQ" \
+        ${EXACT_WARP:+--exact-warp} \
+        > "$dst/stereo.log" 2>&1 ||
+      ! /usr/bin/time -f "%U %S" -o "$dst/cpu_fuse.txt" "$DOME" fuse "$dst/take" \
+        --depth-dir "$dst/depth" --out "$dst/run" --threads "$WORKERS" "${fuse_args[@]}" \
+        > "$dst/run.log" 2>&1; then
+      echo "{\"scene\": \"$scene\", \"error\": \"c2f_stereo or dome fuse failed, see $dst\"}" |
+        tee "$dst/result.json"
+      continue
+    fi
+    t_stereo=$(awk '{print $1 + $2}' "$dst/cpu_stereo.txt")
+    cat "$dst/cpu_stereo.txt" "$dst/cpu_fuse.txt" | awk '{u += $1; s += $2} END {print u, s}' \
+      > "$dst/cpu.txt"
+    echo "{\"stages\": {\"stereo_cpu\": $t_stereo, \"fuse_cpu\": $(awk '{print $1 + $2}' "$dst/cpu_fuse.txt")}}" \
+      > "$dst/c2f_report.json"
+  elif ! /usr/bin/time -f "%U %S" -o "$dst/cpu.txt" "$DOME" run "$dst/session.json" \
+    --out "$dst/run" --workers "$WORKERS" ${LIVENESS:+--heartbeat-liveness "$LIVENESS"} \
+    > "$dst/run.log" 2>&1; then
     echo "{\"scene\": \"$scene\", \"error\": \"dome run failed, see $dst/run.log\"}" | tee "$dst/result.json"
     continue
   fi
@@ -91,15 +176,18 @@ PY
   mesh=$(ls "$dst"/run/*/mesh.ply | head -1)
   /usr/bin/python3 "$EVAL" "$mesh" "$src/reference.ply" --recon-unit 1 --thresholds 0.5 1 2 \
     > "$dst/eval.json" 2> "$dst/eval.log"
-  /usr/bin/python3 - "$scene" "$dst/eval.json" "$t0" "$t1" "$dst/run/report.json" <<'PY' | tee "$dst/result.json"
+  /usr/bin/python3 - "$scene" "$dst/eval.json" "$t0" "$t1" "$( [ "$STEREO" = c2f ] && echo "$dst/c2f_report.json" || echo "$dst/run/report.json")" "$dst/cpu.txt" <<'PY' | tee "$dst/result.json"
 import json, sys
 scene, ev_path, t0, t1, report = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5]
+cpu = sum(float(v) for v in open(sys.argv[6]).read().split()[-2:])  # user + system, s
 ev = json.loads(open(ev_path).read().strip().splitlines()[-1])
 try:
-    stages = {k: v.get("job_seconds") for k, v in json.load(open(report)).get("stages", {}).items()}
+    stages = {k: v.get("job_seconds") if isinstance(v, dict) else v
+              for k, v in json.load(open(report)).get("stages", {}).items()}
 except Exception:
     stages = {}
-print(json.dumps({"scene": scene, "eval": ev, "seconds": t1 - t0, "stages": stages}))
+print(json.dumps({"scene": scene, "eval": ev, "seconds": t1 - t0, "cpu_seconds": cpu,
+                  "stages": stages}))
 PY
 done
 # The issue's table: best p90 / F@0.5 / completeness@0.5 of any baseline column, and the
@@ -112,8 +200,8 @@ def find(ev, *names):
     for k in names:
         if k in ev: return ev[k]
     return float("nan")
-print("| scene | p90 acc mm (best baseline) | F@0.5 (best) | compl@0.5 (TSDF full) | s (TSDF full) |")
-print("|---|---|---|---|---|")
+print("| scene | p90 acc mm (best baseline) | F@0.5 (best) | compl@0.5 (TSDF full) | s (TSDF full) | CPU s |")
+print("|---|---|---|---|---|---|")
 for path in sys.argv[1:]:
     r = json.loads(open(path).read().strip().splitlines()[-1]); b = best.get(r["scene"], (float("nan"),) * 4)
     if "eval" not in r:
@@ -122,6 +210,7 @@ for path in sys.argv[1:]:
     p90 = find(ev, "acc_p90_mm")
     f05 = find(ev, "fscore@0.5mm")
     c05 = find(ev, "completeness@0.5mm")
-    print("| %s | %.2f (%.2f) | %.3f (%.3f) | %.3f (%.3f) | %.0f (%.1f) |" % (
-        r["scene"], p90, b[0], f05, b[1], c05, b[2], r["seconds"], b[3]))
+    print("| %s | %.2f (%.2f) | %.3f (%.3f) | %.3f (%.3f) | %.0f (%.1f) | %.0f |" % (
+        r["scene"], p90, b[0], f05, b[1], c05, b[2], r["seconds"], b[3],
+        r.get("cpu_seconds", float("nan"))))
 PY

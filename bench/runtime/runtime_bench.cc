@@ -8,10 +8,17 @@
 //   runtime_bench memory [--cameras 51] [--instants 1000] [--slabs 19]
 //     The master's bookkeeping for a session of that shape: the job graph and one blob
 //     reference per frame, as resident-memory growth of this process.
-//   runtime_bench e2e TAKE OUT [--workers N] [--instant TC]...
-//     `dome run` on the embedded cluster (N workers, one thread each); prints the
-//     session's report.json seconds per instant and bytes moved (OUT/report.json has
-//     them per stage).
+//   runtime_bench e2e TAKE OUT [--workers N] [--instants N] [--instant TC]...
+//     `dome run` on the embedded cluster (N workers, one thread each) over the first N
+//     instants of the take (default all) or the ones named; prints from the session's
+//     report.json the seconds per instant, the bytes moved (OUT/report.json has them
+//     per stage), the workers' utilisation (job seconds / (workers x wall seconds):
+//     1 when a job runs on every worker all the time, whatever else loads the
+//     machine), the master loop's busy fraction and longest turn, and the load average.
+//   runtime_bench scaling TAKE OUT [--instants N] [--workers N]
+//     e2e with 1 worker (OUT/w1), then with N (default 2, OUT/wN): the parallel
+//     efficiency T1 / (N x TN), and both runs' utilisation. On this 2-core machine:
+//       dome synth --preset paper --instants 4 --out TAKE && runtime_bench scaling TAKE OUT
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -19,7 +26,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -32,6 +41,7 @@
 #include "io/file_util.h"
 #include "scheduler/graph.h"
 #include "scheduler/master.h"
+#include "take/take.h"
 
 using namespace dome;
 namespace fs = std::filesystem;
@@ -182,8 +192,31 @@ int Memory(int cameras, int instants, int slabs) {
   return 0;
 }
 
-int EndToEnd(const fs::path& take, const fs::path& out, int workers,
-             const std::vector<std::string>& instants) {
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  double one = 0;
+  in >> one;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", one);
+  return buf;
+}
+
+struct EndToEndFigures {
+  bool done = false;
+  double seconds = 0, worker_job_seconds = 0;
+};
+
+// A number field of report.json ("key": value), or NaN.
+double ReportNumber(const std::string& report, const std::string& key) {
+  const auto p = report.find("\"" + key + "\": ");
+  if (p == std::string::npos) return std::nan("");
+  return std::strtod(report.c_str() + p + key.size() + 4, nullptr);
+}
+
+EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
+                         const std::vector<std::string>& instants) {
+  // A session's journal resumes finished jobs: start from nothing.
+  fs::remove_all(out);
   runtime::Session s;
   s.set_take(fs::absolute(take).string());
   s.set_out(fs::absolute(out).string());
@@ -191,29 +224,66 @@ int EndToEnd(const fs::path& take, const fs::path& out, int workers,
   client::EmbeddedOptions e;
   e.workers = workers;
   e.threads_per_worker = 1;
+  const std::string load_before = LoadAverage();
   const auto st = client::RunEmbedded(s, e, nullptr);
+  const std::string load_after = LoadAverage();
   const std::string report = io::ReadFileBytes(out / "report.json");
   auto field = [&](const std::string& key) {
     const auto p = report.find("\"" + key + "\": ");
-    return p == std::string::npos
-               ? std::string("null")
-               : report.substr(p + key.size() + 4, report.find_first_of(",\n", p + key.size() + 4) -
-                                                       (p + key.size() + 4));
+    return p == std::string::npos ? std::string("null")
+                                  : report.substr(p + key.size() + 4,
+                                                  report.find_first_of(",\n}", p + key.size() + 4) -
+                                                      (p + key.size() + 4));
   };
+  EndToEndFigures f;
+  f.done = st.state() == "done";
+  f.seconds = ReportNumber(report, "seconds");
+  f.worker_job_seconds = ReportNumber(report, "worker_job_seconds");
   std::printf(
       "{\"mode\": \"e2e\", \"workers\": %d, \"state\": \"%s\", \"instants\": %s, \"seconds\": %s, "
-      "\"seconds_per_instant\": %s, \"bytes_to_workers\": %s, \"bytes_from_workers\": %s}\n",
+      "\"seconds_per_instant\": %s, \"worker_job_seconds\": %s, \"utilisation\": %.3f, "
+      "\"master_loop_busy_fraction\": %s, \"master_loop_longest_turn_s\": %s, "
+      "\"bytes_to_workers\": %s, \"bytes_from_workers\": %s, \"load_average\": [%s, %s]}\n",
       workers, st.state().c_str(), field("instants").c_str(), field("seconds").c_str(),
-      field("seconds_per_instant").c_str(), field("bytes_to_workers").c_str(),
-      field("bytes_from_workers").c_str());
-  return st.state() == "done" ? 0 : 1;
+      field("seconds_per_instant").c_str(), field("worker_job_seconds").c_str(),
+      f.worker_job_seconds / (workers * f.seconds), field("busy_fraction").c_str(),
+      field("longest_turn_s").c_str(), field("bytes_to_workers").c_str(),
+      field("bytes_from_workers").c_str(), load_before.c_str(), load_after.c_str());
+  std::fflush(stdout);
+  return f;
+}
+
+// The instants of a bench run: those named, else the first `count` of the take (0: all).
+std::vector<std::string> BenchInstants(const fs::path& take, const std::vector<std::string>& named,
+                                       int count) {
+  if (!named.empty() || count <= 0) return named;
+  std::vector<std::string> all = take::OpenTake(take).instants;
+  if (int(all.size()) > count) all.resize(size_t(count));
+  return all;
+}
+
+int Scaling(const fs::path& take, const fs::path& out, int workers,
+            const std::vector<std::string>& instants) {
+  const EndToEndFigures one = EndToEnd(take, out / "w1", 1, instants);
+  const EndToEndFigures many =
+      EndToEnd(take, out / ("w" + std::to_string(workers)), workers, instants);
+  std::printf(
+      "{\"mode\": \"scaling\", \"workers\": %d, \"seconds_1\": %.3f, \"seconds_%d\": %.3f, "
+      "\"speedup\": %.3f, \"parallel_efficiency\": %.3f, \"utilisation_1\": %.3f, "
+      "\"utilisation_%d\": %.3f}\n",
+      workers, one.seconds, workers, many.seconds, one.seconds / many.seconds,
+      one.seconds / (workers * many.seconds), one.worker_job_seconds / one.seconds, workers,
+      many.worker_job_seconds / (workers * many.seconds));
+  return one.done && many.done ? 0 : 1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: runtime_bench dispatch OUT | memory | e2e TAKE OUT [flags]\n");
+    std::fprintf(stderr,
+                 "usage: runtime_bench dispatch OUT | memory | e2e TAKE OUT | scaling TAKE OUT "
+                 "[flags]\n");
     return 2;
   }
   const std::string mode = argv[1];
@@ -228,12 +298,20 @@ int main(int argc, char** argv) {
                     std::stoi(Flag(argc, argv, "--instants", "1000")),
                     std::stoi(Flag(argc, argv, "--slabs", "19")));
     }
-    if (mode == "e2e" && argc >= 4) {
-      std::vector<std::string> instants;
+    if ((mode == "e2e" || mode == "scaling") && argc >= 4) {
+      std::vector<std::string> named;
       for (int i = 4; i + 1 < argc; ++i) {
-        if (std::strcmp(argv[i], "--instant") == 0) instants.push_back(argv[i + 1]);
+        if (std::strcmp(argv[i], "--instant") == 0) named.push_back(argv[i + 1]);
       }
-      return EndToEnd(argv[2], argv[3], std::stoi(Flag(argc, argv, "--workers", "1")), instants);
+      const std::vector<std::string> instants =
+          BenchInstants(argv[2], named, std::stoi(Flag(argc, argv, "--instants", "0")));
+      if (mode == "scaling") {
+        return Scaling(argv[2], argv[3], std::stoi(Flag(argc, argv, "--workers", "2")), instants);
+      }
+      return EndToEnd(argv[2], argv[3], std::stoi(Flag(argc, argv, "--workers", "1")), instants)
+                     .done
+                 ? 0
+                 : 1;
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "runtime_bench: %s\n", e.what());

@@ -65,13 +65,16 @@ double Median(std::vector<double> v) {
 }
 
 // Reliability thresholds from the environment, for sweeps:
-// DOME_STEREO_MIN_UNIQUENESS, DOME_STEREO_MIN_CURVATURE, DOME_STEREO_MIN_TEXTURE.
+// DOME_STEREO_MIN_UNIQUENESS, DOME_STEREO_MIN_CURVATURE, DOME_STEREO_MIN_TEXTURE; and
+// DOME_STEREO_PREWARP=0|1 (StereoOptions::prewarp_neighbours) to compare the warps.
 void ApplyEnvOverrides(stereo::StereoOptions* o) {
   if (const char* v = std::getenv("DOME_STEREO_MIN_UNIQUENESS")) o->min_uniqueness = std::atof(v);
   if (const char* v = std::getenv("DOME_STEREO_MIN_CURVATURE")) o->min_curvature = std::atof(v);
   if (const char* v = std::getenv("DOME_STEREO_MIN_TEXTURE")) o->min_texture_grey = std::atof(v);
-  std::printf("thresholds: min_uniqueness %g, min_curvature %g, min_texture_grey %g\n",
-              o->min_uniqueness, o->min_curvature, o->min_texture_grey);
+  if (const char* v = std::getenv("DOME_STEREO_PREWARP")) o->prewarp_neighbours = std::atoi(v) != 0;
+  std::printf("thresholds: min_uniqueness %g, min_curvature %g, min_texture_grey %g; %s warp\n",
+              o->min_uniqueness, o->min_curvature, o->min_texture_grey,
+              o->prewarp_neighbours ? "pre-warped" : "exact");
 }
 
 struct SynthScore {

@@ -21,6 +21,10 @@ class InputError : public std::runtime_error {
 
   const std::string& where() const { return where_; }
 
+  // The same error placed under `outer` (a file or message name): where becomes
+  // "outer: where", the message is not repeated.
+  InputError Under(const std::string& outer) const;
+
  private:
   std::string where_;
 };

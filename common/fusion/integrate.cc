@@ -1,5 +1,7 @@
 #include "fusion/integrate.h"
 
+#include <sys/mman.h>
+
 #include <Eigen/LU>
 #include <algorithm>
 #include <atomic>
@@ -7,8 +9,9 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <new>
 
-#if defined(__AVX2__)
+#if defined(__AVX2__) || defined(__F16C__)
 #include <immintrin.h>
 #endif
 
@@ -21,6 +24,7 @@ namespace dome::fusion {
 namespace {
 
 constexpr int kLutSize = 1024;  // entries of the distortion table lambda(rn^2)
+constexpr int kTileShift = 2;   // tiles of 2^kTileShift quads a side (CameraTables::tile)
 
 }  // namespace
 
@@ -71,8 +75,70 @@ void CheckRangeImage(const RangeImage& image) {
   }
 }
 
+namespace {
+// A fixed-size array in the integrator's table arena (below).
+template <typename T>
+struct Table {
+  T* ptr = nullptr;
+  size_t n = 0;
+  T* data() const { return ptr; }
+  T& operator[](size_t i) const { return ptr[i]; }
+  size_t size() const { return n; }
+  bool empty() const { return n == 0; }
+  T* begin() const { return ptr; }
+  T* end() const { return ptr + n; }
+};
+constexpr size_t kTableAlign = 64;  // bytes; every table starts on a cache line
+constexpr size_t kHugePage = size_t(2) << 20;
+}  // namespace
+
+// One mapping holds every camera's tables (tens of MB), asking for 2 MB pages: the hot
+// loop reads the tables of all cameras in turn, so with 4 KB pages most lookups would
+// also miss the TLB, and building the tables would take a page fault per 4 KB.
+struct Integrator::Arena {
+  explicit Arena(size_t bytes) : size(bytes + kHugePage) {
+    base = mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (base == MAP_FAILED) throw std::bad_alloc();
+    const uintptr_t b = reinterpret_cast<uintptr_t>(base);
+    start = reinterpret_cast<char*>((b + kHugePage - 1) & ~uintptr_t(kHugePage - 1));
+#ifdef MADV_HUGEPAGE
+    madvise(start, (bytes + kHugePage - 1) & ~(kHugePage - 1), MADV_HUGEPAGE);
+#endif
+  }
+  ~Arena() { munmap(base, size); }
+  Arena(const Arena&) = delete;
+  Arena& operator=(const Arena&) = delete;
+  void* base;
+  size_t size;
+  char* start;
+};
+
+namespace {
+// Hands out the tables of one camera from its region of the arena.
+class TableRegion {
+ public:
+  TableRegion(char* begin, size_t bytes) : next_(begin), end_(begin + bytes) {}
+  template <typename T>
+  Table<T> Take(size_t n) {
+    Table<T> t;
+    t.ptr = reinterpret_cast<T*>(next_);
+    t.n = n;
+    next_ += (n * sizeof(T) + kTableAlign - 1) / kTableAlign * kTableAlign;
+    DOME_CHECK(next_ <= end_, "a camera's tables fit the region sized for them");
+    return t;
+  }
+
+ private:
+  char* next_;
+  char* end_;
+};
+
+size_t TableBytes(size_t n, size_t element) {
+  return (n * element + kTableAlign - 1) / kTableAlign * kTableAlign;
+}
+}  // namespace
+
 // Everything the hot loop needs about one camera, in float, contiguous.
-// (BuildPyramid is defined after the struct.)
 struct Integrator::CameraTables {
   Eigen::Matrix3d rotation;
   Eigen::Vector3d translation_mm;
@@ -82,88 +148,113 @@ struct Integrator::CameraTables {
   float fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;  // normalized -> pixel (times lambda)
   float rn2_max = 0;                                 // largest tabulated (x/z)^2 + (y/z)^2
   float lut_scale = 0;                               // (kLutSize - 1) / rn2_max
-  std::vector<float> lambda;  // distortion factor over rn^2, kLutSize entries
+  Table<float> lambda;  // distortion factor over rn^2, kLutSize entries
   double xn_min = 0, xn_max = 0, yn_min = 0, yn_max = 0;  // frustum, normalized coords
   int width = 0, height = 0;
-  std::vector<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
-  std::vector<float> weight;     // empty = uniform
+  Table<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
+  Table<float> weight;     // empty = uniform
   // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle (plus 3 unused entries
   // at the end, the same count as quad_min/quad_max).
-  std::vector<uint8_t> quad;
+  Table<uint8_t> quad;
   // Per quad: least and largest of its valid depths (+inf / -inf if none), mm; any depth
   // interpolated in a triangle of the quad lies between them. quad_min carries the
   // quad's two triangle bits in the two low bits of its pattern, lowered first so that
   // the value stays below the true least depth (one load gives both).
-  std::vector<float> quad_min, quad_max;
-  // Min/max depth pyramid over the quads for block culling. Level 0: one cell per quad
-  // (min over its 4 depths, +inf unless all valid; max over its valid depths, -inf if
-  // none; connected = both triangles exist); level l + 1 merges 2x2 cells of level l.
+  Table<float> quad_min, quad_max;
+  // Per tile of 2^kTileShift x 2^kTileShift quads, two IEEE half floats, mm: low 16
+  // bits the least quad_min of the tile rounded down when every quad has both
+  // triangles (-inf otherwise), high 16 bits the largest quad_max rounded up. 20 KB per
+  // camera, so that most voxels of an exact row are found to be clamped free space or
+  // far behind with one small lookup instead of the per-quad tables.
+  int tile_w = 0;
+  Table<uint32_t> tile;
+  // Min/max depth pyramid over the quads for block culling. Level 0 is the quads
+  // themselves (quad_min: just below the least depth where both triangles exist;
+  // quad_max; connected = both triangles exist); pyramid[l - 1] holds level l >= 1, each
+  // cell merging 2x2 cells of level l - 1: min (meaningful only where connected), max
+  // (-inf if no valid depth), connected = all connected.
   struct Level {
     int width = 0, height = 0;
-    std::vector<float> min_depth, max_depth;
-    std::vector<uint8_t> connected;
+    Table<float> min_depth, max_depth;
+    Table<uint8_t> connected;
   };
   std::vector<Level> pyramid;
 };
 
 namespace {
-template <typename Tables>
-void BuildPyramidImpl(const cv::Mat& depth, Tables* t) {
-  using Level = typename decltype(t->pyramid)::value_type;
-  const int w = t->width, h = t->height;
-  t->pyramid.clear();
-  if (w < 2 || h < 2) return;
-  Level l0;
-  l0.width = w - 1;
-  l0.height = h - 1;
+// Pyramid levels 1.. over a (qw) x (qh) grid of quads: their sizes.
+template <typename F>
+void ForEachPyramidLevel(int qw, int qh, F&& level) {
+  if (qw < 1 || qh < 1) return;
+  do {
+    qw = (qw + 1) / 2;
+    qh = (qh + 1) / 2;
+    level(qw, qh);
+  } while (qw > 1 || qh > 1);
+}
+
+// Bytes of the tables of a width x height camera (see CameraTables).
+size_t CameraTableBytes(int w, int h, bool weighted) {
+  const size_t px = size_t(w) * h, quads = size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3;
+  const size_t tiles = size_t(((w - 1) >> kTileShift) + 1) * (((h - 1) >> kTileShift) + 1);
+  size_t bytes = TableBytes(kLutSize, 4) + TableBytes(px, 4) * (weighted ? 2 : 1) +
+                 TableBytes(quads, 1) + 2 * TableBytes(quads, 4) + TableBytes(tiles, 4);
+  ForEachPyramidLevel(w - 1, h - 1, [&](int lw, int lh) {
+    bytes += 2 * TableBytes(size_t(lw) * lh, 4) + TableBytes(size_t(lw) * lh, 1);
+  });
+  return bytes;
+}
+
+// Levels 1.. of CameraTables::pyramid from the quad tables, in the camera's region.
+void BuildPyramid(Integrator::CameraTables* t, TableRegion* region) {
+  using Level = Integrator::CameraTables::Level;
   const float inf = std::numeric_limits<float>::infinity();
-  l0.min_depth.resize(size_t(l0.width) * l0.height);
-  l0.max_depth.resize(l0.min_depth.size());
-  l0.connected.resize(l0.min_depth.size());
-  for (int y = 0; y + 1 < h; ++y) {
-    const float* r0 = depth.ptr<float>(y);
-    const float* r1 = depth.ptr<float>(y + 1);
-    for (int x = 0; x + 1 < w; ++x) {
-      const float d[4] = {r0[x], r0[x + 1], r1[x], r1[x + 1]};
-      float lo = inf, hi = -inf;
-      bool all = true;
-      for (float v : d) {
-        if (v > 0) {
-          lo = std::min(lo, v);
-          hi = std::max(hi, v);
-        } else {
-          all = false;
-        }
+  t->pyramid.clear();
+  const int qw = t->width - 1, qh = t->height - 1;
+  if (qw < 1 || qh < 1) return;
+  auto merge_into = [inf, region](Level* b, int width, int height, auto&& cell) {
+    b->width = (width + 1) / 2;
+    b->height = (height + 1) / 2;
+    const size_t cells = size_t(b->width) * b->height;
+    b->min_depth = region->Take<float>(cells);
+    b->max_depth = region->Take<float>(cells);
+    b->connected = region->Take<uint8_t>(cells);
+    std::fill(b->min_depth.begin(), b->min_depth.end(), inf);
+    std::fill(b->max_depth.begin(), b->max_depth.end(), -inf);
+    std::fill(b->connected.begin(), b->connected.end(), uint8_t{1});
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        float lo, hi;
+        bool connected;
+        cell(x, y, &lo, &hi, &connected);
+        const size_t d = size_t(y / 2) * b->width + x / 2;
+        b->min_depth[d] = std::min(b->min_depth[d], lo);
+        b->max_depth[d] = std::max(b->max_depth[d], hi);
+        b->connected[d] = b->connected[d] && connected;
       }
-      const size_t idx = size_t(y) * l0.width + x;
-      l0.min_depth[idx] = all ? lo : inf;
-      l0.max_depth[idx] = hi;
-      l0.connected[idx] = t->quad[size_t(y) * (w - 1) + x] == 3;
     }
-  }
-  t->pyramid.push_back(std::move(l0));
+  };
+  Level l1;
+  merge_into(&l1, qw, qh, [&](int x, int y, float* lo, float* hi, bool* connected) {
+    const size_t q = size_t(y) * qw + x;
+    *lo = t->quad_min[q];
+    *hi = t->quad_max[q];
+    *connected = t->quad[q] == 3;
+  });
+  t->pyramid.push_back(std::move(l1));
   while (t->pyramid.back().width > 1 || t->pyramid.back().height > 1) {
-    const Level& a = t->pyramid.back();
     Level b;
-    b.width = (a.width + 1) / 2;
-    b.height = (a.height + 1) / 2;
-    b.min_depth.assign(size_t(b.width) * b.height, inf);
-    b.max_depth.assign(b.min_depth.size(), -inf);
-    b.connected.assign(b.min_depth.size(), 1);
-    for (int y = 0; y < a.height; ++y) {
-      for (int x = 0; x < a.width; ++x) {
-        const size_t s = size_t(y) * a.width + x, d = size_t(y / 2) * b.width + x / 2;
-        b.min_depth[d] = std::min(b.min_depth[d], a.min_depth[s]);
-        b.max_depth[d] = std::max(b.max_depth[d], a.max_depth[s]);
-        b.connected[d] = b.connected[d] && a.connected[s];
-      }
-    }
+    const Level& a = t->pyramid.back();
+    merge_into(&b, a.width, a.height, [&](int x, int y, float* lo, float* hi, bool* connected) {
+      const size_t s = size_t(y) * a.width + x;
+      *lo = a.min_depth[s];
+      *hi = a.max_depth[s];
+      *connected = a.connected[s];
+    });
     t->pyramid.push_back(std::move(b));
   }
 }
 }  // namespace
-
-void BuildPyramid(const cv::Mat& depth, Integrator::CameraTables* t) { BuildPyramidImpl(depth, t); }
 
 Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& images,
                        const FusionOptions& options)
@@ -172,6 +263,13 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
   options_.Check();
   cameras_.resize(images.size());
   for (const RangeImage& image : images) CheckRangeImage(image);  // first bad one throws
+  std::vector<size_t> region_begin(images.size() + 1, 0);
+  for (size_t c = 0; c < images.size(); ++c) {
+    region_begin[c + 1] =
+        region_begin[c] + CameraTableBytes(images[c].camera.width_px, images[c].camera.height_px,
+                                           !images[c].weight.empty());
+  }
+  arena_ = std::make_unique<Arena>(region_begin.back());
   const int threads = options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads();
   // Inconsistent samples removed first (the same for every slab: the whole instant's
   // images decide).
@@ -190,6 +288,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       const cv::Mat& depth_mm = consistent.empty() ? image.depth_mm : consistent[c];
       const geometry::TsaiCamera& cam = image.camera;
       CameraTables& t = cameras_[c];
+      TableRegion region(arena_->start + region_begin[c], region_begin[c + 1] - region_begin[c]);
       t.rotation = cam.rotation;
       t.translation_mm = cam.translation_mm;
       t.q000 = cam.rotation * grid_.VoxelCentreMm(0, 0, 0) + cam.translation_mm;
@@ -229,7 +328,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       // linear table of 1024 entries is accurate to far below a pixel).
       t.rn2_max = static_cast<float>(rn2_max * 1.02);
       t.lut_scale = (kLutSize - 1) / t.rn2_max;
-      t.lambda.resize(kLutSize);
+      t.lambda = region.Take<float>(kLutSize);
       for (int e = 0; e < kLutSize; ++e) {
         const double rn2 = double(e) / (kLutSize - 1) * t.rn2_max;
         const double ru = cam.focal_mm * std::sqrt(rn2);
@@ -244,14 +343,14 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       }
       t.lambda_monotonic = up || down;
       // Inverse depths and the tessellation (seed §3: no triangle across a jump).
-      t.inv_depth.resize(size_t(w) * h);
+      t.inv_depth = region.Take<float>(size_t(w) * h);
       for (int y = 0; y < h; ++y) {
         const float* row = depth_mm.ptr<float>(y);
         for (int x = 0; x < w; ++x)
           t.inv_depth[size_t(y) * w + x] = row[x] > 0 ? 1.0f / row[x] : 0.0f;
       }
       if (!image.weight.empty()) {
-        t.weight.resize(size_t(w) * h);
+        t.weight = region.Take<float>(size_t(w) * h);
         for (int y = 0; y < h; ++y) {
           const float* row = image.weight.ptr<float>(y);
           std::copy(row, row + w, t.weight.begin() + size_t(y) * w);
@@ -263,9 +362,13 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         const float lo = std::min(a, std::min(b, c)), hi = std::max(a, std::max(b, c));
         return hi - lo <= ratio * lo;
       };
-      t.quad.assign(size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3, 0);
-      t.quad_min.assign(t.quad.size(), std::numeric_limits<float>::infinity());
-      t.quad_max.assign(t.quad.size(), -std::numeric_limits<float>::infinity());
+      const size_t quads = size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3;
+      t.quad = region.Take<uint8_t>(quads);
+      t.quad_min = region.Take<float>(quads);
+      t.quad_max = region.Take<float>(quads);
+      std::fill(t.quad.begin(), t.quad.end(), uint8_t{0});
+      std::fill(t.quad_min.begin(), t.quad_min.end(), std::numeric_limits<float>::infinity());
+      std::fill(t.quad_max.begin(), t.quad_max.end(), -std::numeric_limits<float>::infinity());
       for (int y = 0; y + 1 < h; ++y) {
         const float* r0 = depth_mm.ptr<float>(y);
         const float* r1 = depth_mm.ptr<float>(y + 1);
@@ -288,7 +391,27 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
           t.quad_max[size_t(y) * (w - 1) + x] = hi;
         }
       }
-      BuildPyramid(depth_mm, &t);
+      const int tw = ((w - 1) >> kTileShift) + 1, th = ((h - 1) >> kTileShift) + 1;
+      t.tile_w = tw;
+      t.tile = region.Take<uint32_t>(size_t(tw) * th);
+#if defined(__F16C__)
+      std::vector<float> tlo(size_t(tw) * th, std::numeric_limits<float>::infinity());
+      std::vector<float> thi(tlo.size(), -std::numeric_limits<float>::infinity());
+      for (int y = 0; y + 1 < h; ++y) {
+        for (int x = 0; x + 1 < w; ++x) {
+          const size_t q = size_t(y) * (w - 1) + x;
+          const size_t n = size_t(y >> kTileShift) * tw + (x >> kTileShift);
+          tlo[n] = t.quad[q] == 3 ? std::min(tlo[n], t.quad_min[q])
+                                  : -std::numeric_limits<float>::infinity();
+          thi[n] = std::max(thi[n], t.quad_max[q]);
+        }
+      }
+      for (size_t n = 0; n < tlo.size(); ++n) {
+        t.tile[n] = uint32_t(_cvtss_sh(tlo[n], _MM_FROUND_TO_NEG_INF)) |
+                    uint32_t(_cvtss_sh(thi[n], _MM_FROUND_TO_POS_INF)) << 16;
+      }
+#endif
+      BuildPyramid(&t, &region);
     }
   });
 }
@@ -392,22 +515,33 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
   const int qy0 = std::max(0, static_cast<int>(std::floor(vmin)));
   const int qx1 = std::min(w - 2, static_cast<int>(std::floor(umax)));
   const int qy1 = std::min(h - 2, static_cast<int>(std::floor(vmax)));
-  // Pyramid level where the box spans at most four cells per axis.
+  // Pyramid level where the box spans at most four cells per axis (level 0: the quads).
   int level = 0;
-  while (level + 1 < int(t.pyramid.size()) &&
+  while (level < int(t.pyramid.size()) &&
          ((qx1 >> level) - (qx0 >> level) > 3 || (qy1 >> level) - (qy0 >> level) > 3)) {
     ++level;
   }
-  const auto& L = t.pyramid[level];
   float dmin = std::numeric_limits<float>::infinity(),
         dmax = -std::numeric_limits<float>::infinity();
   bool all_connected = true;
-  for (int cy = qy0 >> level; cy <= (qy1 >> level); ++cy) {
-    for (int cx = qx0 >> level; cx <= (qx1 >> level); ++cx) {
-      const size_t idx = size_t(cy) * L.width + cx;
-      dmin = std::min(dmin, L.min_depth[idx]);
-      dmax = std::max(dmax, L.max_depth[idx]);
-      all_connected = all_connected && L.connected[idx];
+  if (level == 0) {
+    for (int cy = qy0; cy <= qy1; ++cy) {
+      for (int cx = qx0; cx <= qx1; ++cx) {
+        const size_t idx = size_t(cy) * (w - 1) + cx;
+        dmin = std::min(dmin, t.quad_min[idx]);
+        dmax = std::max(dmax, t.quad_max[idx]);
+        all_connected = all_connected && t.quad[idx] == 3;
+      }
+    }
+  } else {
+    const auto& L = t.pyramid[level - 1];
+    for (int cy = qy0 >> level; cy <= (qy1 >> level); ++cy) {
+      for (int cx = qx0 >> level; cx <= (qx1 >> level); ++cx) {
+        const size_t idx = size_t(cy) * L.width + cx;
+        dmin = std::min(dmin, L.min_depth[idx]);
+        dmax = std::max(dmax, L.max_depth[idx]);
+        all_connected = all_connected && L.connected[idx];
+      }
     }
   }
   // Every voxel's depth z is in [zmin, zmax]; its surface depth, wherever interpolated,
@@ -432,9 +566,13 @@ struct RowParams {
   const Integrator::CameraTables* t;
   float sx, sy, sz;  // camera-frame step per voxel along i, mm
   float near, truncation, clamp;
+  // The per-voxel shortcuts (whole tile, then quad depth range) that decide clamped free
+  // space and far-behind voxels without interpolating; off with block culling so that a
+  // test compares them with the full computation.
+  bool shortcuts = true;
 };
 
-#if defined(__AVX2__) && defined(__FMA__)
+#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
 __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y, float c0z, int ib,
                                         int lanes, float* sum_wd, float* sum_w, int32_t* count) {
   const Integrator::CameraTables& t = *p.t;
@@ -472,6 +610,39 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
   const __m256i in_i = _mm256_castps_si256(in);
   const __m256i x0 = _mm256_and_si256(_mm256_cvttps_epi32(u), in_i);
   const __m256i y0 = _mm256_and_si256(_mm256_cvttps_epi32(v), in_i);
+  if (p.shortcuts) {
+    // Whole tile decides (conservative: the tile's least lo and largest hi bound the
+    // quad's, and the tests below are monotonic in them): clamped free space or untouched.
+    const __m256i ti = _mm256_add_epi32(
+        _mm256_mullo_epi32(_mm256_srli_epi32(y0, kTileShift), _mm256_set1_epi32(t.tile_w)),
+        _mm256_srli_epi32(x0, kTileShift));
+    const __m256i packed =
+        _mm256_i32gather_epi32(reinterpret_cast<const int*>(t.tile.data()), ti, 4);
+    // Halves: [lo 0-3, hi 0-3 | lo 4-7, hi 4-7] -> [lo 0-7 | hi 0-7].
+    const __m256i halves = _mm256_permute4x64_epi64(
+        _mm256_packus_epi32(_mm256_and_si256(packed, _mm256_set1_epi32(0xffff)),
+                            _mm256_srli_epi32(packed, 16)),
+        0xd8);
+    const __m256 tlo = _mm256_cvtph_ps(_mm256_castsi256_si128(halves));
+    const __m256 thi = _mm256_cvtph_ps(_mm256_extracti128_si256(halves, 1));
+    const __m256 behind = _mm256_cmp_ps(
+        _mm256_add_ps(_mm256_fmsub_ps(thi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
+        _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
+    in = _mm256_andnot_ps(behind, in);
+    if (t.weight.empty()) {
+      const __m256 free = _mm256_and_ps(
+          in, _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(tlo, _mm256_set1_ps(1.0f - 1e-5f), z),
+                                          _mm256_set1_ps(0.01f)),
+                            _mm256_set1_ps(p.clamp), _CMP_GE_OQ));
+      if (_mm256_movemask_ps(free) != 0) {
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
+                            _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
+                                             _mm256_castps_si256(free)));
+        in = _mm256_andnot_ps(free, in);
+      }
+    }
+    if (_mm256_movemask_ps(in) == 0) return;
+  }
   const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
   const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
   const __m256i qi = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width - 1)), x0);
@@ -488,12 +659,16 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
   // quad's depth range [lo, hi], D - z >= lo - z >= clamp (+ margins for rounding, ray
   // scale >= 1) is clamped free space; hi - z < -truncation is untouched.
   const __m256i qm = _mm256_and_si256(qi, _mm256_castps_si256(valid));
-  const __m256 free_fast = _mm256_and_ps(
-      valid, _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(lo, _mm256_set1_ps(1.0f - 1e-5f), z),
-                                         _mm256_set1_ps(0.01f)),
-                           _mm256_set1_ps(p.clamp), _CMP_GE_OQ));
+  const __m256 free_fast =
+      p.shortcuts
+          ? _mm256_and_ps(
+                valid,
+                _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(lo, _mm256_set1_ps(1.0f - 1e-5f), z),
+                                            _mm256_set1_ps(0.01f)),
+                              _mm256_set1_ps(p.clamp), _CMP_GE_OQ))
+          : _mm256_setzero_ps();
   __m256 rest = _mm256_andnot_ps(free_fast, valid);
-  if (_mm256_movemask_ps(rest) != 0) {
+  if (p.shortcuts && _mm256_movemask_ps(rest) != 0) {
     const __m256 hi = _mm256_i32gather_ps(t.quad_max.data(), qm, 4);
     const __m256 behind = _mm256_cmp_ps(
         _mm256_add_ps(_mm256_fmsub_ps(hi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
@@ -623,6 +798,7 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
   p.near = static_cast<float>(options_.min_depth_mm);
   p.truncation = static_cast<float>(options_.truncation_mm);
   p.clamp = static_cast<float>(options_.front_clamp_mm);
+  p.shortcuts = options_.block_culling;
   for (const CameraTables& t : cameras_) {
     const BlockClass cls = ClassifyBlock(t, ib, ie - 1, jb, je - 1, kb_abs, ke_abs - 1);
     if (cls == BlockClass::kSkip) continue;

@@ -32,6 +32,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -66,7 +67,9 @@ struct FusionOptions {
   // Skip work with a conservative test of 32x32x8 super-blocks, then 8^3 blocks, against
   // each camera's frustum and a min/max depth pyramid of its image: (super-)blocks
   // wholly in clamped free space get the clamp counted once instead of sampled per
-  // voxel, those wholly far behind the surface or outside the image are skipped. The
+  // voxel, those wholly far behind the surface or outside the image are skipped; then
+  // per voxel, the min/max depth of the 4x4-pixel tile, then of the pixel quad it
+  // projects into decides clamped free space or far behind without interpolating. The
   // values are bit-identical with it off (tested).
   bool block_culling = true;
 
@@ -107,6 +110,7 @@ class Integrator {
   const VolumeGrid& grid() const { return grid_; }
 
   struct CameraTables;  // per-camera tables (integrate.cc)
+  struct Arena;         // the memory of every camera's tables (integrate.cc)
 
  private:
   struct Scratch;
@@ -118,6 +122,7 @@ class Integrator {
 
   VolumeGrid grid_;
   FusionOptions options_;
+  std::unique_ptr<Arena> arena_;
   std::vector<CameraTables> cameras_;
 };
 

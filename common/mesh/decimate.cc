@@ -5,8 +5,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
-#include <queue>
 #include <string>
 #include <vector>
 
@@ -162,6 +162,97 @@ std::vector<Eigen::Vector3i> KeptComponentFaces(const io::Mesh& mesh, int64_t mi
   return kept;
 }
 
+// Distance from each query to the nearest of `points`, through a balanced kd-tree kept
+// implicitly in the point order (node = middle of its range, split axis by depth).
+std::vector<double> NearestDistances(std::vector<Eigen::Vector3d> points,
+                                     const std::vector<Eigen::Vector3d>& queries) {
+  auto build = [&](auto&& self, int lo, int hi, int axis) -> void {
+    if (hi - lo <= 1) return;
+    const int mid = (lo + hi) / 2;
+    std::nth_element(points.begin() + lo, points.begin() + mid, points.begin() + hi,
+                     [axis](const auto& a, const auto& b) { return a[axis] < b[axis]; });
+    self(self, lo, mid, (axis + 1) % 3);
+    self(self, mid + 1, hi, (axis + 1) % 3);
+  };
+  build(build, 0, int(points.size()), 0);
+  std::vector<double> out(queries.size(), HUGE_VAL);
+  for (size_t i = 0; i < queries.size(); ++i) {
+    const Eigen::Vector3d& q = queries[i];
+    double best2 = HUGE_VAL;
+    auto search = [&](auto&& self, int lo, int hi, int axis) -> void {
+      if (lo >= hi) return;
+      const int mid = (lo + hi) / 2;
+      best2 = std::min(best2, (points[mid] - q).squaredNorm());
+      const double diff = q[axis] - points[mid][axis];
+      const int next = (axis + 1) % 3;
+      if (diff < 0) {
+        self(self, lo, mid, next);
+        if (diff * diff < best2) self(self, mid + 1, hi, next);
+      } else {
+        self(self, mid + 1, hi, next);
+        if (diff * diff < best2) self(self, lo, mid, next);
+      }
+    };
+    search(search, 0, int(points.size()), 0);
+    out[i] = std::sqrt(best2);
+  }
+  return out;
+}
+
+// A min-heap of 64-bit keys with 8 children per node: a pop reads about a third of the
+// cache lines a binary heap's does, and cache misses are what a big queue costs.
+class OctalHeap {
+ public:
+  bool empty() const { return keys_.empty(); }
+  void clear() { keys_.clear(); }
+  void reserve(size_t n) { keys_.reserve(n); }
+  // Appends without ordering: call Heapify before the next Push or Pop.
+  void Append(uint64_t key) { keys_.push_back(key); }
+  void Heapify() {
+    for (size_t i = keys_.size() / kArity + 1; i-- > 0;) SiftDown(i);
+  }
+  void Push(uint64_t key) {
+    keys_.push_back(key);
+    size_t i = keys_.size() - 1;
+    while (i > 0) {
+      const size_t parent = (i - 1) / kArity;
+      if (keys_[parent] <= key) break;
+      keys_[i] = keys_[parent];
+      i = parent;
+    }
+    keys_[i] = key;
+  }
+  uint64_t Pop() {
+    const uint64_t top = keys_[0];
+    keys_[0] = keys_.back();
+    keys_.pop_back();
+    if (!keys_.empty()) SiftDown(0);
+    return top;
+  }
+
+ private:
+  static constexpr size_t kArity = 8;
+  void SiftDown(size_t i) {
+    const size_t n = keys_.size();
+    if (i >= n) return;
+    const uint64_t key = keys_[i];
+    for (;;) {
+      const size_t first = i * kArity + 1;
+      if (first >= n) break;
+      const size_t last = std::min(first + kArity, n);
+      size_t best = first;
+      for (size_t c = first + 1; c < last; ++c) {
+        if (keys_[c] < keys_[best]) best = c;
+      }
+      if (keys_[best] >= key) break;
+      keys_[i] = keys_[best];
+      i = best;
+    }
+    keys_[i] = key;
+  }
+  std::vector<uint64_t> keys_;
+};
+
 // Symmetric quadric x^T A x + 2 b.x + c: area-weighted squared distances to planes.
 struct Quadric {
   double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0;
@@ -240,46 +331,54 @@ class EdgeCollapser {
       for (int m = 0; m < 3; ++m) quad_[f[m]].AddPlane(n, -n.dot(pos_[f[0]]), 0.5 * len);
     }
     ClassifyVertices();
+    LabelComponents();
   }
 
   int64_t live_faces() const { return live_; }
   double max_error_mm() const { return max_error_; }
+  int64_t components_deleted() const { return components_deleted_; }
+  int64_t triangles_deleted() const { return triangles_deleted_; }
 
-  // Collapses until `target` faces are left. A collapse refused for its shape is not
-  // retried until an endpoint changes; when the queue runs dry before the target, all
-  // edges are queued again (the neighbourhoods have changed), while that still helps.
+  // Collapses (and deletes components) until `target` faces are left. A collapse refused
+  // for its shape is not retried until an endpoint changes; when the queue runs dry before
+  // the target, all edges are queued again (the neighbourhoods have changed), while that
+  // still helps.
   void Run(int64_t target) {
-    candidates_.reserve(faces_.size() * 3);
-    heap_.reserve(faces_.size() * 2);
+    // About 5 candidates per face are queued in all (each collapse queues its new edges).
+    heap_.reserve(faces_.size() * 5);
+    candidates_.reserve(faces_.size() * 5);
     for (int pass = 0; pass < kMaxPasses && live_ > target; ++pass) {
-      candidates_.clear();
       heap_.clear();
+      candidates_.clear();
       heaped_ = false;  // the first candidates are heaped at once
       for (size_t u = 0; u < vfaces_.size(); ++u) {
         if (alive_[u]) PushEdgesOf(int(u), /*only_greater=*/true);
       }
-      std::make_heap(heap_.begin(), heap_.end(), std::greater<>());
+      PushComponentDeletions();
+      heap_.Heapify();
       heaped_ = true;
-      int64_t collapses = 0;
+      int64_t changes = 0;
       while (live_ > target && !heap_.empty()) {
-        std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
-        const Candidate c = candidates_[heap_.back().second];
-        heap_.pop_back();
-        if (!alive_[c.keep] || !alive_[c.gone] || stamp_[c.keep] != c.stamp_keep ||
-            stamp_[c.gone] != c.stamp_gone) {
+        const Candidate c = candidates_[uint32_t(heap_.Pop())];
+        if (c.keep < 0) {
+          changes += DeleteComponent(c.gone, target);
           continue;
         }
+        // A vertex's stamp changes when it moves, merges or dies.
+        if (stamp_[c.keep] != c.stamp_keep || stamp_[c.gone] != c.stamp_gone) continue;
+        // Unchanged endpoints: the placement is the one costed at the push.
         Quadric q = quad_[c.keep];
         q += quad_[c.gone];
+        const Eigen::Vector3d x = Placement(q, c.keep, c.gone);
         const double w = q.Weight();
-        const double error = w > 0 ? std::sqrt(c.cost / w) : 0.0;
+        const double error = w > 0 ? std::sqrt(std::max(0.0, q.Eval(x)) / w) : 0.0;
         if (options_.max_error_mm > 0 && error > options_.max_error_mm) continue;
-        if (!Collapsible(c.keep, c.gone, c.x)) continue;
-        Collapse(c.keep, c.gone, c.x);
-        ++collapses;
+        if (!Collapsible(c.keep, c.gone, x)) continue;
+        Collapse(c.keep, c.gone, x);
+        ++changes;
         max_error_ = std::max(max_error_, error);
       }
-      if (collapses == 0) break;
+      if (changes == 0) break;
     }
   }
 
@@ -314,12 +413,137 @@ class EdgeCollapser {
   }
 
  private:
+  // A queued collapse of `gone` into `keep`, valid while both stamps are unchanged; or,
+  // with keep < 0, the deletion of component `gone`.
   struct Candidate {
-    double cost;
-    Eigen::Vector3d x;
     int keep, gone;
     uint32_t stamp_keep, stamp_gone;
   };
+
+  // Queues a candidate: heap key = the cost's float bits (ordered as the non-negative
+  // cost), then the candidate's index (ties in push order).
+  void Queue(double cost, const Candidate& c) {
+    uint32_t bits;
+    const float f = float(cost);
+    std::memcpy(&bits, &f, sizeof bits);
+    const uint64_t key = uint64_t(bits) << 32 | uint64_t(candidates_.size());
+    candidates_.push_back(c);
+    if (heaped_) {
+      heap_.Push(key);
+    } else {
+      heap_.Append(key);
+    }
+  }
+
+  // Connected components (faces joined by shared vertices; collapses never join or split
+  // them): their vertices, live triangles, area and bounding-box diagonal.
+  void LabelComponents() {
+    const int nv = int(pos_.size());
+    std::vector<int> parent(nv);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](int v) {
+      while (parent[v] != v) v = parent[v] = parent[parent[v]];
+      return v;
+    };
+    for (const auto& f : faces_) {
+      const int a = find(f[0]);
+      for (int m = 1; m < 3; ++m) {
+        const int b = find(f[m]);
+        if (a != b) parent[b] = a;
+      }
+    }
+    std::vector<int> label(nv, -1);
+    comp_of_.assign(nv, -1);
+    int n = 0;
+    for (int v = 0; v < nv; ++v) {
+      if (vfaces_[v].empty()) continue;
+      const int r = find(v);
+      if (label[r] < 0) label[r] = n++;
+      comp_of_[v] = label[r];
+    }
+    comp_live_.assign(n, 0);
+    comp_area_.assign(n, 0.0);
+    std::vector<Eigen::Vector3d> centroid(n, Eigen::Vector3d::Zero()),
+        lo(n, Eigen::Vector3d::Constant(HUGE_VAL)), hi(n, Eigen::Vector3d::Constant(-HUGE_VAL));
+    for (const auto& f : faces_) {
+      const int c = comp_of_[f[0]];
+      ++comp_live_[c];
+      for (int m = 0; m < 3; ++m) {
+        lo[c] = lo[c].cwiseMin(pos_[f[m]]);
+        hi[c] = hi[c].cwiseMax(pos_[f[m]]);
+      }
+      const double area = 0.5 * (pos_[f[1]] - pos_[f[0]]).cross(pos_[f[2]] - pos_[f[0]]).norm();
+      comp_area_[c] += area;
+      centroid[c] += area / 3.0 * (pos_[f[0]] + pos_[f[1]] + pos_[f[2]]);
+    }
+    comp_diag_.resize(n);
+    for (int c = 0; c < n; ++c) {
+      if (comp_area_[c] > 0) centroid[c] /= comp_area_[c];
+      comp_diag_[c] = (hi[c] - lo[c]).norm();
+    }
+    comp_start_.assign(n + 1, 0);
+    for (int v = 0; v < nv; ++v) {
+      if (comp_of_[v] >= 0) ++comp_start_[comp_of_[v] + 1];
+    }
+    for (int c = 0; c < n; ++c) comp_start_[c + 1] += comp_start_[c];
+    comp_vertices_.resize(comp_start_[n]);
+    std::vector<int> fill(comp_start_.begin(), comp_start_.end() - 1);
+    for (int v = 0; v < nv; ++v) {
+      if (comp_of_[v] >= 0) comp_vertices_[fill[comp_of_[v]]++] = v;
+    }
+    largest_ =
+        n > 0 ? int(std::max_element(comp_area_.begin(), comp_area_.end()) - comp_area_.begin())
+              : -1;
+    // Distance of each component (its area centroid) to the largest one's vertices.
+    comp_distance_.assign(n, 0.0);
+    if (n > 1 && options_.component_deletion_factor > 0) {
+      std::vector<Eigen::Vector3d> main;
+      for (int i = comp_start_[largest_]; i < comp_start_[largest_ + 1]; ++i) {
+        main.push_back(pos_[comp_vertices_[i]]);
+      }
+      comp_distance_ = NearestDistances(std::move(main), centroid);
+    }
+  }
+
+  // The error estimate of deleting component c, mm: component_deletion_factor times the
+  // geometric mean of its diagonal and its distance to the largest component (at least
+  // the diagonal). Far floaters are dearer: deleting them leaves original surface far
+  // from any output surface.
+  double DeletionError(int c) const {
+    return options_.component_deletion_factor *
+           std::sqrt(comp_diag_[c] * std::max(comp_diag_[c], comp_distance_[c]));
+  }
+
+  // Queues the deletion of every live component but the largest, at the cost of moving
+  // its whole area by its error estimate (the units of a collapse's quadric cost).
+  void PushComponentDeletions() {
+    if (!(options_.component_deletion_factor > 0)) return;
+    for (int c = 0; c < int(comp_live_.size()); ++c) {
+      if (c == largest_ || comp_live_[c] == 0) continue;
+      const double e = DeletionError(c);
+      Queue(comp_area_[c] * e * e, {-1, c, 0, 0});
+    }
+  }
+
+  // Deletes component c unless that would go below the target or the error bound.
+  bool DeleteComponent(int c, int64_t target) {
+    if (comp_live_[c] == 0 || live_ - comp_live_[c] < target) return false;
+    if (options_.max_error_mm > 0 && DeletionError(c) > options_.max_error_mm) return false;
+    for (int i = comp_start_[c]; i < comp_start_[c + 1]; ++i) {
+      const int v = comp_vertices_[i];
+      if (!alive_[v]) continue;
+      for (int f : vfaces_[v]) {
+        if (face_alive_[f]) face_alive_[f] = 0, --live_;
+      }
+      std::vector<int>().swap(vfaces_[v]);
+      alive_[v] = 0;
+      ++stamp_[v];
+    }
+    triangles_deleted_ += comp_live_[c];
+    ++components_deleted_;
+    comp_live_[c] = 0;
+    return true;
+  }
 
   // Border vertices (on an edge used by one face) and locked ones: non-manifold edges or
   // fans, and with lock_border the border. Adds the border penalty planes.
@@ -382,16 +606,23 @@ class EdgeCollapser {
     const Eigen::Vector3d mid = 0.5 * (p + r);
     const Eigen::Matrix3d a = q.A();
     const Eigen::Vector3d g = a * mid + q.B();  // half the gradient at the midpoint
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-    eig.computeDirect(a);
-    const Eigen::Vector3d lambda = eig.eigenvalues();
-    const double top = lambda.maxCoeff();
     Eigen::Vector3d x = mid;
-    if (top > 0) {
-      for (int k = 0; k < 3; ++k) {
-        if (lambda[k] > kEigenFloor * top) {
-          const Eigen::Vector3d e = eig.eigenvectors().col(k);
-          x -= e * (e.dot(g) / lambda[k]);
+    const double trace = a.trace();
+    if (a.determinant() > kDirectFloor * trace * trace * trace) {
+      // Well conditioned (the smallest eigenvalue is above kDirectFloor of the largest):
+      // the eigen solution below would use all three directions; invert directly.
+      x -= a.inverse() * g;
+    } else {
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+      eig.computeDirect(a);
+      const Eigen::Vector3d lambda = eig.eigenvalues();
+      const double top = lambda.maxCoeff();
+      if (top > 0) {
+        for (int k = 0; k < 3; ++k) {
+          if (lambda[k] > kEigenFloor * top) {
+            const Eigen::Vector3d e = eig.eigenvectors().col(k);
+            x -= e * (e.dot(g) / lambda[k]);
+          }
         }
       }
     }
@@ -415,9 +646,7 @@ class EdgeCollapser {
     q += quad_[b];
     const Eigen::Vector3d x = Placement(q, a, b);
     const double cost = std::max(0.0, q.Eval(x));
-    heap_.emplace_back(float(cost), uint32_t(candidates_.size()));
-    if (heaped_) std::push_heap(heap_.begin(), heap_.end(), std::greater<>());
-    candidates_.push_back({cost, x, a, b, stamp_[a], stamp_[b]});
+    Queue(cost, {a, b, stamp_[a], stamp_[b]});
   }
 
   // Candidates for the edges from u (to neighbours above u only, for the first pass).
@@ -522,6 +751,7 @@ class EdgeCollapser {
       if (tri[0] == u || tri[1] == u || tri[2] == u) {
         face_alive_[f] = 0;
         --live_;
+        --comp_live_[comp_of_[u]];
         for (int m = 0; m < 3; ++m) {
           const int a = tri[m];
           if (a == u || a == v) continue;
@@ -543,6 +773,7 @@ class EdgeCollapser {
     quad_[u] += quad_[v];
     border_[u] = border_[u] || border_[v];
     alive_[v] = 0;
+    ++stamp_[v];
     ++stamp_[u];
     PushEdgesOf(u, /*only_greater=*/false);
   }
@@ -551,6 +782,8 @@ class EdgeCollapser {
   // Relative floor of the quadric's eigenvalues below which a direction counts as
   // undetermined (the position stays at the midpoint along it).
   static constexpr double kEigenFloor = 1e-6;
+  // det(A) above this times trace(A)^3 bounds the eigenvalue ratio above it (> kEigenFloor).
+  static constexpr double kDirectFloor = 1e-5;
   static constexpr double kMinNormalCos = 0.0;  // refuse collapses turning a face > 90 deg
 
   const DecimationOptions& options_;
@@ -569,10 +802,15 @@ class EdgeCollapser {
   uint32_t epoch_ = 0;
   int64_t live_ = 0;
   double max_error_ = 0.0;
-  // A min-heap of (cost, index into candidates_): small entries keep the heap in cache.
-  std::vector<Candidate> candidates_;
-  std::vector<std::pair<float, uint32_t>> heap_;
+  OctalHeap heap_;
+  std::vector<Candidate> candidates_;  // indexed by the heap keys' low bits
   bool heaped_ = true;
+  // Components: per vertex (-1 when unused), live triangles, area (mm^2), bounding-box
+  // diagonal (mm), vertices (CSR); the one with the largest area.
+  std::vector<int> comp_of_, comp_live_, comp_start_, comp_vertices_;
+  std::vector<double> comp_area_, comp_diag_, comp_distance_;
+  int largest_ = -1;
+  int64_t components_deleted_ = 0, triangles_deleted_ = 0;
 };
 
 io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
@@ -643,6 +881,9 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(min_component_diagonal_mm) && min_component_diagonal_mm >= 0.0,
                 "decimation: min_component_diagonal_mm",
                 "must be >= 0 mm, got " + std::to_string(min_component_diagonal_mm));
+  core::Require(std::isfinite(component_deletion_factor) && component_deletion_factor >= 0.0,
+                "decimation: component_deletion_factor",
+                "must be >= 0, got " + std::to_string(component_deletion_factor));
 }
 
 io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
@@ -664,6 +905,7 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
           : mesh.faces;
   io::Mesh result;
   double error_mm = 0.0;
+  int64_t components_deleted = 0, triangles_deleted = 0;
   if (options.method == DecimationMethod::kMeshoptimizer) {
     result = MeshoptimizerDecimate(mesh, faces, size_t(target_triangles), options, &error_mm);
   } else {
@@ -671,12 +913,16 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
     collapser.Run(target_triangles);
     result = collapser.Result();
     error_mm = collapser.max_error_mm();
+    components_deleted = collapser.components_deleted();
+    triangles_deleted = collapser.triangles_deleted();
   }
   if (summary) {
     summary->triangles_in = int64_t(triangles);
     summary->triangles_out = int64_t(result.faces.size());
     summary->components_removed = components_removed;
     summary->triangles_removed = int64_t(triangles - faces.size());
+    summary->components_deleted = components_deleted;
+    summary->triangles_deleted = triangles_deleted;
     summary->error_mm = error_mm;
     summary->seconds = watch.ElapsedSeconds();
   }

@@ -11,7 +11,9 @@
 // Before decimating, connected components smaller than a triangle count or bounding-box
 // diagonal can be dropped (the small floating parts stereo noise leaves in a fused
 // mesh); the target counts against the input triangles, so dropped parts count towards
-// the reduction.
+// the reduction. During decimation a whole component can also be deleted when that is
+// cheaper than the next collapse (component_deletion_factor): the budget then goes to
+// the surface instead of to thousands of floaters each held at its last few triangles.
 //
 // kMeshoptimizer: meshoptimizer's topology-preserving simplifier (Debian
 // libmeshoptimizer-dev), surviving vertices optionally moved to the quadric optimum of
@@ -40,15 +42,25 @@ struct DecimationOptions {
   // When false, borders may be simplified but are held by penalty planes through each
   // border edge, perpendicular to its face, weighted border_weight times the edge
   // length squared (kEdgeCollapse only). Off by default: a stereo mesh has so much
-  // border (holes, floaters) that locking it keeps the target out of reach.
+  // border (holes, floaters) that locking it keeps the target out of reach. A light
+  // weight lets ragged stereo borders straighten, which frees triangles for the surface.
   bool lock_border = false;
-  double border_weight = 0.1;  // dimensionless, >= 0
+  double border_weight = 0.01;  // dimensionless, >= 0
   // Drop connected components (faces joined by shared vertices) with fewer triangles than
   // this before decimating; 0 = keep all. The default drops the lone triangles, pairs
   // and triples that stereo noise leaves in a fused mesh (no real part is that small).
   int64_t min_component_triangles = 4;
   // Drop connected components whose bounding-box diagonal is below this, mm; 0 = keep.
   double min_component_diagonal_mm = 0.0;
+  // kEdgeCollapse: delete a whole connected component, in the same cost order as the
+  // collapses, when that is cheaper than the next collapse. Its cost is that of moving
+  // all its area by an error estimate of this factor times the geometric mean of its
+  // bounding-box diagonal and its distance to the largest component (at least the
+  // diagonal), so small floaters near the surface go first and the budget goes to the
+  // surface instead of to thousands of floaters each held at its last few triangles.
+  // The component with the largest area is never deleted, and a deletion that would go
+  // below the target or above max_error_mm is skipped. Dimensionless, >= 0; 0 = never.
+  double component_deletion_factor = 0.025;
   DecimationMethod method = DecimationMethod::kEdgeCollapse;
   // kMeshoptimizer only: place surviving interior vertices at their quadric optimum.
   bool relocate_vertices = true;
@@ -62,6 +74,8 @@ struct DecimationSummary {
   int64_t triangles_out = 0;
   int64_t components_removed = 0;  // dropped by the component filters
   int64_t triangles_removed = 0;   // their triangles
+  int64_t components_deleted = 0;  // deleted whole during decimation
+  int64_t triangles_deleted = 0;   // their triangles left at the time
   double error_mm = 0.0;           // largest error estimate of a collapse made, mm
   double seconds = 0.0;
 };

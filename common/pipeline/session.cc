@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
 #include "io/file_util.h"
@@ -98,6 +99,7 @@ fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& s, doubl
 SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::string& where) {
   SessionOptions o;
   o.stereo = stereo::FromStereoSettings(s.stereo(), where);
+  if (o.stereo.coarse_to_fine) FromCoarseToFineSettings(*o.stereo.coarse_to_fine, where);
   o.stereo.write_previews = s.has_write_previews() ? s.write_previews() : true;
   o.grid = FromVolume(s.volume(), where);
   o.fusion = FromFusionSettings(s.fusion(), o.grid.voxel_size_mm, where);
@@ -109,6 +111,65 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   core::Require(o.decimate_ratio > 0 && o.decimate_ratio <= 1, where + ": decimate_ratio",
                 "must be in (0, 1]");
   return o;
+}
+
+CoarseToFineOptions FromCoarseToFineSettings(const runtime::CoarseToFineSettings& s,
+                                             const std::string& where) {
+  CoarseToFineOptions o;
+  if (s.has_coarse_factor()) o.coarse_factor = s.coarse_factor();
+  if (s.has_coarse_window_px()) o.coarse_window_px = s.coarse_window_px();
+  if (s.has_tile_px()) o.tile_px = s.tile_px();
+  if (s.has_margin_levels()) o.margin_levels = s.margin_levels();
+  if (s.has_trim_fraction()) o.trim_fraction = s.trim_fraction();
+  if (s.has_min_coarse_depths()) o.min_coarse_depths = s.min_coarse_depths();
+  if (s.has_coarse_min_uniqueness()) o.coarse_min_uniqueness = s.coarse_min_uniqueness();
+  try {
+    o.Check();
+  } catch (const core::InputError& e) {
+    throw e.Under(where);
+  }
+  const bool has_box = s.clip_min_mm_size() > 0 || s.clip_max_mm_size() > 0;
+  core::Require(!has_box || s.clip_min_mm_size() == 3, where + ": coarse_to_fine.clip_min_mm",
+                "expected x y z (3 numbers, mm) with clip_max_mm, got " +
+                    std::to_string(s.clip_min_mm_size()));
+  core::Require(!has_box || s.clip_max_mm_size() == 3, where + ": coarse_to_fine.clip_max_mm",
+                "expected x y z (3 numbers, mm) with clip_min_mm, got " +
+                    std::to_string(s.clip_max_mm_size()));
+  for (int i = 0; has_box && i < 3; ++i) {
+    core::Require(std::isfinite(s.clip_min_mm(i)) && std::isfinite(s.clip_max_mm(i)) &&
+                      s.clip_min_mm(i) < s.clip_max_mm(i),
+                  where + ": coarse_to_fine.clip_max_mm",
+                  "each coordinate must exceed clip_min_mm's, got " +
+                      std::to_string(s.clip_max_mm(i)) + " <= " + std::to_string(s.clip_min_mm(i)) +
+                      " (axis " + std::to_string(i) + ")");
+  }
+  core::Require(!s.has_clip_pad_mm() || (std::isfinite(s.clip_pad_mm()) && s.clip_pad_mm() >= 0),
+                where + ": coarse_to_fine.clip_pad_mm",
+                "must be >= 0 mm, got " + std::to_string(s.clip_pad_mm()));
+  return o;
+}
+
+void ClipDepthRange(const runtime::CoarseToFineSettings& s, const geometry::TsaiCamera& camera,
+                    const std::string& where, stereo::StereoOptions* o) {
+  if (s.clip_min_mm_size() != 3 || s.clip_max_mm_size() != 3) return;
+  const double pad = s.has_clip_pad_mm() ? s.clip_pad_mm() : 2.0;
+  double z_lo = std::numeric_limits<double>::infinity();
+  double z_hi = -std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d p(c & 1 ? s.clip_max_mm(0) : s.clip_min_mm(0),
+                            c & 2 ? s.clip_max_mm(1) : s.clip_min_mm(1),
+                            c & 4 ? s.clip_max_mm(2) : s.clip_min_mm(2));
+    const double z = camera.WorldToCamera(p).z();
+    z_lo = std::min(z_lo, z);
+    z_hi = std::max(z_hi, z);
+  }
+  const double z_min = std::max(o->z_min_mm, z_lo - pad);
+  const double z_max = std::min(o->z_max_mm, z_hi + pad);
+  core::Require(z_min < z_max, where + ": coarse_to_fine.clip_min_mm",
+                "camera '" + camera.id + "' sees no depth of the clip box within [" +
+                    std::to_string(o->z_min_mm) + ", " + std::to_string(o->z_max_mm) + "] mm");
+  o->z_min_mm = z_min;
+  o->z_max_mm = z_max;
 }
 
 std::vector<std::string> SessionInstants(const runtime::Session& session, const take::Take& take) {

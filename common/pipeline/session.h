@@ -14,6 +14,7 @@
 
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
+#include "pipeline/coarse_to_fine.h"
 #include "runtime.pb.h"
 #include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
@@ -51,5 +52,18 @@ fusion::VolumeGrid FromVolume(const runtime::Volume& volume, const std::string& 
 runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& options);
 fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& settings,
                                          double voxel_size_mm, const std::string& where);
+
+// The coarse-to-fine options of StereoSettings.coarse_to_fine, library defaults for
+// unset fields, checked with the clip box. Errors name "<where>: coarse_to_fine.<field>".
+CoarseToFineOptions FromCoarseToFineSettings(const runtime::CoarseToFineSettings& settings,
+                                             const std::string& where);
+
+// `options`' depth range (z along `camera`'s optical axis, mm) clipped to the nearest and
+// farthest corner of the settings' clip box, each widened by clip_pad_mm; unchanged
+// without a box. Throws core::InputError naming `where` and the camera when the
+// clipped range is empty (the box is behind the camera or outside the range).
+void ClipDepthRange(const runtime::CoarseToFineSettings& settings,
+                    const geometry::TsaiCamera& camera, const std::string& where,
+                    stereo::StereoOptions* options);
 
 }  // namespace dome::pipeline

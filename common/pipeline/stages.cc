@@ -15,6 +15,7 @@
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
 #include "mesh/texture.h"
+#include "pipeline/coarse_to_fine.h"
 #include "pipeline/session.h"
 #include "take/rig.h"
 
@@ -87,7 +88,15 @@ std::vector<runtime::Output> RunStereo(const runtime::Job& job,
     v.image = FrameBlob(job, blobs, 2 + n, io::ImageMode::kUnchanged);
     input.neighbours.push_back(std::move(v));
   }
-  stereo::StereoResult result = stereo::ComputeDepth(input, options.stereo);
+  stereo::StereoResult result;
+  if (options.coarse_to_fine) {
+    const std::string where = "job " + job.id();
+    const CoarseToFineOptions c2f = FromCoarseToFineSettings(*options.coarse_to_fine, where);
+    ClipDepthRange(*options.coarse_to_fine, input.reference.camera, where, &options.stereo);
+    result = ComputeDepthCoarseToFine(input, options.stereo, c2f);
+  } else {
+    result = stereo::ComputeDepth(input, options.stereo);
+  }
   result.camera = sj.camera();
   runtime::Output out;
   out.set_name(kStereoOutput);

@@ -9,12 +9,15 @@
 // buffer; the window sums come from a running vertical sum and a short horizontal sum
 // (both vectorized across x). The cost volume is never stored: per pixel the kernel
 // keeps the running minimum, the costs at the levels either side of it and the least
-// cost outside them (exact, see UpdateRow in cost_kernel.cc), updated two levels at a
+// cost outside them (exact, see UpdateRowN in cost_kernel.cc), updated four levels at a
 // time, so memory is O(band x width), not O(levels).
 //
 // With KernelInput::prewarp the neighbours are first resampled by the homography at
-// infinity; each level is then a scaling of that image, which a row reads with one
-// precomputed column pattern (cost_kernel.cc, "Pre-warped neighbours").
+// infinity (bicubic); each level is then a scaling of that image, which a row reads
+// with one precomputed column pattern (cost_kernel.cc, "Pre-warped neighbours"). Its
+// AVX-512 path works in 16-bit fixed point (greys x 32), 32 pixels per instruction, and
+// sums the squared differences of two neighbours per multiply-add; it agrees with its
+// scalar float path up to that rounding (tests/stereo/cost_kernel_test.cc).
 //
 // Where the CPU has AVX-512 (F, BW) or AVX2 and FMA (checked at run time) the warp
 // runs sixteen or eight pixels at a time on a packed copy of each neighbour: one
@@ -53,7 +56,8 @@ struct KernelInput {
   // Resample each neighbour once by the homography at infinity and warp that per level
   // (cost_kernel.cc, "Pre-warped neighbours"): much faster, but a second bilinear
   // interpolation. Falls back to the exact warp where a neighbour's geometry does not
-  // suit it, and on CPUs with AVX2 but not AVX-512 (the pre-warped kernel has an
+  // suit it, with more than 32 neighbours or an outside cost above 255^2 (the fixed
+  // point sums), and on CPUs with AVX2 but not AVX-512 (the pre-warped kernel has an
   // AVX-512 and a scalar path, and the exact AVX2 warp is faster than the latter).
   bool prewarp = false;
 };

@@ -21,9 +21,19 @@ namespace {
 
 constexpr int kMaxWindowPx = 31;
 
-// Grey image of a view as CV_32FC1 in the ideal (undistorted) camera, NaN where the
-// pixel has no data (alpha 0, or no source after undistortion).
-cv::Mat PrepareImage(const StereoView& view, bool normalize_contrast, const std::string& where) {
+// Plane-induced homography pieces: x_n ~ A x_r + w b.
+void HomographyPieces(const geometry::TsaiCamera& ref, const geometry::TsaiCamera& nb,
+                      Eigen::Matrix3d* a, Eigen::Vector3d* b) {
+  const Eigen::Matrix3d r = nb.rotation * ref.rotation.transpose();
+  const Eigen::Vector3d t = nb.translation_mm - r * ref.translation_mm;
+  *a = nb.K() * r * ref.K().inverse();
+  *b = nb.K() * t;
+}
+
+}  // namespace
+
+cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistort,
+                  const std::string& where) {
   const auto& cam = view.camera;
   cam.Check(where + ": camera");
   const cv::Mat& in = view.image;
@@ -52,7 +62,7 @@ cv::Mat PrepareImage(const StereoView& view, bool normalize_contrast, const std:
     throw core::InputError(where + ": image", "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
   }
   if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
-  if (cam.kappa1_per_mm2 != 0.0) {
+  if (undistort && cam.kappa1_per_mm2 != 0.0) {
     const geometry::RemapTables tables = geometry::BuildUndistortTables(cam);
     grey = geometry::Remap(grey, tables);
     valid = geometry::Remap(valid, tables);
@@ -79,17 +89,6 @@ cv::Mat PrepareImage(const StereoView& view, bool normalize_contrast, const std:
   grey.setTo(std::numeric_limits<float>::quiet_NaN(), invalid);
   return grey;
 }
-
-// Plane-induced homography pieces: x_n ~ A x_r + w b.
-void HomographyPieces(const geometry::TsaiCamera& ref, const geometry::TsaiCamera& nb,
-                      Eigen::Matrix3d* a, Eigen::Vector3d* b) {
-  const Eigen::Matrix3d r = nb.rotation * ref.rotation.transpose();
-  const Eigen::Vector3d t = nb.translation_mm - r * ref.translation_mm;
-  *a = nb.K() * r * ref.K().inverse();
-  *b = nb.K() * t;
-}
-
-}  // namespace
 
 void StereoOptions::Check() const {
   core::Require(std::isfinite(z_min_mm) && z_min_mm > 0.0, "z_min_mm",
@@ -201,13 +200,13 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   result.camera = input.reference.camera.id;
 
   // Distortion removed once per image.
-  const cv::Mat ref_nan = PrepareImage(input.reference, options.normalize_contrast,
-                                       "reference '" + input.reference.camera.id + "'");
+  const cv::Mat ref_nan = GreyImage(input.reference, options.normalize_contrast, true,
+                                    "reference '" + input.reference.camera.id + "'");
   std::vector<cv::Mat> nb_images;
   std::vector<geometry::TsaiCamera> nb_cams;
   for (const auto& v : input.neighbours) {
     nb_images.push_back(
-        PrepareImage(v, options.normalize_contrast, "neighbour '" + v.camera.id + "'"));
+        GreyImage(v, options.normalize_contrast, true, "neighbour '" + v.camera.id + "'"));
     nb_cams.push_back(v.camera);
   }
   const auto& ref_cam = input.reference.camera;

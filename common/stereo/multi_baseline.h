@@ -69,11 +69,13 @@ struct StereoOptions {
   double min_texture_grey = 2.0;
   int num_threads = 0;  // 0 = all hardware threads
   // Resample each neighbour once onto the reference grid (by the homography of the
-  // plane at infinity) so that each depth level is a scaling of that image: about 1.5x
-  // faster matching (bench/stereo/stereo_bench.cc), at the price of a second bilinear
-  // interpolation of the neighbour, so depths differ slightly from the exact warp
-  // (cost_kernel.h, KernelInput::prewarp).
-  bool prewarp_neighbours = false;
+  // plane at infinity, bicubic) so that each depth level is a scaling of that image,
+  // matched in 16-bit fixed point on AVX-512 CPUs: about 2x faster than the exact
+  // per-pixel warp (bench/stereo/stereo_bench.cc), with depths that differ slightly
+  // from it (a second, bilinear, interpolation of the neighbour; cost_kernel.h,
+  // KernelInput::prewarp). false = the exact warp (`dome stereo --exact-warp`, JSON
+  // "prewarp_neighbours": false). CPUs with AVX2 but not AVX-512 run the exact warp.
+  bool prewarp_neighbours = true;
 
   // Throws core::InputError naming the first option out of range (e.g. "z_min_mm").
   void Check() const;
@@ -136,5 +138,12 @@ double LevelDepthMm(double level, int num_levels, double z_min_mm, double z_max_
 // Runs the stereo. Throws core::InputError naming the option or view at fault (no
 // neighbours, an image of the wrong size or type, a bad camera, bad options).
 StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options);
+
+// A view's grey as CV_32FC1, NaN where the pixel has no data (alpha below 255, NaN, or
+// no source after undistortion); in the ideal camera when `undistort`, else in the
+// image's own pixels. With `normalize_contrast` the 1st..99th percentile of the valid
+// greys is stretched to 0..255 (dark images). `where` names the view in errors.
+cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistort,
+                  const std::string& where);
 
 }  // namespace dome::stereo

@@ -24,6 +24,8 @@ runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
   s.set_min_texture_grey(o.stereo.min_texture_grey);
   s.set_max_neighbours(o.cluster.max_neighbours);
   s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
+  s.set_prewarp_neighbours(o.stereo.prewarp_neighbours);
+  if (o.coarse_to_fine) *s.mutable_coarse_to_fine() = *o.coarse_to_fine;
   return s;
 }
 
@@ -45,14 +47,12 @@ TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std
   if (s.has_min_texture_grey()) st.min_texture_grey = s.min_texture_grey();
   if (s.has_max_neighbours()) o.cluster.max_neighbours = s.max_neighbours();
   if (s.has_max_axis_angle_deg()) o.cluster.max_axis_angle_deg = s.max_axis_angle_deg();
+  if (s.has_prewarp_neighbours()) st.prewarp_neighbours = s.prewarp_neighbours();
+  if (s.has_coarse_to_fine()) o.coarse_to_fine = s.coarse_to_fine();
   try {
     o.Check();
   } catch (const core::InputError& e) {
-    // e.where() is the field ("z_max_mm"); e.what() repeats it before the message.
-    std::string what = e.what();
-    const std::string prefix = e.where() + ": ";
-    if (what.rfind(prefix, 0) == 0) what = what.substr(prefix.size());
-    throw core::InputError(where + ": " + e.where(), what);
+    throw e.Under(where);
   }
   return o;
 }

@@ -16,9 +16,11 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "runtime.pb.h"
 #include "stereo/cluster.h"
 #include "stereo/multi_baseline.h"
 #include "take/take.h"
@@ -29,6 +31,9 @@ struct TakeStereoOptions {
   StereoOptions stereo;
   ClusterOptions cluster;
   bool write_previews = true;
+  // Present: coarse-to-fine stereo over tiles, as the pipeline's stereo stage runs it
+  // (pipeline/stages.h; checked there); RunTakeStereo does not use it.
+  std::optional<runtime::CoarseToFineSettings> coarse_to_fine;
 
   void Check() const;
 };

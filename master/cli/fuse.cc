@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -358,6 +359,9 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
                   "stop before moving the surface more, mm");
   dec->add_flag("--free-border", d->free_border, "let open borders move (the default)");
   dec->add_flag("--lock-border", d->lock_border, "keep open-border vertices in place");
+  dec->add_option("--border-weight", d->options.border_weight,
+                  "weight of the planes holding free borders (times edge length squared)")
+      ->capture_default_str();
   dec->add_flag("!--no-relocate", d->options.relocate_vertices,
                 "meshoptimizer: keep surviving vertices where the simplifier left them");
   dec->add_option("--min-component-triangles", d->options.min_component_triangles,
@@ -366,6 +370,11 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   dec->add_option("--min-component-mm", d->options.min_component_diagonal_mm,
                   "drop connected parts with a smaller bounding-box diagonal first, mm")
       ->capture_default_str();
+  dec->add_option("--component-deletion", d->options.component_deletion_factor,
+                  "delete whole connected parts (not the largest) when cheaper than the next "
+                  "collapse, as if moving their area this factor times the geometric mean of "
+                  "their diagonal and their distance to the largest part; 0 = never")
+      ->capture_default_str();
   dec->add_flag("--meshoptimizer", d->meshoptimizer,
                 "meshoptimizer's topology-preserving simplifier instead of edge collapse");
   dec->callback([=] {
@@ -373,13 +382,24 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
     o.lock_border = d->lock_border && !d->free_border;
     if (d->meshoptimizer) o.method = mesh::DecimationMethod::kMeshoptimizer;
     mesh::DecimationSummary s;
-    const io::Mesh out = mesh::Decimate(io::ReadPly(d->in), o, &s);
+    core::Stopwatch w;
+    const io::Mesh in = io::ReadPly(d->in);
+    const double t_read = w.ElapsedSeconds();
+    const std::clock_t cpu0 = std::clock();  // decimation is single-threaded
+    const io::Mesh out = mesh::Decimate(in, o, &s);
+    const double cpu = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
+    w.Restart();
     io::WritePly(d->out, out);
+    const double t_write = w.ElapsedSeconds();
     std::printf(
         "{\"triangles_in\": %lld, \"triangles_out\": %lld, \"components_removed\": %lld, "
-        "\"triangles_removed\": %lld, \"error_mm\": %s, \"seconds\": %s}\n",
+        "\"triangles_removed\": %lld, \"components_deleted\": %lld, \"triangles_deleted\": "
+        "%lld, \"error_mm\": %s, \"seconds\": %s, \"cpu_seconds\": %s, \"read_seconds\": "
+        "%s, \"write_seconds\": %s}\n",
         (long long)s.triangles_in, (long long)s.triangles_out, (long long)s.components_removed,
-        (long long)s.triangles_removed, Num(s.error_mm).c_str(), Num(s.seconds).c_str());
+        (long long)s.triangles_removed, (long long)s.components_deleted,
+        (long long)s.triangles_deleted, Num(s.error_mm).c_str(), Num(s.seconds).c_str(),
+        Num(cpu).c_str(), Num(t_read).c_str(), Num(t_write).c_str());
     *exit_code = 0;
   });
   struct TexArgs {

@@ -6,12 +6,14 @@
 //   dome watch --capture [--cameras N] --master ADDR           capture agents' progress
 //   dome cancel ID --master ADDR
 //   dome list --master ADDR
+// status, submit, cancel and list wait --timeout-s (default 10) for the master's answer.
 // ADDR is the master's control endpoint (dome-master --control, default port 5556);
 // the status events are read from the next port unless --events names them. Without
 // --master, `dome run` starts an embedded master with N in-process workers.
 // Talking to a dome-master needs --master-key FILE (its .pub) and --key FILE (this
 // side's .key, its .pub on the master's allow-list), or --insecure for a plaintext
 // master; the embedded master of `dome run` is in-process and needs no keys.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -89,6 +91,13 @@ struct MasterArgs {
   std::string master = "tcp://localhost:5556", events;
   std::string master_key, key;  // CURVE key files
   bool insecure = false;
+  double timeout_s = 10;  // wait for a control reply, s
+  // The control time-out in ms (throws naming --timeout-s when not positive).
+  int TimeoutMs() const {
+    core::Require(timeout_s > 0 && timeout_s <= 86400, "--timeout-s",
+                  "must be in (0, 86400] seconds, got " + std::to_string(timeout_s));
+    return std::max(1, static_cast<int>(timeout_s * 1000 + 0.5));
+  }
   std::string Events() const { return events.empty() ? client::EventsEndpointFor(master) : events; }
   // The client sockets' options from the key flags (throws naming a missing flag).
   net::SocketOptions Socket() const {
@@ -108,6 +117,9 @@ void AddKeyFlags(CLI::App* cmd, MasterArgs* m) {
 
 void AddMasterFlags(CLI::App* cmd, MasterArgs* m) {
   cmd->add_option("--master", m->master, "the master's control endpoint")->capture_default_str();
+  cmd->add_option("--timeout-s", m->timeout_s,
+                  "seconds to wait for the master's answer (status, submit, cancel, list)")
+      ->capture_default_str();
   cmd->add_option("--events", m->events,
                   "the master's status endpoint (default: control port + 1)");
   AddKeyFlags(cmd, m);
@@ -122,7 +134,10 @@ int ExitCodeFor(const runtime::SessionStatus& st) {
 int RequestAndPrintSessions(const MasterArgs& m, const runtime::ControlRequest& req) {
   const net::SocketOptions socket = m.Socket();
   zmq::context_t context;
-  for (const auto& s : client::Request(&context, m.master, req, 10000, socket).sessions()) {
+  // The reply must outlive the loop (a range-for over a temporary's member dangles).
+  const runtime::ControlReply reply =
+      client::Request(&context, m.master, req, m.TimeoutMs(), socket);
+  for (const auto& s : reply.sessions()) {
     std::fputs(client::FormatStatus(s).c_str(), stdout);
   }
   return 0;
@@ -178,8 +193,9 @@ void AddSubmitCommand(CLI::App* app, int* exit_code) {
     zmq::context_t context;
     runtime::ControlRequest req;
     *req.mutable_submit()->mutable_session() = MakeSession(*a);
-    std::printf("%s\n",
-                client::Request(&context, m->master, req, 10000, socket).session_id().c_str());
+    std::printf(
+        "%s\n",
+        client::Request(&context, m->master, req, m->TimeoutMs(), socket).session_id().c_str());
     *exit_code = 0;
   });
 }
@@ -249,7 +265,8 @@ void AddListCommand(CLI::App* app, int* exit_code) {
     zmq::context_t context;
     runtime::ControlRequest req;
     req.mutable_list();
-    const runtime::ControlReply reply = client::Request(&context, m->master, req, 10000, socket);
+    const runtime::ControlReply reply =
+        client::Request(&context, m->master, req, m->TimeoutMs(), socket);
     for (const auto& s : reply.sessions()) {
       std::printf("%s  %-9s  %d/%d jobs  %.1f s  %s\n", s.id().c_str(), s.state().c_str(),
                   s.jobs_done(), s.jobs_total(), s.elapsed_s(), s.out().c_str());

@@ -20,6 +20,7 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
     std::string take, camera, instant, out, options_file, profile = "default";
     stereo::TakeStereoOptions options;
     bool no_preview = false;
+    bool exact_warp = false;
   };
   auto a = std::make_shared<Args>();
   auto& s = a->options.stereo;
@@ -57,6 +58,9 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
                   "cluster size without the reference, when rig.json names none")
       ->capture_default_str();
   cmd->add_option("--threads", s.num_threads, "threads (0 = all)")->capture_default_str();
+  cmd->add_flag("--exact-warp", a->exact_warp,
+                "warp the neighbours per pixel and level instead of pre-warping them once "
+                "(slower; prewarp_neighbours false)");
   cmd->add_flag("--no-preview", a->no_preview, "do not write preview PNGs");
   cmd->callback([=] {
     stereo::TakeStereoOptions options = a->options;
@@ -80,6 +84,7 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       if (given("--max-neighbours")) options.cluster.max_neighbours = f.cluster.max_neighbours;
       if (given("--threads")) options.stereo.num_threads = f.stereo.num_threads;
     }
+    if (a->exact_warp) options.stereo.prewarp_neighbours = false;
     options.write_previews = !a->no_preview;
     const auto results = stereo::RunTakeStereo(a->take, a->camera, a->instant, a->out, options);
     for (const auto& r : results) std::fputs(r.BriefReport().c_str(), stdout);

@@ -58,6 +58,7 @@ Journal::Journal(const fs::path& path, const std::string& digest) : path_(path) 
                 std::string("cannot open the journal: ") + std::strerror(errno));
   if (fresh) {
     Append(kMagic + digest + "\n");
+    Sync();
   } else {
     // Cut a torn last record away, so that the next one starts on its own line and the
     // torn one never reads as complete.
@@ -70,7 +71,13 @@ Journal::Journal(const fs::path& path, const std::string& digest) : path_(path) 
 }
 
 Journal::~Journal() {
-  if (fd_ >= 0) ::close(fd_);
+  if (fd_ < 0) return;
+  try {
+    Sync();
+  } catch (const core::InputError&) {
+    // Nothing to do about it here; the records are written, only not forced to disk.
+  }
+  ::close(fd_);
 }
 
 void Journal::Append(const std::string& line) {
@@ -81,8 +88,14 @@ void Journal::Append(const std::string& line) {
     core::Require(n > 0, path_.string(), std::string("cannot append: ") + std::strerror(errno));
     written += size_t(n);
   }
-  core::Require(::fsync(fd_) == 0, path_.string(),
+  ++unsynced_;
+}
+
+void Journal::Sync() {
+  if (unsynced_ == 0) return;
+  core::Require(::fdatasync(fd_) == 0, path_.string(),
                 std::string("cannot fsync: ") + std::strerror(errno));
+  unsynced_ = 0;
 }
 
 void Journal::RecordDone(const std::string& key, const JournalEntry& entry) {

@@ -1,7 +1,14 @@
 // The session journal (SPEC.md "Nothing lost"): OUT/journal.log, append-only text,
-// one record per line, each line fsync'd before the master acts on it, so a master
-// killed at any moment and restarted on the same session resumes without redoing a
-// finished job.
+// one record per line, so a master killed at any moment and restarted on the same
+// session resumes without redoing a finished job.
+//
+// Each record is written to the file at once (a killed master loses nothing: the
+// kernel holds it) and made durable in groups: Sync() fsyncs every record appended
+// since the last one, and the master calls it every 50 ms of its loop, before it drops
+// an instant's slabs and when a session ends, instead of once per record (one fsync
+// costs milliseconds). A machine that loses power may lose the last 50 ms of records;
+// their jobs are then redone, which is harmless as jobs are idempotent and their
+// outputs content-addressed.
 //
 //   dome-journal 1 <session digest>        first line: the format version and the
 //                                          SHA-256 of the session's resolved options
@@ -38,14 +45,19 @@ class Journal {
 
   const std::map<std::string, JournalEntry>& done() const { return done_; }
 
-  // Appends a record and fsyncs it.
+  // Appends a record (written, not yet fsync'd: see Sync).
   void RecordDone(const std::string& key, const JournalEntry& entry);
+  // Fsyncs the records appended since the last call; a no-op when there are none.
+  void Sync();
+  // Records appended and not yet fsync'd.
+  int unsynced() const { return unsynced_; }
 
  private:
-  void Append(const std::string& line);
+  void Append(const std::string& line);  // written, unsynced
 
   std::filesystem::path path_;
   int fd_ = -1;
+  int unsynced_ = 0;
   std::map<std::string, JournalEntry> done_;
 };
 

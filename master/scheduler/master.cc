@@ -4,15 +4,20 @@
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
-#include <future>
+#include <functional>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <random>
 #include <set>
+#include <thread>
 #include <vector>
 
 #include "core/error.h"
@@ -25,6 +30,7 @@
 #include "scheduler/capture_host.h"
 #include "scheduler/graph.h"
 #include "scheduler/journal.h"
+#include "scheduler/surface_stream.h"
 #include "stereo/cluster.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
@@ -39,6 +45,8 @@ void MasterOptions::Check() const {
   core::Require(heartbeat_liveness > 0, "heartbeat_liveness",
                 "must be positive, got " + std::to_string(heartbeat_liveness));
   core::Require(max_job_losses > 0, "max_job_losses", "must be positive");
+  core::Require(jobs_ahead >= 0 && jobs_ahead <= 16, "jobs_ahead",
+                "must be in 0..16, got " + std::to_string(jobs_ahead));
   socket.Check();
 }
 
@@ -66,7 +74,15 @@ struct WorkerRec {
   int threads = 1;
   int64_t cache_mb = 0;
   Clock::time_point expiry;
-  std::string job;  // wire id of the running job, empty when idle
+  // Wire ids of the jobs sent and not yet answered, oldest (the running one) first;
+  // empty when idle. More than one when jobs were sent ahead (MasterOptions).
+  std::deque<std::string> jobs;
+  bool Forget(const std::string& job_id) {
+    auto it = std::find(jobs.begin(), jobs.end(), job_id);
+    if (it == jobs.end()) return false;
+    jobs.erase(it);
+    return true;
+  }
 };
 
 struct StageStats {
@@ -104,13 +120,100 @@ struct SessionRec {
   int64_t bytes_to_workers = 0, bytes_from_workers = 0;
   int requeued = 0, duplicates = 0, resumed = 0;
   std::map<std::string, int> jobs_by_worker;  // worker name -> results accepted from it
-  // The surface stage of one instant, running beside the loop.
-  std::map<int, std::future<runtime::BlobRef>> surface;
+  // instant -> its surface stage, fed slabs as they finish (surface_stream.h).
+  std::map<int, std::unique_ptr<SurfaceStream>> surface;
+  // The master loop while this session ran: its busy seconds when the session started
+  // (the loop's running total), and its longest turn since.
+  double loop_busy_at_start = 0, loop_longest_turn_s = 0;
 
   fs::path out() const { return spec.out(); }
   fs::path blob_dir() const { return out() / ".blobs"; }
   double Now() const { return Seconds(Clock::now() - start); }
 };
+
+// Work handed off the loop (checking, hashing and writing a result's files) to one
+// thread, in the order posted. Each piece of work returns what the loop does with its
+// outcome; Collect() runs those on the loop's thread. Work still queued when the
+// master stops is dropped (its results were never journalled: they are redone).
+class Offload {
+ public:
+  using Work = std::function<std::function<void()>()>;
+  Offload() : thread_([this] { Loop(); }) {}
+  ~Offload() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void Post(Work work) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      queue_.push_back(std::move(work));
+      ++pending_;
+    }
+    cv_.notify_one();
+  }
+  // Runs the completions of the work finished so far (on the caller's thread).
+  void Collect() {
+    std::deque<std::function<void()>> done;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done.swap(done_);
+      pending_ -= int(done.size());
+    }
+    for (auto& then : done) {
+      try {
+        then();
+      } catch (const std::exception& e) {
+        spdlog::error("master: acting on work done beside the loop failed: {}", e.what());
+      }
+    }
+  }
+  // Work posted whose completion has not been collected.
+  int pending() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pending_;
+  }
+
+ private:
+  void Loop() {
+    while (true) {
+      Work work;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (stop_) return;
+        work = std::move(queue_.front());
+        queue_.pop_front();
+      }
+      std::function<void()> then;
+      try {
+        then = work();
+      } catch (const std::exception& e) {
+        // Work reports its own errors; this is a bug or the file system failing.
+        then = [what = std::string(e.what())] {
+          spdlog::error("master: work beside the loop failed: {}", what);
+        };
+      }
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_.push_back(std::move(then));
+    }
+  }
+
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Work> queue_;
+  std::deque<std::function<void()>> done_;
+  int pending_ = 0;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts after the members it uses
+};
+
+// A journal is fsync'd at most this often (journal.h): one fsync costs milliseconds on
+// the loop, and records lost to a power cut only redo their (idempotent) jobs.
+constexpr auto kJournalSyncInterval = std::chrono::milliseconds(50);
 
 }  // namespace
 
@@ -126,6 +229,10 @@ struct Master::Impl {
   BlobStore blobs;
   int next_seq = 0;
   Clock::time_point next_heartbeat = Clock::now();
+  Clock::time_point next_journal_sync = Clock::now();
+  double loop_busy_s = 0;  // the loop's time outside poll, summed over its turns
+  // Last member: destroyed first, so its thread stops before what its work touches.
+  Offload offload;
 
   Impl(zmq::context_t* ctx, const MasterOptions& o)
       : context(ctx),
@@ -239,6 +346,7 @@ struct Master::Impl {
 
   std::string Submit(const runtime::Session& spec) {
     auto s = std::make_unique<SessionRec>();
+    s->loop_busy_at_start = loop_busy_s;
     s->id = NewSessionId();
     while (sessions.count(s->id) != 0) s->id = NewSessionId();
     s->seq = next_seq++;
@@ -328,6 +436,11 @@ struct Master::Impl {
       spdlog::info("session {}: resumed from {}: {} jobs already done", s->id,
                    (s->out() / "journal.log").string(), s->resumed);
     }
+    // Slabs already done go to their instant's surface stream now.
+    for (const auto& [node, outs] : s->outputs) {
+      const JobNode& n = s->graph->node(node);
+      if (n.stage == Stage::kFusion && !outs.empty()) FeedSurface(s, n.instant, n.part, outs[0]);
+    }
   }
 
   // Fills in a ready job's inputs (the outputs of the jobs it depends on).
@@ -386,62 +499,65 @@ struct Master::Impl {
     return job;
   }
 
-  // Starts master-side stages that became ready and finishes instants and sessions.
+  // Marks master-side stages that became ready as running (their surface streams have
+  // every slab by then) and finishes instants and sessions.
   void Advance(SessionRec* s) {
     if (s->state != "running") return;
     for (int node : std::vector<int>(s->graph->ready().begin(), s->graph->ready().end())) {
       const JobNode& n = s->graph->node(node);
-      if (n.stage != Stage::kSurface || s->surface.count(node) != 0) continue;
+      if (n.stage != Stage::kSurface) continue;
       s->graph->MarkRunning(node);
-      StartSurface(s, node);
+      Touch(s, node);
+      for (int k = 0; k < s->num_slabs; ++k) {
+        const auto& outs = s->outputs.at(FusionNode(s, n.instant, k));
+        DOME_CHECK(!outs.empty(), "a done slab has its output");
+        FeedSurface(s, n.instant, k, outs[0]);  // no-op for slabs fed as they came
+      }
     }
     if (s->graph->AllDone()) Finish(s);
   }
 
-  void StartSurface(SessionRec* s, int node) {
-    const JobNode& n = s->graph->node(node);
-    std::vector<runtime::BlobRef> slabs;
-    for (int k = 0; k < s->num_slabs; ++k) {
-      slabs.push_back(s->outputs.at(
-          s->graph->Find(s->graph->instants()[n.instant] + "/fusion/" + std::to_string(k)))[0]);
-    }
-    const fs::path dir = s->out() / s->graph->instants()[n.instant];
-    const fs::path blob_dir = s->blob_dir();
-    const fusion::VolumeGrid grid = s->options.grid;
-    Touch(s, node);
-    BlobStore* store = &blobs;
-    s->surface[node] = std::async(std::launch::async, [=]() {
-      const io::Mesh mesh = pipeline::ExtractSurface(grid, int(slabs.size()), [&](int k) {
-        auto bytes = store->Read(slabs[k].sha256());
-        core::Require(bytes.has_value(), "slab " + slabs[k].name(), "is not in the blob store");
-        return *bytes;
-      });
-      const std::string ply = pipeline::EncodeMeshPly(mesh);
-      fs::create_directories(dir);
-      io::WriteFileAtomically(dir / "mesh.ply", ply);
-      return store->AddBytes(blob_dir, ply, "mesh.ply");
-    });
+  int FusionNode(const SessionRec* s, int instant, int slab) const {
+    return s->graph->Find(s->graph->instants()[instant] + "/fusion/" + std::to_string(slab));
   }
 
+  // Hands a finished slab to its instant's surface stream, started by the first slab.
+  void FeedSurface(SessionRec* s, int instant, int slab, const runtime::BlobRef& blob) {
+    auto& stream = s->surface[instant];
+    if (!stream) {
+      stream =
+          std::make_unique<SurfaceStream>(s->options.grid, s->num_slabs, &blobs,
+                                          s->out() / s->graph->instants()[instant], s->blob_dir());
+    }
+    stream->Feed(slab, blob.sha256());
+  }
+
+  // Completes the surface stages whose streams have ended.
   void PollSurfaces() {
     for (const auto& id : session_order) {
       SessionRec* s = sessions[id].get();
       for (auto it = s->surface.begin(); it != s->surface.end();) {
-        if (it->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+        if (!it->second->Finished()) {
           ++it;
           continue;
         }
-        const int node = it->first;
+        const int node = s->graph->Find(s->graph->instants()[it->first] + "/surface");
+        std::unique_ptr<SurfaceStream> stream = std::move(it->second);
+        it = s->surface.erase(it);
+        if (s->state != "running") continue;
         try {
-          runtime::BlobRef mesh = it->second.get();
-          mesh.set_name("mesh.ply");
-          if (s->state == "running") Completed(s, node, {mesh}, 0.0);
+          const runtime::BlobRef mesh = stream->Result();
+          Completed(s, node, {mesh}, stream->busy_seconds());
         } catch (const std::exception& e) {
           Fail(s, "surface of " + s->graph->node(node).key + ": " + e.what());
         }
-        it = s->surface.erase(it);
       }
     }
+  }
+
+  // Stops the surface streams of a session that ended early (their slabs never come).
+  static void AbortSurfaces(SessionRec* s) {
+    for (auto& [instant, stream] : s->surface) stream->Abort();
   }
 
   void Touch(SessionRec* s, int node) {
@@ -454,14 +570,14 @@ struct Master::Impl {
     s->dispatched_at[node] = now;
   }
 
-  // A job's outputs are in: journal them, write the files they make, free what is no
-  // longer needed, and move the graph on.
+  // A job's outputs are in their files: journal them, free what is no longer needed,
+  // feed a slab to its surface stream, and move the graph on.
   void Completed(SessionRec* s, int node, const std::vector<runtime::BlobRef>& outs,
                  double job_seconds) {
     const JobNode& n = s->graph->node(node);
     JournalEntry entry;
     for (const auto& o : outs) entry.outputs.emplace_back(o.name(), o.sha256());
-    s->journal->RecordDone(n.key, entry);
+    s->journal->RecordDone(n.key, entry);  // fsync'd with the loop turn's others
     s->outputs[node] = outs;
     s->running_on.erase(node);
     s->graph->MarkDone(node);
@@ -471,8 +587,11 @@ struct Master::Impl {
                           ? job_seconds
                           : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
     st.last_done = now;
+    if (n.stage == Stage::kFusion) FeedSurface(s, n.instant, n.part, outs.at(0));
     if (n.stage == Stage::kSurface) {
-      // The slabs are in the mesh now; the journal's surface record stands for them.
+      // The slabs are in the mesh now; the journal's surface record stands for them
+      // once it is on disk.
+      s->journal->Sync();
       for (int k = 0; k < s->num_slabs; ++k) {
         const int f =
             s->graph->Find(s->graph->instants()[n.instant] + "/fusion/" + std::to_string(k));
@@ -489,10 +608,12 @@ struct Master::Impl {
     Advance(s);
   }
 
-  // Writes what a finished job makes in OUT; throws core::InputError on bad outputs.
-  std::vector<runtime::BlobRef> StoreOutputs(SessionRec* s, int node, const runtime::JobResult& r,
-                                             const std::string& peer) {
-    const JobNode& n = s->graph->node(node);
+  // Checks a finished job's outputs and writes what they make in OUT and the blob
+  // store; throws core::InputError on bad outputs. Runs beside the loop (Offload): it
+  // reads only what a session fixes at its submit, and the thread-safe blob store.
+  std::vector<runtime::BlobRef> StoreOutputs(const SessionRec& session, const JobNode& n,
+                                             const runtime::JobResult& r, const std::string& peer) {
+    const SessionRec* s = &session;
     const std::string& instant = s->graph->instants()[n.instant];
     const fs::path dir = s->out() / instant;
     auto find = [&](const std::string& name) -> const std::string& {
@@ -550,10 +671,6 @@ struct Master::Impl {
       case Stage::kSurface:
         throw core::InputError(peer, "sent a result for the master's own stage " + r.job_id());
     }
-    for (auto& o : outs) {
-      s->bytes_from_workers += int64_t(o.size());
-      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.size());
-    }
     return outs;
   }
 
@@ -564,13 +681,14 @@ struct Master::Impl {
     s->finished_s = s->Now();
     spdlog::error("session {} failed: {}", s->id, error);
     DropQueued(s);
+    AbortSurfaces(s);
     Publish(*s, -1, Stage::kStereo, error);
   }
 
   void DropQueued(SessionRec* s) {
     for (auto& [node, worker] : s->running_on) {
       auto it = workers.find(worker);
-      if (it != workers.end()) it->second.job.clear();
+      if (it != workers.end()) it->second.Forget(s->id + "/" + s->graph->node(node).key);
     }
     s->running_on.clear();
   }
@@ -578,6 +696,7 @@ struct Master::Impl {
   void Finish(SessionRec* s) {
     s->state = "done";
     s->finished_s = s->Now();
+    s->journal->Sync();
     WriteReport(*s);
     spdlog::info(
         "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
@@ -586,18 +705,28 @@ struct Master::Impl {
   }
 
   void WriteReport(const SessionRec& s) {
-    std::string j = "{\n  \"session\": \"" + s.id + "\",\n  \"take\": \"" + s.spec.take() +
-                    "\",\n  \"cameras\": " + std::to_string(s.cameras.size()) +
-                    ",\n  \"instants\": " + std::to_string(s.graph->instants().size()) +
-                    ",\n  \"slabs_per_instant\": " + std::to_string(s.num_slabs) +
-                    ",\n  \"jobs\": " + std::to_string(s.graph->size()) +
-                    ",\n  \"jobs_resumed_from_journal\": " + std::to_string(s.resumed) +
-                    ",\n  \"jobs_requeued\": " + std::to_string(s.requeued) +
-                    ",\n  \"duplicate_results_dropped\": " + std::to_string(s.duplicates) +
-                    ",\n  \"bytes_to_workers\": " + std::to_string(s.bytes_to_workers) +
-                    ",\n  \"bytes_from_workers\": " + std::to_string(s.bytes_from_workers) +
-                    ",\n  \"seconds\": " + Num(s.finished_s) + ",\n  \"seconds_per_instant\": " +
-                    Num(s.finished_s / double(s.graph->instants().size())) + ",\n  \"stages\": {";
+    double worker_job_seconds = 0;  // the master's own surface stage is not a worker's
+    for (int k = 0; k < kNumStages; ++k) {
+      if (Stage(k) != Stage::kSurface) worker_job_seconds += s.stage_stats[k].job_seconds;
+    }
+    const double loop_busy = loop_busy_s - s.loop_busy_at_start;
+    std::string j =
+        "{\n  \"session\": \"" + s.id + "\",\n  \"take\": \"" + s.spec.take() +
+        "\",\n  \"cameras\": " + std::to_string(s.cameras.size()) +
+        ",\n  \"instants\": " + std::to_string(s.graph->instants().size()) +
+        ",\n  \"slabs_per_instant\": " + std::to_string(s.num_slabs) +
+        ",\n  \"jobs\": " + std::to_string(s.graph->size()) +
+        ",\n  \"jobs_resumed_from_journal\": " + std::to_string(s.resumed) +
+        ",\n  \"jobs_requeued\": " + std::to_string(s.requeued) +
+        ",\n  \"duplicate_results_dropped\": " + std::to_string(s.duplicates) +
+        ",\n  \"bytes_to_workers\": " + std::to_string(s.bytes_to_workers) +
+        ",\n  \"bytes_from_workers\": " + std::to_string(s.bytes_from_workers) +
+        ",\n  \"seconds\": " + Num(s.finished_s) +
+        ",\n  \"seconds_per_instant\": " + Num(s.finished_s / double(s.graph->instants().size())) +
+        ",\n  \"worker_job_seconds\": " + Num(worker_job_seconds) +
+        ",\n  \"master_loop\": {\"busy_fraction\": " +
+        Num(s.finished_s > 0 ? loop_busy / s.finished_s : 0) +
+        ", \"longest_turn_s\": " + Num(s.loop_longest_turn_s) + "}" + ",\n  \"stages\": {";
     bool first = true;
     for (int k = 0; k < kNumStages; ++k) {
       int total = 0;
@@ -659,12 +788,18 @@ struct Master::Impl {
     auto it = workers.find(id);
     if (it == workers.end()) return;
     const std::string name = WorkerName(id);
-    const std::string job = it->second.job;
+    const std::deque<std::string> jobs = it->second.jobs;
     workers.erase(it);
-    if (job.empty()) {
+    if (jobs.empty()) {
       spdlog::warn("{} lost ({}); it was idle", name, why);
       return;
     }
+    for (const std::string& job : jobs) Requeue(id, name, why, job);
+  }
+
+  // A job sent to a worker now lost goes back to the ready set.
+  void Requeue(const std::string& id, const std::string& name, const std::string& why,
+               const std::string& job) {
     auto found = FindJob(job);
     if (!found) return;
     auto [s, node] = *found;
@@ -684,7 +819,7 @@ struct Master::Impl {
     }
   }
 
-  void OnWorkerMessage(const std::string& id, const runtime::Envelope& env) {
+  void OnWorkerMessage(const std::string& id, runtime::Envelope& env) {
     auto it = workers.find(id);
     const Clock::time_point expiry =
         Clock::now() +
@@ -714,7 +849,7 @@ struct Master::Impl {
         ServeBlobs(id, env.blob_request());
         break;
       case runtime::Envelope::kResult:
-        OnResult(id, env.result());
+        OnResult(id, std::move(*env.mutable_result()));
         break;
       default:
         throw core::InputError(WorkerName(id), "sent a message a worker may not send");
@@ -741,8 +876,9 @@ struct Master::Impl {
       } else {
         b->set_data(std::move(*bytes));
         auto w = workers.find(id);
-        if (w != workers.end() && !w->second.job.empty()) {
-          auto found = FindJob(w->second.job);
+        // Blobs are asked for by the job sent last (the others have theirs already).
+        if (w != workers.end() && !w->second.jobs.empty()) {
+          auto found = FindJob(w->second.jobs.back());
           if (found) {
             SessionRec* s = found->first;
             s->bytes_to_workers += int64_t(b->data().size());
@@ -755,14 +891,14 @@ struct Master::Impl {
     }
   }
 
-  void OnResult(const std::string& id, const runtime::JobResult& r) {
+  void OnResult(const std::string& id, runtime::JobResult r) {
     const std::string peer = WorkerName(id);
     auto w = workers.find(id);
-    if (w != workers.end() && w->second.job == r.job_id()) w->second.job.clear();
+    if (w != workers.end()) w->second.Forget(r.job_id());
     auto found = FindJob(r.job_id());
     if (!found) {
       const std::string what = "result for unknown job id '" + r.job_id().substr(0, 200) + "'";
-      if (w != workers.end() && !w->second.job.empty()) {
+      if (w != workers.end() && !w->second.jobs.empty()) {
         // A job of the master before a restart, finished by a worker that has joined
         // this one and is running a job of ours: that job is not lost.
         spdlog::warn("{}: {} dropped", peer, what);
@@ -789,57 +925,103 @@ struct Master::Impl {
       Fail(s, "job " + r.job_id() + " failed on " + peer + ": " + r.error());
       return;
     }
-    std::vector<runtime::BlobRef> outs;
-    try {
-      outs = StoreOutputs(s, node, r, peer);
-    } catch (const core::InputError& e) {
-      spdlog::warn("{}: bad result for {}: {}", peer, r.job_id(), e.what());
-      if (n.state == JobState::kRunning && s->running_on[node] == id) {
-        s->running_on.erase(node);
-        s->graph->Requeue(node);
-        ++s->requeued;
-        spdlog::warn("re-queued job {} after a bad result", r.job_id());
+    // Checking, hashing and writing the outputs happens beside the loop; the worker is
+    // free for its next job meanwhile. Accepted() takes it from there.
+    const std::string name = w != workers.end() ? w->second.name : net::PeerName(id);
+    auto result = std::make_shared<runtime::JobResult>(std::move(r));
+    JobNode job = n;  // what the work may read: the loop goes on changing the graph
+    job.dependents.clear();
+    offload.Post([this, s, node, id, peer, name, result, job]() -> std::function<void()> {
+      try {
+        auto outs =
+            std::make_shared<std::vector<runtime::BlobRef>>(StoreOutputs(*s, job, *result, peer));
+        return [this, s, node, id, name, result, outs] {
+          Accepted(s, node, id, name, *result, *outs);
+        };
+      } catch (const core::InputError& e) {
+        return [this, s, node, id, peer, result, what = std::string(e.what())] {
+          spdlog::warn("{}: bad result for {}: {}", peer, result->job_id(), what);
+          const JobNode& n = s->graph->node(node);
+          if (s->state == "running" && n.state == JobState::kRunning && s->running_on.count(node) &&
+              s->running_on[node] == id) {
+            s->running_on.erase(node);
+            s->graph->Requeue(node);
+            ++s->requeued;
+            spdlog::warn("re-queued job {} after a bad result", result->job_id());
+          }
+        };
       }
+    });
+  }
+
+  // A result whose outputs are stored (on the loop's thread again).
+  void Accepted(SessionRec* s, int node, const std::string& id, const std::string& name,
+                const runtime::JobResult& r, const std::vector<runtime::BlobRef>& outs) {
+    const JobNode& n = s->graph->node(node);
+    if (s->state != "running") return;
+    if (n.state == JobState::kDone) {
+      // Another worker's result for the same job was stored first.
+      ++s->duplicates;
+      spdlog::info("late or duplicate result for {} dropped", r.job_id());
       return;
+    }
+    for (const auto& o : outs) {
+      s->bytes_from_workers += int64_t(o.size());
+      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.size());
     }
     if (n.state == JobState::kReady) {
       // Requeued after its worker was lost, and now the result came after all.
       s->graph->MarkRunning(node);
     } else if (s->running_on.count(node) && s->running_on[node] != id) {
       auto other = workers.find(s->running_on[node]);
-      if (other != workers.end() && other->second.job == r.job_id()) other->second.job.clear();
+      if (other != workers.end()) other->second.Forget(r.job_id());
     }
-    ++s->jobs_by_worker[w != workers.end() ? w->second.name : net::PeerName(id)];
+    ++s->jobs_by_worker[name];
     Completed(s, node, outs, r.seconds());
   }
 
+  // Idle workers first get the highest-priority ready jobs; then, while ready jobs are
+  // left over, busy workers get up to options.jobs_ahead more of the stages that come
+  // many to an instant (stereo, fusion), which they fetch the inputs of while they
+  // compute and start the moment their job ends. The long one-per-instant stages are
+  // never sent ahead: one waiting behind another job could keep an idle worker idle.
   void Dispatch() {
-    for (auto& [id, w] : workers) {
-      if (!w.job.empty()) continue;
-      // The highest-priority ready job over every running session (oldest first).
-      SessionRec* best = nullptr;
-      int node = -1;
-      for (const auto& sid : session_order) {
-        SessionRec* s = sessions[sid].get();
-        if (s->state != "running") continue;
-        for (int n : s->graph->ready()) {
-          if (s->graph->node(n).stage == Stage::kSurface) continue;
-          best = s;
-          node = n;
-          break;
-        }
-        if (best) break;
+    for (int ahead = 0; ahead <= options.jobs_ahead; ++ahead) {
+      for (auto& [id, w] : workers) {
+        if (int(w.jobs.size()) != ahead) continue;
+        SessionRec* best = nullptr;
+        int node = -1;
+        if (!NextJob(ahead > 0, &best, &node)) return;
+        runtime::Job job = MakeJob(best, node, w);
+        best->graph->MarkRunning(node);
+        best->running_on[node] = id;
+        Touch(best, node);
+        w.jobs.push_back(job.id());
+        runtime::Envelope env;
+        *env.mutable_job() = std::move(job);
+        SendToWorker(id, env);
       }
-      if (!best) return;
-      runtime::Job job = MakeJob(best, node, w);
-      best->graph->MarkRunning(node);
-      best->running_on[node] = id;
-      Touch(best, node);
-      w.job = job.id();
-      runtime::Envelope env;
-      *env.mutable_job() = std::move(job);
-      SendToWorker(id, env);
     }
+  }
+
+  // The highest-priority ready job over every running session (oldest first). With
+  // `ahead`, none when that job's stage may not be sent ahead: a job sent ahead never
+  // passes a higher-priority one (the worker that takes it next must be idle first).
+  bool NextJob(bool ahead, SessionRec** best, int* node) {
+    for (const auto& sid : session_order) {
+      SessionRec* s = sessions[sid].get();
+      if (s->state != "running") continue;
+      for (int n : s->graph->ready()) {
+        const Stage stage = s->graph->node(n).stage;
+        if (stage == Stage::kSurface) continue;
+        if (ahead && !(stage == Stage::kStereo || stage == Stage::kFusion || stage == Stage::kNoop))
+          return false;
+        *best = s;
+        *node = n;
+        return true;
+      }
+    }
+    return false;
   }
 
   // ---- control ------------------------------------------------------------------------
@@ -896,6 +1078,7 @@ struct Master::Impl {
             it->second->state = "cancelled";
             it->second->finished_s = it->second->Now();
             DropQueued(it->second.get());
+            AbortSurfaces(it->second.get());
             spdlog::info("session {} cancelled", id);
             Publish(*it->second, -1, Stage::kStereo, "cancelled");
           }
@@ -946,8 +1129,8 @@ struct Master::Impl {
         continue;
       }
       try {
-        const runtime::Envelope env = net::DecodeEnvelope(
-            frames[1].to_string_view(), WorkerName(id), options.socket.max_message_bytes);
+        runtime::Envelope env = net::DecodeEnvelope(frames[1].to_string_view(), WorkerName(id),
+                                                    options.socket.max_message_bytes);
         OnWorkerMessage(id, env);
       } catch (const core::InputError& e) {
         spdlog::warn("refused on the worker socket: {}", e.what());
@@ -955,7 +1138,7 @@ struct Master::Impl {
         // A known worker's refused message may have been its result (over the cap):
         // its job would never finish, so it counts as lost with that worker.
         auto w = workers.find(id);
-        if (w != workers.end() && !w->second.job.empty()) {
+        if (w != workers.end() && !w->second.jobs.empty()) {
           LoseWorker(id, std::string("sent a refused message: ") + e.what());
         }
       } catch (const std::exception& e) {
@@ -1008,15 +1191,19 @@ struct Master::Impl {
           {workers_socket.handle(), 0, ZMQ_POLLIN, 0},
           {control_socket.handle(), 0, ZMQ_POLLIN, 0},
           {capture_ingest ? capture_ingest->socket().handle() : nullptr, 0, ZMQ_POLLIN, 0}};
+      // Back soon while work beside the loop is out, so that its outcome is acted on.
+      const int wait_ms = offload.pending() > 0 ? 1 : std::min(interval, 20);
       try {
-        zmq::poll(items, capture_ingest ? 3 : 2, std::chrono::milliseconds(std::min(interval, 20)));
+        zmq::poll(items, capture_ingest ? 3 : 2, std::chrono::milliseconds(wait_ms));
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;
         continue;  // a signal; *stop says whether to go on
       }
+      const auto turn_start = Clock::now();
       if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
       if (capture_ingest && (items[2].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
+      offload.Collect();
       PollSurfaces();
       const auto now = Clock::now();
       std::vector<std::string> expired;
@@ -1034,14 +1221,40 @@ struct Master::Impl {
         next_heartbeat = now + std::chrono::milliseconds(interval);
       }
       Dispatch();
+      if (Clock::now() >= next_journal_sync) {
+        SyncJournals();
+        next_journal_sync = Clock::now() + kJournalSyncInterval;
+      }
+      const double turn = Seconds(Clock::now() - turn_start);
+      loop_busy_s += turn;
+      for (auto& [id, s] : sessions) {
+        if (s->state == "running") s->loop_longest_turn_s = std::max(s->loop_longest_turn_s, turn);
+      }
     }
-    // Let running surface stages finish before the sockets and store go away.
+    SyncJournals();
+    StopSurfaces();
+  }
+
+  void SyncJournals() {
     for (auto& [id, s] : sessions) {
-      for (auto& [node, f] : s->surface) {
-        if (f.valid()) f.wait();
+      if (!s->journal || s->journal->unsynced() == 0) continue;
+      try {
+        s->journal->Sync();
+      } catch (const core::InputError& e) {
+        Fail(s.get(), e.what());
       }
     }
   }
+
+  // Stops every surface stream before the blob store they read goes away.
+  void StopSurfaces() {
+    for (auto& [id, s] : sessions) {
+      AbortSurfaces(s.get());
+      s->surface.clear();
+    }
+  }
+
+  ~Impl() { StopSurfaces(); }
 };
 
 Master::Master(zmq::context_t* context, const MasterOptions& options)

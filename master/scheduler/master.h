@@ -1,5 +1,10 @@
 // The scheduler (SPEC.md "Components"; the ZeroMQ guide's Majordomo broker and
-// Paranoid Pirate heartbeating): one thread polls three sockets.
+// Paranoid Pirate heartbeating): one thread polls three sockets and does only
+// bookkeeping, so that it answers heartbeats, blob requests and control requests at
+// once. Checking and writing a result's files runs on a thread beside it (the worker
+// gets its next job meanwhile), each instant's surface on a thread of its own fed the
+// slabs in plane order as they finish (surface_stream.h), and the journal is fsync'd
+// in groups (journal.h).
 //
 //   workers  ROUTER: dome-workers (DEALER) say Hello with their capacity, get Jobs,
 //            fetch blobs, return JobResults; heartbeats both ways.
@@ -20,7 +25,10 @@
 //   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
 //   OUT/report.json                   per-stage and per-instant seconds and counts,
 //                                     bytes to and from workers per stage, results
-//                                     accepted per worker (jobs_by_worker)
+//                                     accepted per worker (jobs_by_worker), the
+//                                     workers' job seconds (worker_job_seconds), the
+//                                     loop's busy fraction and longest turn, s
+//                                     (master_loop)
 //   OUT/journal.log, OUT/.blobs/      the journal and the job outputs it names
 #pragma once
 
@@ -41,6 +49,10 @@ struct MasterOptions {
   int heartbeat_interval_ms = 1000;               // between heartbeats to each worker, ms
   int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
   int max_job_losses = 5;      // a job lost with this many workers fails its session
+  // Jobs sent to a busy worker beyond the one it runs (count), so that it fetches
+  // their inputs while it computes and starts the next without a round trip; only
+  // stereo and fusion jobs, and only while more are ready than idle workers take.
+  int jobs_ahead = 1;
   net::SocketOptions socket;
   // ROUTER for capture agents (capture_host.h); "" = no capture. Frames go into
   // capture_take (required with it).
@@ -53,7 +65,7 @@ struct MasterOptions {
 
 struct MasterEndpoints {
   std::string workers, control, events;  // as bound (ports resolved)
-  std::string capture;                    // "" without capture_endpoint
+  std::string capture;                   // "" without capture_endpoint
 };
 
 class Master {

@@ -286,16 +286,34 @@ TEST(Integrate, BadInputGivesClearErrors) {
 namespace dome::fusion {
 namespace {
 
-// Block culling is a pure shortcut: with it off every voxel takes the per-voxel path.
+// Block culling is a pure shortcut: with it off every voxel takes the full per-voxel
+// computation (no block, tile or quad shortcut), with uniform weights and with weight maps.
 TEST(Integrate, BlockCullingChangesNothing) {
   const std::vector<RangeImage> images =
       testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
   // A backdrop: every pixel has a surface (a far wall), so free space is everywhere.
   std::vector<RangeImage> walled = images;
   for (auto& im : walled) {
+    im.depth_mm = im.depth_mm.clone();  // cv::Mat copies share pixels
     for (int y = 0; y < im.depth_mm.rows; ++y)
       for (int x = 0; x < im.depth_mm.cols; ++x)
         if (im.depth_mm.at<float>(y, x) == 0) im.depth_mm.at<float>(y, x) = 2900.0f + x;
+  }
+  // A slanted wall through the volume (about 1.6 m from each camera, the spheres' far
+  // side): voxels near it, in front and behind, are decided per voxel.
+  std::vector<RangeImage> near_wall = images;
+  for (auto& im : near_wall) {
+    im.depth_mm = im.depth_mm.clone();
+    for (int y = 0; y < im.depth_mm.rows; ++y)
+      for (int x = 0; x < im.depth_mm.cols; ++x)
+        if (im.depth_mm.at<float>(y, x) == 0) im.depth_mm.at<float>(y, x) = 1580.0f + 1.5f * x;
+  }
+  // Weight maps that vary across the image: the far-behind shortcuts still apply.
+  std::vector<RangeImage> weighted = near_wall;
+  for (auto& im : weighted) {
+    im.weight = cv::Mat(im.depth_mm.size(), CV_32FC1);
+    for (int y = 0; y < im.weight.rows; ++y)
+      for (int x = 0; x < im.weight.cols; ++x) im.weight.at<float>(y, x) = 0.5f + (x + 2 * y) % 3;
   }
   VolumeGrid g;
   g.voxel_size_mm = 10;
@@ -303,12 +321,20 @@ TEST(Integrate, BlockCullingChangesNothing) {
   g.ny = 37;
   g.nz = 300;
   g.origin_mm = Eigen::Vector3d(-230, -190, 0);
-  for (const std::vector<RangeImage>* set :
-       {&images, const_cast<const std::vector<RangeImage>*>(&walled)}) {
+  for (const std::vector<RangeImage>* set : std::initializer_list<const std::vector<RangeImage>*>{
+           &images, &walled, &near_wall, &weighted}) {
     FusionOptions on, off;
     off.block_culling = false;
     const Slab a = Integrator(g, *set, on).IntegrateSlab(0, g.nz);
     const Slab b = Integrator(g, *set, off).IntegrateSlab(0, g.nz);
+    // The scene is seen: many voxels are updated, and free space is clamped.
+    size_t observed = 0, clamped = 0;
+    for (size_t n = 0; n < a.weight.size(); ++n) {
+      observed += a.weight[n] > 0;
+      clamped += a.weight[n] > 0 && a.distance_mm[n] == float(on.front_clamp_mm);
+    }
+    EXPECT_GT(observed, a.weight.size() / 10);
+    EXPECT_GT(clamped, a.weight.size() / 20);
     EXPECT_EQ(std::memcmp(a.distance_mm.data(), b.distance_mm.data(), a.distance_mm.size() * 4), 0);
     EXPECT_EQ(std::memcmp(a.weight.data(), b.weight.data(), a.weight.size() * 4), 0);
     // And slabs that cut blocks (7 planes) agree too.

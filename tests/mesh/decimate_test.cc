@@ -417,6 +417,92 @@ TEST(Decimate, MeshoptimizerRelocationBringsTheCoarseSurfaceCloser) {
   EXPECT_EQ(t.inconsistent_edges, 0);
 }
 
+// A 30 mm sphere with `n` closed 5 mm spheres floating 10 mm off its surface (each with
+// far more triangles than the small-component filter drops).
+io::Mesh SphereWithSmallSpheres(int n, int64_t* sphere_faces) {
+  const auto v = testing::SphereVolume(40, 15.0);
+  io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+  *sphere_faces = int64_t(m.faces.size());
+  const auto small = testing::SphereVolume(8, 2.5);
+  const io::Mesh s = MarchingCubes(small.grid, small.distance, small.weight);
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    const Eigen::Vector3f shift(float(45 * std::cos(a)), float(45 * std::sin(a)), 0.0f);
+    const int base = int(m.vertices.size());
+    for (const auto& p : s.vertices) m.vertices.push_back(p + shift);
+    for (const auto& f : s.faces) m.faces.push_back(f + Eigen::Vector3i::Constant(base));
+  }
+  return m;
+}
+
+// Floaters each held at its last few triangles eat the budget; deleted whole, their
+// triangles go to the main surface, which comes out closer to the truth.
+TEST(Decimate, FloatersAreDeletedWholeWhenCheaperThanCollapsing) {
+  int64_t sphere_faces = 0;
+  const io::Mesh m = SphereWithSmallSpheres(12, &sphere_faces);
+  ASSERT_GT(int64_t(m.faces.size()), sphere_faces + 12 * 20);
+  DecimationOptions o;
+  o.target_triangles = 200;
+  o.component_deletion_factor = 0;
+  DecimationSummary kept_summary, deleted_summary;
+  const io::Mesh kept = Decimate(m, o, &kept_summary);
+  o.component_deletion_factor = DecimationOptions().component_deletion_factor;
+  const io::Mesh deleted = Decimate(m, o, &deleted_summary);
+  EXPECT_EQ(kept_summary.components_deleted, 0);
+  EXPECT_EQ(kept_summary.triangles_deleted, 0);
+  EXPECT_EQ(deleted_summary.components_deleted, 12);
+  EXPECT_GT(deleted_summary.triangles_deleted, 12 * 4 - 1);
+  EXPECT_EQ(deleted_summary.components_removed, 0);  // the filters dropped nothing
+  EXPECT_EQ(kept.faces.size(), 200u);
+  EXPECT_EQ(deleted.faces.size(), 200u);
+  // Everything left is the big sphere, closed, and closer to it than the sphere that had
+  // to share its budget with the floaters.
+  int64_t off_sphere = 0;
+  for (const auto& p : kept.vertices) off_sphere += (p.cast<double>() - kSphereCentre).norm() > 35;
+  EXPECT_GT(off_sphere, 12 * 3);
+  for (const auto& p : deleted.vertices)
+    EXPECT_NEAR((p.cast<double>() - kSphereCentre).norm(), 30.0, 1.5);
+  EXPECT_EQ(AnalyzeTopology(deleted).boundary_edges, 0);
+  io::Mesh kept_sphere = kept;
+  kept_sphere.faces.clear();
+  for (const auto& f : kept.faces) {
+    if ((kept.vertices[f[0]].cast<double>() - kSphereCentre).norm() < 35) {
+      kept_sphere.faces.push_back(f);
+    }
+  }
+  EXPECT_LT(MeanSphereError(deleted, kSphereCentre, 30.0),
+            0.8 * MeanSphereError(kept_sphere, kSphereCentre, 30.0));
+  // An error bound below a deletion's estimate keeps the floaters.
+  o.max_error_mm = 0.2;
+  o.component_deletion_factor = 0.015;  // estimates of 0.015 * 17 mm diagonal = 0.26 mm
+  DecimationSummary bounded;
+  Decimate(m, o, &bounded);
+  EXPECT_EQ(bounded.components_deleted, 0);
+  o.max_error_mm = 0.0;
+  Decimate(m, o, &bounded);
+  EXPECT_GT(bounded.components_deleted, 0);
+}
+
+// The component with the largest area is never deleted, however cheap the deletion.
+TEST(Decimate, TheLargestComponentIsNeverDeleted) {
+  int64_t sphere_faces = 0;
+  const io::Mesh m = SphereWithSmallSpheres(1, &sphere_faces);
+  DecimationOptions o;
+  o.target_triangles = 20;
+  o.component_deletion_factor = 1e-6;
+  DecimationSummary s;
+  const io::Mesh d = Decimate(m, o, &s);
+  EXPECT_EQ(s.components_deleted, 1);
+  EXPECT_EQ(d.faces.size(), 20u);
+  // The coarse sphere's vertices sit outside it; the floater was 40..50 mm out.
+  for (const auto& p : d.vertices) EXPECT_LT((p.cast<double>() - kSphereCentre).norm(), 36.0);
+  // A deletion that would undershoot the target is skipped.
+  o.target_triangles = sphere_faces + 10;
+  const io::Mesh most = Decimate(m, o, &s);
+  EXPECT_EQ(s.components_deleted, 0);
+  EXPECT_EQ(int64_t(most.faces.size()), sphere_faces + 10);
+}
+
 TEST(Decimate, BadOptionsAreRejected) {
   io::Mesh m;
   DecimationOptions o;
@@ -437,6 +523,12 @@ TEST(Decimate, BadOptionsAreRejected) {
   o = {};
   o.min_component_diagonal_mm = std::nan("");
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: min_component_diagonal_mm"});
+  o = {};
+  o.component_deletion_factor = -0.5;
+  testing::ExpectInputError([&] { Decimate(m, o); },
+                            {"decimation: component_deletion_factor", "-0.5"});
+  o.component_deletion_factor = std::nan("");
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: component_deletion_factor"});
   o = {};
   m.vertices.push_back(Eigen::Vector3f::Zero());
   m.faces.push_back(Eigen::Vector3i(0, 1, 2));

@@ -32,6 +32,30 @@ using testing::RunDomeBinary;
 
 using Cluster = testing::ClusterFixture;
 
+// A control socket that takes requests and never answers: the client gives up after
+// --timeout-s, naming the endpoint.
+TEST(ClientTimeout, ControlCommandsGiveUpAfterTimeoutS) {
+  zmq::context_t context;
+  zmq::socket_t silent(context, zmq::socket_type::router);
+  silent.bind("tcp://127.0.0.1:*");
+  const std::string endpoint = net::BoundEndpoint(silent);
+  for (const std::string command : {"status", "list", "cancel abc", "submit /nonexistent"}) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = RunDomeBinary(command + " --master " + endpoint + " --insecure --timeout-s 0.3" +
+                                 (command.rfind("submit", 0) == 0 ? " --out /tmp/unused" : ""));
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_NE(r.exit_code, 0) << command << ": " << r.output;
+    EXPECT_NE(r.output.find(endpoint), std::string::npos) << command << ": " << r.output;
+    EXPECT_NE(r.output.find("no answer within 300 ms"), std::string::npos)
+        << command << ": " << r.output;
+    EXPECT_LT(seconds, 8.0) << command << " waited for the default 10 s";
+  }
+  const auto bad = RunDomeBinary("status --master " + endpoint + " --insecure --timeout-s 0");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("--timeout-s"), std::string::npos) << bad.output;
+}
+
 TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   ASSERT_EQ(instants_.size(), 2u);
   const std::string instant = instants_[1];
@@ -112,6 +136,22 @@ TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
   const std::string log = m.process->Log();
   for (int w = 0; w < 3; ++w)
     EXPECT_NE(log.find("worker w" + std::to_string(w) + " joined"), std::string::npos);
+  // The scheduling figures of report.json: three workers run at most one job each at a
+  // time, so their job seconds fit in three times the session's; the loop's busy
+  // share is a fraction, its longest turn within the session.
+  const std::string report = io::ReadFileBytes(out / "report.json");
+  auto number = [&](const std::string& key) {
+    const auto p = report.find("\"" + key + "\": ");
+    return p == std::string::npos ? -1.0 : std::stod(report.substr(p + key.size() + 4));
+  };
+  const double seconds = number("seconds");
+  ASSERT_GT(seconds, 0) << report;
+  EXPECT_GT(number("worker_job_seconds"), 0) << report;
+  EXPECT_LE(number("worker_job_seconds"), 3 * seconds) << report;
+  EXPECT_GT(number("busy_fraction"), 0) << report;
+  EXPECT_LE(number("busy_fraction"), 1) << report;
+  EXPECT_GE(number("longest_turn_s"), 0) << report;
+  EXPECT_LE(number("longest_turn_s"), seconds) << report;
   // `dome list` and `dome status` answer from the same master.
   const auto list = RunDomeBinary("list --master " + m.control + client_keys);
   EXPECT_NE(list.output.find("done"), std::string::npos) << list.output;

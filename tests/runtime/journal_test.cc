@@ -1,6 +1,8 @@
 #include "scheduler/journal.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <fstream>
 
@@ -61,6 +63,32 @@ TEST(Journal, AnotherSessionsJournalIsMovedAside) {
   EXPECT_TRUE(j.done().empty());
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "journal.log.old"));
   EXPECT_EQ(io::ReadFileBytes(path), "dome-journal 1 two\n");
+}
+
+TEST(Journal, RecordsWrittenButNotYetSyncedSurviveAKilledProcess) {
+  testing::TempDir dir;
+  const auto path = dir.path() / "journal.log";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // A master killed between two group commits: no Sync, no destructor.
+    Journal j(path, "d");
+    j.RecordDone("t0/stereo/a", {{{"stereo", std::string(64, 'a')}}});
+    j.RecordDone("t0/stereo/b", {{{"stereo", std::string(64, 'b')}}});
+    ::_exit(j.unsynced() == 2 ? 0 : 3);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "two records appended, none synced";
+  Journal j(path, "d");
+  ASSERT_EQ(j.done().size(), 2u);
+  EXPECT_EQ(j.done().at("t0/stereo/b").outputs[0].second, std::string(64, 'b'));
+  EXPECT_EQ(j.unsynced(), 0);
+  j.RecordDone("t0/stereo/c", {});
+  EXPECT_EQ(j.unsynced(), 1);
+  j.Sync();
+  EXPECT_EQ(j.unsynced(), 0);
 }
 
 }  // namespace

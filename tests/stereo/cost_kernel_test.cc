@@ -171,9 +171,9 @@ double NearTruth(const std::vector<KernelOutput>& out, size_t k, int width, doub
 }
 
 // The pre-warped kernel (neighbours resampled once by the homography at infinity, each
-// level a scaling of that): its SIMD and scalar paths agree to float rounding, and it
-// recovers the plane as well as the exact per-pixel warp, at the same levels for almost
-// every pixel (it interpolates the neighbours twice, so not bit for bit).
+// level a scaling of that): its SIMD (fixed point) and scalar paths agree up to that rounding, and
+// it recovers the plane as well as the exact per-pixel warp, at the same levels for almost every
+// pixel (it interpolates the neighbours twice, so not bit for bit).
 TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
   const Scene scene = MakeScene();
   const int width = scene.input.width;
@@ -218,7 +218,8 @@ TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
                                        (pre_scalar[k].best_cost[i] + 100.0));
     }
     EXPECT_GT(same, 0.999 * total) << "window " << k;
-    EXPECT_LT(max_rel_cost_diff, 1e-4) << "window " << k;
+    // The SIMD path matches in fixed point (greys to 1/32 of a level).
+    EXPECT_LT(max_rel_cost_diff, 1e-2) << "window " << k;
   }
 }
 

@@ -37,8 +37,10 @@ StereoInput PlaneInput(double plane_mm, bool textured) {
   return in;
 }
 
+// With the default warp (pre-warped neighbours, StereoOptions::prewarp_neighbours)
+// unless `prewarp` says otherwise.
 void ExpectPlaneRecovered(double plane_mm, double median_tolerance, double max_tolerance,
-                          bool prewarp = false) {
+                          bool prewarp = StereoOptions().prewarp_neighbours) {
   StereoOptions opt;
   opt.window_sizes_px = {5, 9};
   opt.num_threads = 2;
@@ -80,20 +82,26 @@ TEST(MultiBaselineTest, RecoversFrontoParallelTexturedPlaneBetweenLevels) {
   ExpectPlaneRecovered(2000.0, 0.006, 0.01);
 }
 
-// The same with the neighbours pre-warped (StereoOptions::prewarp_neighbours): the same
-// tolerances on and between levels.
-TEST(MultiBaselineTest, RecoversPlaneWithPrewarpedNeighbours) {
-  ExpectPlaneRecovered(LevelDepthMm(7, 29, 750, 5000), 1e-3, 5e-3, true);
-  ExpectPlaneRecovered(2000.0, 0.006, 0.01, true);
+// The same with the exact per-pixel warp (prewarp_neighbours false) and with the
+// pre-warped neighbours: the same tolerances on and between levels.
+TEST(MultiBaselineTest, RecoversPlaneWithEitherWarp) {
+  for (bool prewarp : {false, true}) {
+    SCOPED_TRACE(prewarp ? "pre-warped" : "exact warp");
+    ExpectPlaneRecovered(LevelDepthMm(7, 29, 750, 5000), 1e-3, 5e-3, prewarp);
+    ExpectPlaneRecovered(2000.0, 0.006, 0.01, prewarp);
+  }
 }
 
 TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {
-  StereoOptions opt;
-  opt.num_threads = 2;
-  const StereoResult r = ComputeDepth(PlaneInput(2000.0, false), opt);
-  ASSERT_EQ(r.range_images.size(), 1u);
-  EXPECT_EQ(cv::countNonZero(r.range_images[0].depth_mm), 0);
-  EXPECT_EQ(r.range_images[0].density, 0.0);
+  for (bool prewarp : {false, true}) {
+    StereoOptions opt;
+    opt.num_threads = 2;
+    opt.prewarp_neighbours = prewarp;
+    const StereoResult r = ComputeDepth(PlaneInput(2000.0, false), opt);
+    ASSERT_EQ(r.range_images.size(), 1u);
+    EXPECT_EQ(cv::countNonZero(r.range_images[0].depth_mm), 0) << prewarp;
+    EXPECT_EQ(r.range_images[0].density, 0.0) << prewarp;
+  }
 }
 
 TEST(MultiBaselineTest, LevelCountFromGeometry) {

@@ -2,9 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "io/depth_tiff.h"
 #include "testing/expect_error.h"
@@ -16,6 +20,16 @@ namespace {
 
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path) << text;
+}
+
+// OUT/<instant>/depth/c00.tiff of a `dome stereo --camera c00` run; empty when missing.
+cv::Mat ReadC00Depth(const std::string& out) {
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out)) {
+    if (e.path().filename() == "c00.tiff" && e.path().parent_path().filename() == "depth") {
+      return io::ReadDepthTiff(e.path());
+    }
+  }
+  return cv::Mat();
 }
 
 TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
@@ -32,6 +46,7 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   o.stereo.min_texture_grey = 3;
   o.cluster.max_neighbours = 2;
   o.cluster.max_axis_angle_deg = 45;
+  o.stereo.prewarp_neighbours = !StereoOptions().prewarp_neighbours;
   const TakeStereoOptions r = ParseStereoOptionsJson(StereoOptionsToJson(o), "test");
   EXPECT_EQ(r.stereo.z_min_mm, 600);
   EXPECT_EQ(r.stereo.z_max_mm, 4200);
@@ -45,6 +60,7 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   EXPECT_EQ(r.stereo.min_texture_grey, 3);
   EXPECT_EQ(r.cluster.max_neighbours, 2);
   EXPECT_EQ(r.cluster.max_axis_angle_deg, 45);
+  EXPECT_EQ(r.stereo.prewarp_neighbours, !StereoOptions().prewarp_neighbours);
 }
 
 TEST(StereoOptionsJsonTest, MissingFieldsKeepTheBase) {
@@ -99,14 +115,7 @@ TEST(StereoOptionsJsonTest, CommandReadsOptionsFile) {
   // --windows 7 replaced the file's [5, 9]: one range image, window 7.
   EXPECT_NE(run.output.find("w7 density"), std::string::npos) << run.output;
   EXPECT_EQ(run.output.find("w9"), std::string::npos) << run.output;
-  bool found = false;
-  for (const auto& e : std::filesystem::recursive_directory_iterator(out)) {
-    if (e.path().filename() == "c00.tiff" && e.path().parent_path().filename() == "depth") {
-      found = true;
-      EXPECT_EQ(io::ReadDepthTiff(e.path()).cols, 160);
-    }
-  }
-  EXPECT_TRUE(found);
+  EXPECT_EQ(ReadC00Depth(out).cols, 160);
 
   // The real profile: windows 9 and 13.
   auto real = dome::testing::RunDomeBinary("stereo " + take +
@@ -122,6 +131,36 @@ TEST(StereoOptionsJsonTest, CommandReadsOptionsFile) {
                                           dir.File("bad.json") + " --out " + out);
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.output.find("bad.json: z_min_mm"), std::string::npos) << bad.output;
+
+  // The exact per-pixel warp, by flag or by "prewarp_neighbours": false in the file: the
+  // same depths, close to the default ones. (The small dome's clusters span it: a
+  // neighbour of c00 has the near depth planes behind it, so the default falls back to
+  // the exact warp here; cost_kernel_test and multi_baseline_test compare the warps.)
+  WriteText(dir / "exact.json", R"({"prewarp_neighbours": false})");
+  const std::string common =
+      "stereo " + take + " --camera c00 --windows 7 --threads 2 --no-preview";
+  const auto by_flag =
+      dome::testing::RunDomeBinary(common + " --exact-warp --out " + dir.File("x1"));
+  const auto by_file = dome::testing::RunDomeBinary(
+      common + " --options " + dir.File("exact.json") + " --out " + dir.File("x2"));
+  const auto pre = dome::testing::RunDomeBinary(common + " --out " + dir.File("p"));
+  ASSERT_EQ(by_flag.exit_code, 0) << by_flag.output;
+  ASSERT_EQ(by_file.exit_code, 0) << by_file.output;
+  ASSERT_EQ(pre.exit_code, 0) << pre.output;
+  const cv::Mat exact = ReadC00Depth(dir.File("x1")), prewarped = ReadC00Depth(dir.File("p"));
+  ASSERT_FALSE(exact.empty());
+  ASSERT_FALSE(prewarped.empty());
+  EXPECT_EQ(cv::norm(exact, ReadC00Depth(dir.File("x2")), cv::NORM_INF), 0.0);
+  std::vector<double> rel;
+  for (int y = 0; y < exact.rows; ++y) {
+    for (int x = 0; x < exact.cols; ++x) {
+      const float a = exact.at<float>(y, x), b = prewarped.at<float>(y, x);
+      if (a > 0 && b > 0) rel.push_back(std::abs(a - b) / a);
+    }
+  }
+  ASSERT_GT(rel.size(), 1000u);
+  std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+  EXPECT_LT(rel[rel.size() / 2], 0.01);  // half the depths within 1% of each other
 }
 
 }  // namespace

@@ -1,0 +1,280 @@
+#include "pipeline/coarse_to_fine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "core/timer.h"
+#include "pipeline/take_crop.h"
+
+namespace dome::pipeline {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Block averages of `grey` (NaN = no data); a block with any NaN is NaN.
+cv::Mat Reduce(const cv::Mat& grey, int factor) {
+  const cv::Size size(grey.cols / factor, grey.rows / factor);
+  const cv::Rect used(0, 0, size.width * factor, size.height * factor);
+  const cv::Mat valid = grey(used) == grey(used);
+  cv::Mat filled = grey(used).clone(), valid_f;
+  filled.setTo(0.0f, ~valid);
+  valid.convertTo(valid_f, CV_32F, 1.0 / 255.0);
+  cv::Mat out, coverage;
+  cv::resize(filled, out, size, 0, 0, cv::INTER_AREA);
+  cv::resize(valid_f, coverage, size, 0, 0, cv::INTER_AREA);
+  out.setTo(kNaN, coverage < 1.0f - 1e-4f);
+  return out;
+}
+
+// The bounding rectangle in `nb` of the rectangle `rect` of the reference image seen at
+// depths z0 and z1 (every point between projects inside it), grown by `margin_px` and
+// clipped to the image; a few pixels at the image corner when nothing is in view (a
+// neighbour that sees nothing then costs as little as it can).
+cv::Rect NeighbourRect(const geometry::TsaiCamera& ref, const geometry::TsaiCamera& nb,
+                       const cv::Rect& rect, double z0, double z1, int margin_px) {
+  double lo_u = std::numeric_limits<double>::infinity(), lo_v = lo_u, hi_u = -lo_u, hi_v = -lo_u;
+  for (int c = 0; c < 4; ++c) {
+    const Eigen::Vector2d px(c & 1 ? rect.x + rect.width : rect.x - 1.0,
+                             c & 2 ? rect.y + rect.height : rect.y - 1.0);
+    for (double z : {z0, z1}) {
+      Eigen::Vector2d q;
+      if (!nb.Project(ref.BackProjectAtDepth(px, z), &q)) continue;
+      lo_u = std::min(lo_u, q.x());
+      hi_u = std::max(hi_u, q.x());
+      lo_v = std::min(lo_v, q.y());
+      hi_v = std::max(hi_v, q.y());
+    }
+  }
+  const cv::Rect image(0, 0, nb.width_px, nb.height_px);
+  cv::Rect r;
+  if (lo_u <= hi_u && lo_v <= hi_v) {
+    const double x0 = std::max(-1.0, std::floor(lo_u) - margin_px);
+    const double y0 = std::max(-1.0, std::floor(lo_v) - margin_px);
+    const double x1 = std::min(double(nb.width_px) + 1, std::ceil(hi_u) + margin_px + 1);
+    const double y1 = std::min(double(nb.height_px) + 1, std::ceil(hi_v) + margin_px + 1);
+    if (x1 > x0 && y1 > y0) r = cv::Rect(int(x0), int(y0), int(x1 - x0), int(y1 - y0)) & image;
+  }
+  if (r.width < 4 || r.height < 4) r = cv::Rect(0, 0, 4, 4) & image;
+  return r;
+}
+
+}  // namespace
+
+void CoarseToFineOptions::Check() const {
+  core::Require(coarse_factor >= 2 && coarse_factor <= 16, "coarse_to_fine.coarse_factor",
+                "must be in 2..16, got " + std::to_string(coarse_factor));
+  core::Require(coarse_window_px >= 1 && coarse_window_px % 2 == 1 && coarse_window_px <= 31,
+                "coarse_to_fine.coarse_window_px",
+                "must be odd, 1..31, got " + std::to_string(coarse_window_px));
+  core::Require(tile_px >= 8, "coarse_to_fine.tile_px",
+                "must be at least 8 px, got " + std::to_string(tile_px));
+  core::Require(std::isfinite(margin_levels) && margin_levels > 0, "coarse_to_fine.margin_levels",
+                "must be positive, got " + std::to_string(margin_levels));
+  core::Require(trim_fraction >= 0 && trim_fraction < 0.5, "coarse_to_fine.trim_fraction",
+                "must be in [0, 0.5), got " + std::to_string(trim_fraction));
+  core::Require(std::isfinite(coarse_min_uniqueness) && coarse_min_uniqueness >= 0,
+                "coarse_to_fine.coarse_min_uniqueness",
+                "must be >= 0, got " + std::to_string(coarse_min_uniqueness));
+  core::Require(min_coarse_depths >= 1, "coarse_to_fine.min_coarse_depths",
+                "must be at least 1, got " + std::to_string(min_coarse_depths));
+}
+
+geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor) {
+  geometry::TsaiCamera c = camera;
+  // Coarse pixel i is centred on fine pixel factor i + (factor - 1) / 2.
+  c.sensor.dx_mm *= factor;
+  c.sensor.dy_mm *= factor;
+  c.cx_px = (camera.cx_px + 0.5) / factor - 0.5;
+  c.cy_px = (camera.cy_px + 0.5) / factor - 0.5;
+  c.width_px = camera.width_px / factor;
+  c.height_px = camera.height_px / factor;
+  return c;
+}
+
+stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
+                                              const stereo::StereoOptions& options,
+                                              const CoarseToFineOptions& c2f,
+                                              CoarseToFineStats* stats) {
+  core::Stopwatch watch;
+  CoarseToFineStats st;
+  options.Check();
+  c2f.Check();
+  core::Require(!input.neighbours.empty(), "cluster",
+                "camera '" + input.reference.camera.id + "' has no neighbours");
+  const int f = c2f.coarse_factor;
+  const auto& ref_cam = input.reference.camera;
+  ref_cam.Check("reference '" + ref_cam.id + "': camera");
+  core::Require(ref_cam.width_px >= 4 * f && ref_cam.height_px >= 4 * f,
+                "reference '" + ref_cam.id + "'",
+                "image too small for a coarse pass reduced " + std::to_string(f) + " times");
+
+  // Greys once per image, stretched over the whole image.
+  std::vector<const stereo::StereoView*> views = {&input.reference};
+  for (const auto& v : input.neighbours) views.push_back(&v);
+  std::vector<cv::Mat> greys;
+  for (size_t i = 0; i < views.size(); ++i) {
+    views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
+    greys.push_back(
+        stereo::GreyImage(*views[i], options.normalize_contrast, /*undistort=*/false,
+                          (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
+  }
+
+  // 1. Coarse pass over the whole range.
+  stereo::StereoInput coarse;
+  coarse.reference = {ReducedCamera(ref_cam, f), Reduce(greys[0], f)};
+  for (size_t i = 1; i < views.size(); ++i) {
+    coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), Reduce(greys[i], f)});
+  }
+  stereo::StereoOptions coarse_options = options;
+  coarse_options.normalize_contrast = false;
+  coarse_options.window_sizes_px = {c2f.coarse_window_px};
+  if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
+  if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
+  const stereo::StereoResult coarse_result = stereo::ComputeDepth(coarse, coarse_options);
+  const cv::Mat& coarse_depth = coarse_result.range_images[0].depth_mm;
+  // Inverse depth per coarse level, 1/mm.
+  const double coarse_w_step =
+      (1.0 / options.z_min_mm - 1.0 / options.z_max_mm) / std::max(1, coarse_result.num_levels - 1);
+
+  st.coarse_levels = coarse_result.num_levels;
+  st.coarse_seconds = watch.ElapsedSeconds();
+  watch.Restart();
+
+  // 2. Fine pass per tile.
+  stereo::StereoResult result;
+  result.camera = ref_cam.id;
+  const int width = ref_cam.width_px, height = ref_cam.height_px;
+  for (int w : options.window_sizes_px) {
+    stereo::RangeImage ri;
+    ri.window_px = w;
+    ri.depth_mm = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+    ri.reliability = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+    result.range_images.push_back(std::move(ri));
+  }
+  const int half =
+      *std::max_element(options.window_sizes_px.begin(), options.window_sizes_px.end()) / 2;
+  const double w_range = 1.0 / options.z_min_mm - 1.0 / options.z_max_mm;
+  const cv::Rect image(0, 0, width, height);
+  // The tiles to search and their depth bounds.
+  struct TileJob {
+    cv::Rect tile;
+    double z_lo, z_hi;
+  };
+  std::vector<TileJob> jobs;
+  std::vector<float> depths;
+  for (int ty = 0; ty < height; ty += c2f.tile_px) {
+    for (int tx = 0; tx < width; tx += c2f.tile_px) {
+      const cv::Rect tile = cv::Rect(tx, ty, c2f.tile_px, c2f.tile_px) & image;
+      // Coarse depths over the tile, its windows and one coarse pixel more.
+      const int g = half + f;
+      const cv::Rect around =
+          cv::Rect((tile.x - g) / f, (tile.y - g) / f, (tile.width + 2 * g) / f + 2,
+                   (tile.height + 2 * g) / f + 2) &
+          cv::Rect(0, 0, coarse_depth.cols, coarse_depth.rows);
+      depths.clear();
+      for (int y = std::max(0, around.y); y < around.br().y; ++y) {
+        const float* d = coarse_depth.ptr<float>(y);
+        for (int x = std::max(0, around.x); x < around.br().x; ++x) {
+          if (d[x] > 0) depths.push_back(d[x]);
+        }
+      }
+      ++st.tiles;
+      if (depths.size() < size_t(c2f.min_coarse_depths)) continue;
+      const size_t trim = size_t(c2f.trim_fraction * double(depths.size()));
+      std::nth_element(depths.begin(), depths.begin() + trim, depths.end());
+      const double near_z = depths[trim];
+      std::nth_element(depths.begin(), depths.end() - 1 - trim, depths.end());
+      const double far_z = depths[depths.size() - 1 - trim];
+      const double margin_w = c2f.margin_levels * coarse_w_step;
+      const double z_lo = std::max(options.z_min_mm, 1.0 / (1.0 / near_z + margin_w));
+      const double far_w = 1.0 / far_z - margin_w;
+      const double z_hi = far_w > 0 ? std::min(options.z_max_mm, 1.0 / far_w) : options.z_max_mm;
+      if (z_hi > z_lo) jobs.push_back({tile, z_lo, z_hi});
+    }
+  }
+
+  // Tiles are small: one thread each, threads dealt tiles in turn (the object is
+  // usually central, so contiguous halves would be uneven). Each tile writes only its
+  // own pixels of the result.
+  const int threads = std::max(
+      1,
+      int(std::min<int64_t>(options.num_threads > 0 ? options.num_threads : core::HardwareThreads(),
+                            int64_t(jobs.size()))));
+  struct SlotStats {
+    int matched = 0, max_levels = 0;
+    double level_sum = 0, prepare_seconds = 0, match_seconds = 0;
+  };
+  std::vector<SlotStats> slots(static_cast<size_t>(threads));
+  core::ParallelFor(0, threads, threads, [&](int64_t s0, int64_t s1) {
+    for (int64_t slot = s0; slot < s1; ++slot) {
+      SlotStats& ss = slots[size_t(slot)];
+      for (size_t j = size_t(slot); j < jobs.size(); j += size_t(threads)) {
+        const TileJob& job = jobs[j];
+        const cv::Rect ref_rect =
+            cv::Rect(job.tile.x - half - 1, job.tile.y - half - 1, job.tile.width + 2 * half + 2,
+                     job.tile.height + 2 * half + 2) &
+            image;
+        stereo::StereoInput in;
+        in.reference = {CropCamera(ref_cam, ref_rect), greys[0](ref_rect).clone()};
+        for (size_t i = 1; i < views.size(); ++i) {
+          const cv::Rect r =
+              NeighbourRect(ref_cam, views[i]->camera, ref_rect, job.z_lo, job.z_hi, 4);
+          in.neighbours.push_back({CropCamera(views[i]->camera, r), greys[i](r).clone()});
+        }
+        stereo::StereoOptions o = options;
+        o.normalize_contrast = false;
+        o.num_threads = 1;
+        o.z_min_mm = job.z_lo;
+        o.z_max_mm = job.z_hi;
+        if (options.num_levels > 0) {
+          o.num_levels = std::max(
+              5,
+              int(std::ceil(options.num_levels * (1.0 / job.z_lo - 1.0 / job.z_hi) / w_range)) + 1);
+        } else {
+          std::vector<geometry::TsaiCamera> nb;
+          for (const auto& v : in.neighbours) nb.push_back(v.camera);
+          try {
+            o.num_levels = std::max(5, stereo::CountDepthLevels(in.reference.camera, nb, job.z_lo,
+                                                                job.z_hi, options.level_step_px));
+          } catch (const core::InputError&) {
+            continue;  // no neighbour sees this tile: nothing to match
+          }
+        }
+        const stereo::StereoResult r = stereo::ComputeDepth(in, o);
+        ++ss.matched;
+        ss.max_levels = std::max(ss.max_levels, r.num_levels);
+        ss.level_sum += r.num_levels;
+        ss.prepare_seconds += r.prepare_seconds;
+        ss.match_seconds += r.match_seconds;
+        const cv::Rect inner(job.tile.x - ref_rect.x, job.tile.y - ref_rect.y, job.tile.width,
+                             job.tile.height);
+        for (size_t k = 0; k < r.range_images.size(); ++k) {
+          r.range_images[k].depth_mm(inner).copyTo(result.range_images[k].depth_mm(job.tile));
+          r.range_images[k].reliability(inner).copyTo(result.range_images[k].reliability(job.tile));
+        }
+      }
+    }
+  });
+  for (const SlotStats& ss : slots) {
+    result.num_levels = std::max(result.num_levels, ss.max_levels);
+    result.prepare_seconds += ss.prepare_seconds;
+    result.match_seconds += ss.match_seconds;
+    st.tiles_matched += ss.matched;
+    st.mean_tile_levels += ss.level_sum;
+  }
+  st.fine_seconds = watch.ElapsedSeconds();
+  if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
+  if (stats) *stats = st;
+  for (auto& ri : result.range_images) {
+    ri.density = double(cv::countNonZero(ri.depth_mm)) / (double(width) * height);
+  }
+  return result;
+}
+
+}  // namespace dome::pipeline

@@ -1,0 +1,71 @@
+// Coarse-to-fine multi-baseline stereo (stereo/multi_baseline.h) over image tiles.
+//
+// The full search range at full resolution costs pixels x levels (the Robovision
+// scenes: 1280x1024 px and ~550 levels per camera). Here:
+//   1. coarse pass: every image reduced by `coarse_factor` (pixel averages; a coarse
+//      pixel is invalid if any of its pixels is) and matched over the whole range with
+//      `coarse_window_px`;
+//   2. fine pass: the reference image is cut into tiles of `tile_px`; each tile is
+//      matched at full resolution with the options given, but only between the least
+//      and greatest coarse depth found in and around it (the extreme `trim_fraction`
+//      of them dropped on each side: stray coarse matches), widened on both sides by
+//      `margin_levels` coarse levels (the coarse depths are good to a fraction of one);
+//      tiles with fewer than `min_coarse_depths` coarse depths around them (coarse
+//      matches pass `coarse_min_uniqueness`) are left without depth. Every
+//      image is cut to what the tile can see (the reference: the tile and its window
+//      margin; a neighbour: the projections of that rectangle between the tile's depth
+//      bounds), so the cost of a tile is its pixels x its own levels. Tiles run in
+//      parallel (options.num_threads, one thread per tile); the result does not depend
+//      on the thread count.
+// Contrast normalisation, when asked for, is applied once to each whole image before
+// cutting, with the same percentile stretch as ComputeDepth, so that every tile sees
+// the greys a single full-image run would.
+//
+// Depths are z along the reference optical axis, mm, as ComputeDepth's. A pixel the
+// full-range search would give a depth can be lost when its coarse neighbourhood has
+// no depth or a wrong one, and a tile's narrower search can keep a minimum the full
+// range would have rejected as not unique.
+#pragma once
+
+#include "stereo/multi_baseline.h"
+
+namespace dome::pipeline {
+
+struct CoarseToFineOptions {
+  int coarse_factor = 4;        // image reduction of the coarse pass (>= 2)
+  int coarse_window_px = 7;     // SSD window side of the coarse pass, coarse pixels (odd)
+  int tile_px = 64;             // fine pass tile side, full-resolution pixels
+  double margin_levels = 2.0;   // added below and above a tile's coarse depths, coarse levels
+  double trim_fraction = 0.02;  // of a tile's coarse depths ignored at each end, [0, 0.5)
+  int min_coarse_depths = 1;    // tiles with fewer coarse depths around them are skipped
+  // Uniqueness margin of the coarse pass (StereoOptions::min_uniqueness); 0: the fine
+  // pass's. A stricter one keeps fewer, surer coarse depths, so tiles search less.
+  double coarse_min_uniqueness = 0.0;
+
+  // Throws core::InputError naming the field ("coarse_to_fine.tile_px") when out of range.
+  void Check() const;
+};
+
+// The camera of an image reduced by `factor` (pixel (i, j) averaging the factor x factor
+// block from (factor i, factor j)): pitch times factor, centre moved to match, size
+// rounded down.
+geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor);
+
+// Where the work went, for benchmarks.
+struct CoarseToFineStats {
+  int coarse_levels = 0;        // levels of the coarse pass
+  int tiles = 0;                // tiles of the reference image
+  int tiles_matched = 0;        // tiles given a fine search
+  double mean_tile_levels = 0;  // levels per matched tile, mean
+  double coarse_seconds = 0;    // greys, reduction and the coarse pass, wall
+  double fine_seconds = 0;      // every tile, wall
+};
+
+// Stereo as ComputeDepth(input, options), coarse to fine (above). result.num_levels is
+// the most levels any fine tile searched.
+stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
+                                              const stereo::StereoOptions& options,
+                                              const CoarseToFineOptions& c2f,
+                                              CoarseToFineStats* stats = nullptr);
+
+}  // namespace dome::pipeline

@@ -1,0 +1,69 @@
+// The master's surface stage of one instant, streamed (SPEC.md "Pipeline": stitch +
+// marching cubes in plane order): a thread that takes the instant's fusion slabs in
+// plane order as they finish, each as soon as every slab before it is in, runs
+// pipeline::ExtractSurface over them (StreamingMarchingCubes: one slab in memory) and
+// writes OUT/<instant>/mesh.ply and its blob. When the last slab arrives only its own
+// planes are left to do, so the instant's decimation starts almost at once.
+//
+// Slabs are read from the blob store by address (the store keeps them until the
+// surface is journalled). Feed() and the accessors are for the master's loop; the
+// extraction runs on the stream's own thread, never on the loop.
+#pragma once
+
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fusion/volume.h"
+#include "runtime.pb.h"
+#include "scheduler/blob_store.h"
+
+namespace dome::scheduler {
+
+class SurfaceStream {
+ public:
+  // `dir`: OUT/<instant>; `blob_dir`: where the mesh blob goes (OUT/.blobs).
+  SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobStore* store,
+                const std::filesystem::path& dir, const std::filesystem::path& blob_dir);
+  // Aborts a stream still waiting for slabs and joins its thread.
+  ~SurfaceStream();
+  SurfaceStream(const SurfaceStream&) = delete;
+  SurfaceStream& operator=(const SurfaceStream&) = delete;
+
+  // Slab `index` (0 = planes from 0) is in the store under `sha256`. Feeding an index
+  // twice keeps the first.
+  void Feed(int index, const std::string& sha256);
+  bool Fed(int index) const;
+  // Stops waiting for slabs; the stream then ends with an error.
+  void Abort();
+
+  // True once the stream has ended (mesh written, or an error).
+  bool Finished() const;
+  // After Finished(): the mesh blob ("mesh.ply"); throws the stream's error.
+  runtime::BlobRef Result();
+  // Seconds the thread spent working (reading, stitching, writing), waits excluded.
+  double busy_seconds() const;
+
+ private:
+  void Run();
+  std::string WaitForSlab(int index);
+
+  const fusion::VolumeGrid grid_;
+  BlobStore* store_;
+  const std::filesystem::path dir_, blob_dir_;
+  mutable std::mutex mutex_;
+  std::condition_variable fed_cv_;
+  std::vector<std::string> slabs_;  // sha256 per index, "" until fed
+  bool abort_ = false;
+  bool finished_ = false;
+  double busy_s_ = 0;
+  std::optional<runtime::BlobRef> mesh_;
+  std::string error_;
+  std::thread thread_;  // last: starts after the members it uses
+};
+
+}  // namespace dome::scheduler

@@ -1,0 +1,162 @@
+// Coarse-to-fine stereo over tiles (pipeline/coarse_to_fine.h) on a rendered textured
+// plane: the depth of the full-range search, from far fewer levels per tile.
+#include "pipeline/coarse_to_fine.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "stereo/stereo_test_util.h"
+#include "testing/expect_error.h"
+
+namespace dome::pipeline {
+namespace {
+
+using stereo::testing::MakeTexture;
+using stereo::testing::PlaneCamera;
+using stereo::testing::RenderPlane;
+
+constexpr int kWidth = 320, kHeight = 240;
+constexpr double kFocalPx = 400.0;
+
+stereo::StereoInput PlaneInput(double plane_mm, bool textured) {
+  const cv::Mat texture = MakeTexture(1024, 11);
+  const double texel_mm = 6.0;  // about 1.3 px per texel at 2 m with f = 400 px
+  stereo::StereoInput in;
+  in.reference.camera = PlaneCamera("ref", 0, 0, kWidth, kHeight, kFocalPx);
+  int k = 0;
+  for (const Eigen::Vector2d& o : {Eigen::Vector2d(120, 0), Eigen::Vector2d(0, 90)}) {
+    in.neighbours.push_back(
+        {PlaneCamera("n" + std::to_string(k++), o.x(), o.y(), kWidth, kHeight, kFocalPx), {}});
+  }
+  auto render = [&](const geometry::TsaiCamera& c) {
+    return textured ? RenderPlane(c, plane_mm, texture, texel_mm)
+                    : cv::Mat(c.height_px, c.width_px, CV_8UC1, cv::Scalar(128));
+  };
+  in.reference.image = render(in.reference.camera);
+  for (auto& v : in.neighbours) v.image = render(v.camera);
+  return in;
+}
+
+stereo::StereoOptions Options() {
+  stereo::StereoOptions o;
+  o.window_sizes_px = {9};
+  o.num_threads = 2;
+  o.normalize_contrast = true;
+  return o;
+}
+
+// Relative depth errors over the interior (both neighbours see every window there).
+std::vector<double> InteriorErrors(const cv::Mat& depth, double plane_mm, int* interior) {
+  std::vector<double> errors;
+  *interior = 0;
+  for (int y = 40; y < kHeight - 40; ++y) {
+    for (int x = 40; x < kWidth - 80; ++x) {
+      ++*interior;
+      const float d = depth.at<float>(y, x);
+      if (d > 0) errors.push_back(std::abs(d - plane_mm) / plane_mm);
+    }
+  }
+  return errors;
+}
+
+TEST(CoarseToFine, ReducedCameraProjectsToBlockCentres) {
+  const auto cam = PlaneCamera("c", 10, -20, kWidth, kHeight, kFocalPx);
+  for (int f : {2, 4}) {
+    const auto r = ReducedCamera(cam, f);
+    EXPECT_EQ(r.width_px, kWidth / f);
+    EXPECT_EQ(r.height_px, kHeight / f);
+    for (const Eigen::Vector3d& p :
+         {Eigen::Vector3d(0, 0, 2000), Eigen::Vector3d(300, -200, 1500)}) {
+      Eigen::Vector2d full, reduced;
+      ASSERT_TRUE(cam.Project(p, &full));
+      ASSERT_TRUE(r.Project(p, &reduced));
+      EXPECT_NEAR(reduced.x(), (full.x() + 0.5) / f - 0.5, 1e-9);
+      EXPECT_NEAR(reduced.y(), (full.y() + 0.5) / f - 0.5, 1e-9);
+    }
+  }
+}
+
+TEST(CoarseToFine, RecoversThePlaneAsTheFullSearchDoes) {
+  const double plane_mm = 2000.0;
+  const auto in = PlaneInput(plane_mm, true);
+  const stereo::StereoResult full = stereo::ComputeDepth(in, Options());
+  CoarseToFineOptions c2f;
+  c2f.coarse_factor = 2;
+  c2f.coarse_window_px = 5;
+  c2f.tile_px = 48;
+  CoarseToFineStats stats;
+  const stereo::StereoResult fine = ComputeDepthCoarseToFine(in, Options(), c2f, &stats);
+  ASSERT_EQ(fine.range_images.size(), 1u);
+  EXPECT_EQ(fine.range_images[0].window_px, 9);
+  // 400 px x 120 mm x (1/750 - 1/5000) = 54.4 px -> 56 levels for the full search; a
+  // tile searches its coarse depths (good to a coarse level, 2 px) +- 2 coarse levels.
+  EXPECT_EQ(full.num_levels, 56);
+  EXPECT_LE(fine.num_levels, 14);
+  int interior = 0;
+  for (const auto* r : {&full, &fine}) {
+    std::vector<double> errors = InteriorErrors(r->range_images[0].depth_mm, plane_mm, &interior);
+    ASSERT_GT(errors.size(), 0.95 * interior);
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    EXPECT_LT(errors[errors.size() / 2], 0.002);  // 4 mm at 2 m, 1/6 of a full-search level
+    EXPECT_LT(*std::max_element(errors.begin(), errors.end()), 0.02);
+  }
+  EXPECT_NEAR(fine.range_images[0].density, full.range_images[0].density, 0.1);
+  // 320 x 240 px in tiles of 48: 7 x 5, every one textured and seen.
+  EXPECT_EQ(stats.tiles, 35);
+  EXPECT_EQ(stats.tiles_matched, 35);
+  EXPECT_LE(stats.mean_tile_levels, fine.num_levels);
+  // Reduced twice: 200 px x 120 mm x (1/750 - 1/5000) = 27.2 px -> 29 levels.
+  EXPECT_EQ(stats.coarse_levels, 29);
+}
+
+TEST(CoarseToFine, ThreadCountDoesNotChangeTheResult) {
+  const auto in = PlaneInput(2000.0, true);
+  CoarseToFineOptions c2f;
+  c2f.coarse_factor = 2;
+  c2f.coarse_window_px = 5;
+  c2f.tile_px = 40;
+  stereo::StereoOptions one = Options(), three = Options();
+  one.num_threads = 1;
+  three.num_threads = 3;
+  const auto a = ComputeDepthCoarseToFine(in, one, c2f).range_images[0];
+  const auto b = ComputeDepthCoarseToFine(in, three, c2f).range_images[0];
+  EXPECT_GT(a.density, 0.5);
+  EXPECT_EQ(cv::norm(a.depth_mm, b.depth_mm, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.reliability, b.reliability, cv::NORM_INF), 0.0);
+}
+
+TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
+  const stereo::StereoResult r =
+      ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});
+  EXPECT_EQ(cv::countNonZero(r.range_images[0].depth_mm), 0);
+  EXPECT_EQ(r.range_images[0].density, 0.0);
+}
+
+TEST(CoarseToFine, BadOptionsAreNamed) {
+  const auto in = PlaneInput(2000.0, true);
+  CoarseToFineOptions c2f;
+  c2f.coarse_factor = 1;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.coarse_factor"});
+  c2f = {};
+  c2f.coarse_window_px = 4;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.coarse_window_px"});
+  c2f = {};
+  c2f.margin_levels = 0;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.margin_levels"});
+  c2f = {};
+  c2f.trim_fraction = 0.5;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.trim_fraction"});
+  c2f = {};
+  c2f.min_coarse_depths = 0;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.min_coarse_depths"});
+}
+
+}  // namespace
+}  // namespace dome::pipeline

@@ -1,0 +1,181 @@
+// The stereo job (pipeline/stages.h RunJob) with the session's opt-in coarse-to-fine
+// block (runtime.proto CoarseToFineSettings) on the small synthetic take: depths close
+// to the full-range search's, the clip box bounds each camera's depth range, and bad
+// fields are refused naming the field.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "io/file_util.h"
+#include "pipeline/session.h"
+#include "pipeline/stages.h"
+#include "stereo/options_json.h"
+#include "stereo/take_stereo.h"
+#include "take/take.h"
+#include "testing/expect_error.h"
+#include "testing/run_command.h"
+#include "testing/temp_dir.h"
+
+namespace dome::pipeline {
+namespace {
+
+using dome::testing::ExpectInputError;
+using dome::testing::RunDomeBinary;
+using dome::testing::TempDir;
+
+class StereoStage : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new TempDir;
+    const auto synth =
+        RunDomeBinary("synth --preset small --instants 1 --out " + (*dir_ / "take").string());
+    ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+
+  // The stereo job of camera `id` at the first instant with `settings`, run as a worker
+  // runs it; returns the first window's depth (mm, 0 = none).
+  static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings) {
+    const take::Take take = take::OpenTake(*dir_ / "take");
+    const std::string instant = take.instants.front();
+    const stereo::TakeStereoOptions options = stereo::FromStereoSettings(settings, "test");
+    const stereo::StereoInput input = stereo::LoadStereoInput(take, instant, id, options.cluster);
+    runtime::Job job;
+    job.set_id("s/" + instant + "/stereo/" + id);
+    job.set_instant(instant);
+    job.set_threads(2);
+    auto* sj = job.mutable_stereo();
+    sj->set_camera(id);
+    *sj->mutable_stereo() = settings;
+    std::vector<std::string> blobs;
+    auto add = [&](const std::filesystem::path& path) {
+      blobs.push_back(io::ReadFileBytes(path));
+      job.add_blobs()->set_name(path.string());
+    };
+    add(take.dir / "rig.json");
+    add(take.FramePath(instant, id));
+    for (const auto& v : input.neighbours) {
+      sj->add_neighbours(v.camera.id);
+      add(take.FramePath(instant, v.camera.id));
+    }
+    const auto outputs = RunJob(job, blobs);
+    EXPECT_EQ(outputs.size(), 1u);
+    return DecodeStereoOutput(outputs.at(0).data(), "test").range_images.at(0).depth_mm;
+  }
+
+  static runtime::StereoSettings DefaultSettings() {
+    runtime::Session session;
+    session.mutable_stereo()->add_window_sizes_px(7);
+    return stereo::ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
+  }
+
+  static TempDir* dir_;
+};
+
+TempDir* StereoStage::dir_ = nullptr;
+
+TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
+  const runtime::StereoSettings full = DefaultSettings();
+  runtime::StereoSettings c2f = full;
+  auto* block = c2f.mutable_coarse_to_fine();
+  block->set_coarse_factor(2);
+  block->set_coarse_window_px(5);
+  block->set_tile_px(32);
+  // A box holding the whole dome: the clip leaves the session's range as it is.
+  for (int i = 0; i < 3; ++i) {
+    block->add_clip_min_mm(-50000);
+    block->add_clip_max_mm(50000);
+  }
+  // The block survives the master's round trip (session options -> job settings).
+  ASSERT_TRUE(
+      stereo::ToStereoSettings(stereo::FromStereoSettings(c2f, "test")).has_coarse_to_fine());
+
+  const cv::Mat a = RunStereoJob("c00", full);
+  const cv::Mat b = RunStereoJob("c00", c2f);
+  ASSERT_EQ(a.size(), b.size());
+  std::vector<double> diffs;
+  int valid_a = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      const float da = a.at<float>(y, x), db = b.at<float>(y, x);
+      valid_a += da > 0;
+      if (da > 0 && db > 0) diffs.push_back(std::abs(db - da) / da);
+    }
+  }
+  ASSERT_GT(valid_a, a.rows * a.cols / 10);
+  // Most of the full-range depths are found again, and agree to well under 1 %.
+  EXPECT_GT(diffs.size(), 0.7 * valid_a);
+  std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+  EXPECT_LT(diffs[diffs.size() / 2], 0.005);
+
+  // The default path is untouched by the block's absence: same depths again.
+  const cv::Mat again = RunStereoJob("c00", full);
+  EXPECT_EQ(cv::norm(a, again, cv::NORM_INF), 0.0);
+}
+
+TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
+  const take::Take take = take::OpenTake(*dir_ / "take");
+  const geometry::TsaiCamera& cam = take.rig.cameras.front().model;
+  // A cube of half side h on the optical axis at depth z: its corners span
+  // z +- h (|r20| + |r21| + |r22|) along the axis (r2: the third row of world -> camera).
+  const double z = 3000, h = 200, pad = 5;
+  const Eigen::Vector3d centre =
+      cam.CentreWorld() + z * cam.rotation.transpose() * Eigen::Vector3d::UnitZ();
+  runtime::CoarseToFineSettings s;
+  for (int i = 0; i < 3; ++i) {
+    s.add_clip_min_mm(centre[i] - h);
+    s.add_clip_max_mm(centre[i] + h);
+  }
+  s.set_clip_pad_mm(pad);
+  const double half = h * cam.rotation.row(2).cwiseAbs().sum();
+  stereo::StereoOptions o;
+  o.z_min_mm = 100;
+  o.z_max_mm = 10000;
+  ClipDepthRange(s, cam, "job", &o);
+  EXPECT_NEAR(o.z_min_mm, z - half - pad, 1e-6);
+  EXPECT_NEAR(o.z_max_mm, z + half + pad, 1e-6);
+  // Clipped, never widened.
+  o.z_min_mm = 2950;
+  o.z_max_mm = 10000;
+  ClipDepthRange(s, cam, "job", &o);
+  EXPECT_DOUBLE_EQ(o.z_min_mm, 2950);
+  EXPECT_NEAR(o.z_max_mm, z + half + pad, 1e-6);
+  // A range that misses the box.
+  o.z_min_mm = 100;
+  o.z_max_mm = 1000;
+  ExpectInputError([&] { ClipDepthRange(s, cam, "job", &o); },
+                   {"job: coarse_to_fine.clip_min_mm", "sees no depth of the clip box"});
+}
+
+TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
+  runtime::Session session;
+  session.mutable_stereo()->mutable_coarse_to_fine()->set_tile_px(4);
+  ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
+                   {"session.json: coarse_to_fine.tile_px", "at least 8"});
+  session.mutable_stereo()->mutable_coarse_to_fine()->clear_tile_px();
+  session.mutable_stereo()->mutable_coarse_to_fine()->add_clip_min_mm(0);
+  ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
+                   {"session.json: coarse_to_fine.clip_min_mm", "3 numbers"});
+  auto* c = session.mutable_stereo()->mutable_coarse_to_fine();
+  c->clear_clip_min_mm();
+  for (double v : {0.0, 0.0, 0.0}) c->add_clip_min_mm(v);
+  for (double v : {1.0, -1.0, 1.0}) c->add_clip_max_mm(v);
+  ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
+                   {"session.json: coarse_to_fine.clip_max_mm", "axis 1"});
+  // A session file with the block parses through protobuf's JSON mapping.
+  TempDir dir;
+  io::WriteFileAtomically(dir / "session.json",
+                          R"({"take": "t", "stereo": {"coarse_to_fine": {"tile_px": 48,)"
+                          R"( "clip_min_mm": [0, 0, 0], "clip_max_mm": [1, 2, 3]}}})");
+  const runtime::Session read = ReadSessionJson(dir / "session.json");
+  EXPECT_EQ(read.stereo().coarse_to_fine().tile_px(), 48);
+  EXPECT_EQ(read.stereo().coarse_to_fine().clip_max_mm(2), 3.0);
+}
+
+}  // namespace
+}  // namespace dome::pipeline

@@ -1,0 +1,113 @@
+#include "scheduler/surface_stream.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "core/error.h"
+#include "io/file_util.h"
+#include "io/ply.h"
+#include "pipeline/stages.h"
+#include "testing/expect_error.h"
+#include "testing/temp_dir.h"
+
+namespace dome::scheduler {
+namespace {
+
+using namespace std::chrono_literals;
+
+// A 24^3 grid of 10 mm voxels holding the signed distance to a sphere of radius 70 mm
+// at its centre, cut into slabs of 5 planes (the last one of 4).
+struct Sphere {
+  fusion::VolumeGrid grid;
+  std::vector<std::string> slabs;  // encoded, plane order
+  Sphere() {
+    grid.origin_mm = Eigen::Vector3d(-120, -120, -120);
+    grid.voxel_size_mm = 10;
+    grid.nx = grid.ny = grid.nz = 24;
+    for (int k0 = 0; k0 < grid.nz; k0 += 5) {
+      fusion::Slab s;
+      s.k0 = k0;
+      s.k1 = std::min(grid.nz, k0 + 5);
+      s.nx = grid.nx;
+      s.ny = grid.ny;
+      for (int k = s.k0; k < s.k1; ++k) {
+        for (int j = 0; j < grid.ny; ++j) {
+          for (int i = 0; i < grid.nx; ++i) {
+            s.distance_mm.push_back(float(grid.VoxelCentreMm(i, j, k).norm() - 70.0));
+            s.weight.push_back(1.0f);
+          }
+        }
+      }
+      slabs.push_back(fusion::EncodeSlab(s));
+    }
+  }
+};
+
+bool WaitFinished(const SurfaceStream& stream) {
+  for (int i = 0; i < 3000 && !stream.Finished(); ++i) std::this_thread::sleep_for(10ms);
+  return stream.Finished();
+}
+
+TEST(SurfaceStream, SlabsFedOutOfOrderGiveTheMeshOfTheWholeVolume) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  BlobStore store;
+  std::vector<runtime::BlobRef> refs;
+  for (const auto& bytes : sphere.slabs)
+    refs.push_back(store.AddBytes(dir.path() / "blobs", bytes, "slab"));
+  // The offline extraction of the same slabs: the stream must write the same bytes.
+  const std::string expected = pipeline::EncodeMeshPly(pipeline::ExtractSurface(
+      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; }));
+  SurfaceStream stream(sphere.grid, int(refs.size()), &store, dir.path() / "t0",
+                       dir.path() / "blobs");
+  // Slab 0 last: nothing can be stitched before it, then everything at once.
+  for (int k = int(refs.size()) - 1; k >= 1; --k) stream.Feed(k, refs[k].sha256());
+  std::this_thread::sleep_for(50ms);
+  EXPECT_FALSE(stream.Finished()) << "slab 0 has not come yet";
+  EXPECT_FALSE(stream.Fed(0));
+  stream.Feed(0, refs[0].sha256());
+  EXPECT_TRUE(stream.Fed(0));
+  ASSERT_TRUE(WaitFinished(stream));
+  const runtime::BlobRef mesh = stream.Result();
+  EXPECT_EQ(mesh.name(), "mesh.ply");
+  const std::string written = io::ReadFileBytes(dir.path() / "t0" / "mesh.ply");
+  EXPECT_TRUE(written == expected) << "the streamed mesh differs from the offline one";
+  EXPECT_EQ(store.Read(mesh.sha256()).value_or(""), expected);
+  // A sphere of radius 70 mm: every vertex within half a voxel of it.
+  const io::Mesh parsed = io::ParsePly(written, "mesh.ply");
+  ASSERT_GT(parsed.vertices.size(), 100u);
+  for (const auto& v : parsed.vertices) EXPECT_NEAR(v.cast<double>().norm(), 70.0, 5.0);
+  EXPECT_GE(stream.busy_seconds(), 0.0);
+  EXPECT_LT(stream.busy_seconds(), 30.0);
+}
+
+TEST(SurfaceStream, AbortEndsAStreamWaitingForSlabsWithAnError) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  BlobStore store;
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
+                       dir.path() / "blobs");
+  stream.Feed(0, store.AddBytes(dir.path() / "blobs", sphere.slabs[0], "slab").sha256());
+  stream.Abort();
+  ASSERT_TRUE(WaitFinished(stream));
+  testing::ExpectInputError([&] { stream.Result(); },
+                            {"instant t0", "the surface stage was stopped"});
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "t0" / "mesh.ply"));
+}
+
+TEST(SurfaceStream, ASlabMissingFromTheStoreFailsNamingIt) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  BlobStore store;
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
+                       dir.path() / "blobs");
+  stream.Feed(0, std::string(64, 'a'));
+  ASSERT_TRUE(WaitFinished(stream));
+  testing::ExpectInputError([&] { stream.Result(); }, {"slab 0", "not in the blob store"});
+}
+
+}  // namespace
+}  // namespace dome::scheduler
