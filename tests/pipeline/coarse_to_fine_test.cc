@@ -13,30 +13,16 @@
 namespace dome::pipeline {
 namespace {
 
-using stereo::testing::MakeTexture;
 using stereo::testing::PlaneCamera;
-using stereo::testing::RenderPlane;
 
 constexpr int kWidth = 320, kHeight = 240;
 constexpr double kFocalPx = 400.0;
 
 stereo::StereoInput PlaneInput(double plane_mm, bool textured) {
-  const cv::Mat texture = MakeTexture(1024, 11);
-  const double texel_mm = 6.0;  // about 1.3 px per texel at 2 m with f = 400 px
-  stereo::StereoInput in;
-  in.reference.camera = PlaneCamera("ref", 0, 0, kWidth, kHeight, kFocalPx);
-  int k = 0;
-  for (const Eigen::Vector2d& o : {Eigen::Vector2d(120, 0), Eigen::Vector2d(0, 90)}) {
-    in.neighbours.push_back(
-        {PlaneCamera("n" + std::to_string(k++), o.x(), o.y(), kWidth, kHeight, kFocalPx), {}});
-  }
-  auto render = [&](const geometry::TsaiCamera& c) {
-    return textured ? RenderPlane(c, plane_mm, texture, texel_mm)
-                    : cv::Mat(c.height_px, c.width_px, CV_8UC1, cv::Scalar(128));
-  };
-  in.reference.image = render(in.reference.camera);
-  for (auto& v : in.neighbours) v.image = render(v.camera);
-  return in;
+  // 6 mm texels: about 1.3 px per texel at 2 m with f = 400 px.
+  return stereo::testing::PlaneStereoInput(plane_mm, textured, {{120, 0}, {0, 90}},
+                                           /*texel_mm=*/6.0, /*seed=*/11, kWidth, kHeight,
+                                           kFocalPx);
 }
 
 stereo::StereoOptions Options() {

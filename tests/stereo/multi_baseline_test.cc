@@ -12,29 +12,12 @@
 namespace dome::stereo {
 namespace {
 
-using testing::MakeTexture;
 using testing::PlaneCamera;
-using testing::RenderPlane;
 
 StereoInput PlaneInput(double plane_mm, bool textured) {
-  const cv::Mat texture = MakeTexture(1024, 7);
-  const double texel_mm = 12.0;  // about 1.2 px per texel at 2 m with f = 200 px
-  StereoInput in;
-  in.reference.camera = PlaneCamera("ref", 0, 0);
-  const std::vector<Eigen::Vector2d> offsets = {{120, 0}, {-120, 0}, {0, 90}, {0, -90}};
-  int k = 0;
-  for (const auto& o : offsets) {
-    StereoView v;
-    v.camera = PlaneCamera("n" + std::to_string(k++), o.x(), o.y());
-    in.neighbours.push_back(v);
-  }
-  auto render = [&](const geometry::TsaiCamera& c) {
-    return textured ? RenderPlane(c, plane_mm, texture, texel_mm)
-                    : cv::Mat(c.height_px, c.width_px, CV_8UC1, cv::Scalar(128));
-  };
-  in.reference.image = render(in.reference.camera);
-  for (auto& v : in.neighbours) v.image = render(v.camera);
-  return in;
+  // 12 mm texels: about 1.2 px per texel at 2 m with f = 200 px.
+  return testing::PlaneStereoInput(plane_mm, textured, {{120, 0}, {-120, 0}, {0, 90}, {0, -90}},
+                                   /*texel_mm=*/12.0, /*seed=*/7);
 }
 
 // With the default warp (pre-warped neighbours, StereoOptions::prewarp_neighbours)

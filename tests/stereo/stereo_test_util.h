@@ -59,4 +59,29 @@ inline cv::Mat RenderPlane(const geometry::TsaiCamera& cam, double plane_mm, con
   return out8;
 }
 
+// A reference camera at the origin and one neighbour per centre offset (mm), all
+// `width` x `height` with focal `f_px`, seeing the plane z = plane_mm: textured by
+// MakeTexture(1024, seed) at `texel_mm` per texel, or uniform grey 128 (textureless).
+inline StereoInput PlaneStereoInput(double plane_mm, bool textured,
+                                    const std::vector<Eigen::Vector2d>& offsets_mm, double texel_mm,
+                                    uint64_t seed, int width = 160, int height = 120,
+                                    double f_px = 200.0) {
+  const cv::Mat texture = MakeTexture(1024, seed);
+  StereoInput in;
+  in.reference.camera = PlaneCamera("ref", 0, 0, width, height, f_px);
+  int k = 0;
+  for (const Eigen::Vector2d& o : offsets_mm) {
+    StereoView v;
+    v.camera = PlaneCamera("n" + std::to_string(k++), o.x(), o.y(), width, height, f_px);
+    in.neighbours.push_back(v);
+  }
+  auto render = [&](const geometry::TsaiCamera& c) {
+    return textured ? RenderPlane(c, plane_mm, texture, texel_mm)
+                    : cv::Mat(c.height_px, c.width_px, CV_8UC1, cv::Scalar(128));
+  };
+  in.reference.image = render(in.reference.camera);
+  for (auto& v : in.neighbours) v.image = render(v.camera);
+  return in;
+}
+
 }  // namespace dome::stereo::testing
