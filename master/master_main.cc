@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "core/logging.h"
+#include "core/memory.h"
 #include "io/file_util.h"
 #include "net/security.h"
 #include "scheduler/master.h"
@@ -17,6 +18,7 @@ void OnSignal(int) { g_stop = true; }
 }  // namespace
 
 int main(int argc, char** argv) {
+  dome::core::RetainFreedMemory();
   CLI::App app{"dome-master: schedules stereo and fusion jobs to dome-workers over ZeroMQ"};
   dome::scheduler::MasterOptions o;
   std::string log_level = "info", endpoints_file, keys_dir, secret_key, allow;

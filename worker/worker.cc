@@ -38,6 +38,7 @@ struct Worker::Impl {
   WorkerStats stats;
   std::deque<runtime::Job> queue;   // jobs received, not started
   std::set<std::string> requested;  // blobs asked for, not yet received
+  pipeline::JobMemo memo;           // used by the running job only; outlives it
   std::future<runtime::JobResult> running;
   Clock::time_point master_expiry, next_heartbeat;
   int backoff_ms;
@@ -97,7 +98,7 @@ struct Worker::Impl {
     for (const auto& b : job.blobs()) {
       if (requested.count(b.sha256()) != 0) return;  // on its way
     }
-    std::vector<std::shared_ptr<const std::string>> held;
+    pipeline::JobBlobs held;
     for (const auto& b : job.blobs()) {
       auto bytes = cache.Get(b.sha256());
       if (!bytes) return;  // evicted meanwhile (cache too small): asked again next turn
@@ -105,15 +106,12 @@ struct Worker::Impl {
     }
     runtime::Job j = std::move(queue.front());
     queue.pop_front();
-    running = std::async(std::launch::async, [j = std::move(j), held = std::move(held)]() {
+    running = std::async(std::launch::async, [this, j = std::move(j), held = std::move(held)]() {
       runtime::JobResult result;
       result.set_job_id(j.id());
       core::Stopwatch watch;
       try {
-        std::vector<std::string> blobs;
-        blobs.reserve(held.size());
-        for (const auto& h : held) blobs.push_back(*h);
-        for (auto& o : pipeline::RunJob(j, blobs)) *result.add_outputs() = std::move(o);
+        for (auto& o : pipeline::RunJob(j, held, &memo)) *result.add_outputs() = std::move(o);
         result.set_ok(true);
       } catch (const std::exception& e) {
         result.set_ok(false);

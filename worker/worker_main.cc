@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/logging.h"
+#include "core/memory.h"
 #include "net/security.h"
 #include "worker/worker.h"
 
@@ -16,6 +17,7 @@ void OnSignal(int) { g_stop = true; }
 }  // namespace
 
 int main(int argc, char** argv) {
+  dome::core::RetainFreedMemory();
   CLI::App app{"dome-worker: runs stereo, fusion, decimation and texture jobs for a dome-master"};
   dome::worker::WorkerOptions o;
   std::string log_level = "info", master_key, key;

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "client/client.h"
+#include "core/memory.h"
 #include "io/file_util.h"
 #include "scheduler/graph.h"
 #include "scheduler/master.h"
@@ -280,6 +281,7 @@ int Scaling(const fs::path& take, const fs::path& out, int workers,
 }  // namespace
 
 int main(int argc, char** argv) {
+  dome::core::RetainFreedMemory();
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: runtime_bench dispatch OUT | memory | e2e TAKE OUT | scaling TAKE OUT "

@@ -4,6 +4,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <random>
 
 #include "core/error.h"
@@ -20,6 +21,15 @@
 #include "take/rig.h"
 
 namespace dome::pipeline {
+
+// The inputs of one instant's fusion, decoded and tabulated: what every slab job of
+// that instant shares.
+struct PreparedFusion {
+  std::vector<fusion::RangeImage> images;  // referenced by `integrator`
+  std::unique_ptr<fusion::Integrator> integrator;
+  fusion::Slab slab;  // the last slab's buffers, reused by the next slab of this size
+};
+
 namespace {
 
 runtime::FloatImage EncodeFloatImage(const cv::Mat& m) {
@@ -52,23 +62,21 @@ std::string BlobName(const runtime::Job& job, size_t i) {
          (i < size_t(job.blobs_size()) ? job.blobs(int(i)).name() : std::to_string(i));
 }
 
-void RequireBlobs(const runtime::Job& job, const std::vector<std::string>& blobs, size_t n) {
+void RequireBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t n) {
   core::Require(
       blobs.size() == size_t(job.blobs_size()) && blobs.size() >= n, "job " + job.id(),
       "expected " + std::to_string(n) + " input blobs, got " + std::to_string(blobs.size()));
 }
 
-take::Rig RigBlob(const runtime::Job& job, const std::vector<std::string>& blobs) {
-  return take::ParseRigJson(blobs[0], BlobName(job, 0));
+take::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs) {
+  return take::ParseRigJson(*blobs[0], BlobName(job, 0));
 }
 
-cv::Mat FrameBlob(const runtime::Job& job, const std::vector<std::string>& blobs, size_t i,
-                  io::ImageMode mode) {
-  return io::DecodeImage(blobs[i], mode, BlobName(job, i));
+cv::Mat FrameBlob(const runtime::Job& job, const JobBlobs& blobs, size_t i, io::ImageMode mode) {
+  return io::DecodeImage(*blobs[i], mode, BlobName(job, i));
 }
 
-std::vector<runtime::Output> RunStereo(const runtime::Job& job,
-                                       const std::vector<std::string>& blobs) {
+std::vector<runtime::Output> RunStereo(const runtime::Job& job, const JobBlobs& blobs) {
   const runtime::StereoJob& sj = job.stereo();
   RequireBlobs(job, blobs, 2 + sj.neighbours_size());
   const take::Rig rig = RigBlob(job, blobs);
@@ -104,24 +112,30 @@ std::vector<runtime::Output> RunStereo(const runtime::Job& job,
   return {out};
 }
 
-std::vector<runtime::Output> RunFusion(const runtime::Job& job,
-                                       const std::vector<std::string>& blobs) {
+// Identifies what PreparedFusion is built from: everything in the job but its planes.
+std::string FusionKey(const runtime::Job& job) {
   const runtime::FusionJob& fj = job.fusion();
-  RequireBlobs(job, blobs, 2);
+  std::string key = fj.volume().SerializeAsString();
+  key += '\0' + fj.fusion().SerializeAsString() + '\0' + std::to_string(job.threads());
+  for (const auto& b : job.blobs()) key += '\0' + b.sha256();
+  return key;
+}
+
+std::unique_ptr<PreparedFusion> PrepareFusion(const runtime::Job& job, const JobBlobs& blobs) {
+  const runtime::FusionJob& fj = job.fusion();
   const take::Rig rig = RigBlob(job, blobs);
   const std::string where = "job " + job.id();
   const fusion::VolumeGrid grid = FromVolume(fj.volume(), where);
   fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
   options.num_threads = job.threads();
-  grid.CheckSlab(fj.k0(), fj.k1(), where);
   core::Require(blobs.size() == rig.cameras.size() + 1, where,
                 "expected one stereo output per rig camera (" + std::to_string(rig.cameras.size()) +
                     "), got " + std::to_string(blobs.size() - 1));
+  auto prepared = std::make_unique<PreparedFusion>();
   // Cameras in rig order, windows in the options' order: the accumulation order is
   // fixed, so every run gives the same bits.
-  std::vector<fusion::RangeImage> images;
   for (size_t c = 0; c < rig.cameras.size(); ++c) {
-    const stereo::StereoResult r = DecodeStereoOutput(blobs[c + 1], BlobName(job, c + 1));
+    const stereo::StereoResult r = DecodeStereoOutput(*blobs[c + 1], BlobName(job, c + 1));
     core::Require(r.camera == rig.cameras[c].model.id, BlobName(job, c + 1),
                   "expected the stereo output of camera '" + rig.cameras[c].model.id + "', got '" +
                       r.camera + "'");
@@ -130,20 +144,36 @@ std::vector<runtime::Output> RunFusion(const runtime::Job& job,
       image.camera = rig.cameras[c].model;
       image.depth_mm = ri.depth_mm;
       image.where = BlobName(job, c + 1);
-      images.push_back(std::move(image));
+      prepared->images.push_back(std::move(image));
     }
   }
-  fusion::Integrator integrator(grid, images, options);
+  prepared->integrator = std::make_unique<fusion::Integrator>(grid, prepared->images, options);
+  return prepared;
+}
+
+std::vector<runtime::Output> RunFusion(const runtime::Job& job, const JobBlobs& blobs,
+                                       JobMemo* memo) {
+  const runtime::FusionJob& fj = job.fusion();
+  RequireBlobs(job, blobs, 2);
+  FromVolume(fj.volume(), "job " + job.id()).CheckSlab(fj.k0(), fj.k1(), "job " + job.id());
+  std::unique_ptr<PreparedFusion> own;
+  PreparedFusion* prepared = nullptr;
+  if (memo) {
+    prepared = memo->Fusion(FusionKey(job), [&] { return PrepareFusion(job, blobs); });
+  } else {
+    own = PrepareFusion(job, blobs);
+    prepared = own.get();
+  }
+  prepared->integrator->IntegrateSlab(fj.k0(), fj.k1(), &prepared->slab);
   runtime::Output out;
   out.set_name(kSlabOutput);
-  out.set_data(fusion::EncodeSlab(integrator.IntegrateSlab(fj.k0(), fj.k1())));
+  out.set_data(fusion::EncodeSlab(prepared->slab));
   return {out};
 }
 
-std::vector<runtime::Output> RunDecimate(const runtime::Job& job,
-                                         const std::vector<std::string>& blobs) {
+std::vector<runtime::Output> RunDecimate(const runtime::Job& job, const JobBlobs& blobs) {
   RequireBlobs(job, blobs, 1);
-  const io::Mesh surface = io::ParsePly(blobs[0], BlobName(job, 0));
+  const io::Mesh surface = io::ParsePly(*blobs[0], BlobName(job, 0));
   mesh::DecimationOptions options;
   options.target_ratio = job.decimate().ratio();
   options.Check();
@@ -153,11 +183,10 @@ std::vector<runtime::Output> RunDecimate(const runtime::Job& job,
   return {out};
 }
 
-std::vector<runtime::Output> RunTexture(const runtime::Job& job,
-                                        const std::vector<std::string>& blobs) {
+std::vector<runtime::Output> RunTexture(const runtime::Job& job, const JobBlobs& blobs) {
   RequireBlobs(job, blobs, 2);
   const take::Rig rig = RigBlob(job, blobs);
-  io::Mesh decimated = io::ParsePly(blobs[1], BlobName(job, 1));
+  io::Mesh decimated = io::ParsePly(*blobs[1], BlobName(job, 1));
   core::Require(blobs.size() == rig.cameras.size() + 2, "job " + job.id(),
                 "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +
                     "), got " + std::to_string(blobs.size() - 2));
@@ -258,13 +287,28 @@ io::Mesh ExtractSurface(const fusion::VolumeGrid& grid, int num_slabs,
   return mc.Finish();
 }
 
-std::vector<runtime::Output> RunJob(const runtime::Job& job,
-                                    const std::vector<std::string>& blobs) {
+JobMemo::JobMemo() = default;
+JobMemo::~JobMemo() = default;
+
+PreparedFusion* JobMemo::Fusion(const std::string& key,
+                                const std::function<std::unique_ptr<PreparedFusion>()>& build) {
+  if (!fusion_ || fusion_key_ != key) {
+    // Drop the old instant's tables before building the new ones: one set in memory.
+    fusion_.reset();
+    fusion_key_.clear();
+    fusion_ = build();
+    fusion_key_ = key;
+    ++fusion_preparations_;
+  }
+  return fusion_.get();
+}
+
+std::vector<runtime::Output> RunJob(const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
   switch (job.kind_case()) {
     case runtime::Job::kStereo:
       return RunStereo(job, blobs);
     case runtime::Job::kFusion:
-      return RunFusion(job, blobs);
+      return RunFusion(job, blobs, memo);
     case runtime::Job::kDecimate:
       return RunDecimate(job, blobs);
     case runtime::Job::kTexture:

@@ -12,7 +12,9 @@
 // Errors: core::InputError naming the job and the blob at fault.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,9 +34,41 @@ inline constexpr const char* kTexturedMtl = "textured.mtl";
 inline constexpr const char* kTexturedPng = "textured.png";
 inline constexpr const char* kTexturedGlb = "textured.glb";  // the same mesh, one binary glTF
 
+// The bytes of a job's blobs, in the job's order (shared with a worker's blob cache).
+using JobBlobs = std::vector<std::shared_ptr<const std::string>>;
+
+struct PreparedFusion;
+
+// What a worker keeps from one job for the next, so that work shared by jobs is done
+// once: the decoded range images and fusion tables of the last instant fused (every
+// slab job of an instant needs the same ones; building them costs about as much as
+// fusing a slab). Keyed by the job's settings and input blob hashes, so a job's outputs
+// are the same bytes with or without a memo. One set is kept (tens of MB for the paper
+// rig). Not thread-safe: one job at a time.
+class JobMemo {
+ public:
+  JobMemo();
+  ~JobMemo();
+  JobMemo(const JobMemo&) = delete;
+  JobMemo& operator=(const JobMemo&) = delete;
+
+  // The prepared fusion for `key`, built by `build` unless it is the one kept.
+  PreparedFusion* Fusion(const std::string& key,
+                         const std::function<std::unique_ptr<PreparedFusion>()>& build);
+  // How many times fusion inputs were prepared (a figure for tests and logs).
+  int64_t fusion_preparations() const { return fusion_preparations_; }
+
+ private:
+  std::string fusion_key_;
+  std::unique_ptr<PreparedFusion> fusion_;
+  int64_t fusion_preparations_ = 0;
+};
+
 // Runs one job; `blobs` are the bytes of job.blobs, in the job's order. Returns its
-// outputs (names above). `threads` <= 0: all hardware threads.
-std::vector<runtime::Output> RunJob(const runtime::Job& job, const std::vector<std::string>& blobs);
+// outputs (names above). `memo` (optional) carries shared work between the jobs of
+// one worker. `threads` <= 0: all hardware threads.
+std::vector<runtime::Output> RunJob(const runtime::Job& job, const JobBlobs& blobs,
+                                    JobMemo* memo = nullptr);
 
 // Stereo results <-> the "stereo" blob.
 std::string EncodeStereoOutput(const stereo::StereoResult& result);

@@ -7,10 +7,12 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "core/logging.h"
+#include "core/memory.h"
 
 namespace dome::cli {
 
 int RunDome(int argc, char** argv) {
+  core::RetainFreedMemory();
   CLI::App app{"dome: 3D structure of moving scenes from many synchronized cameras"};
   // At most one command; none prints the help. (Requiring one would make CLI11 report
   // a missing command instead of naming the unknown word the user typed.)

@@ -10,38 +10,26 @@
 
 #include "io/file_util.h"
 #include "pipeline/session.h"
+#include "pipeline/small_take_suite.h"
 #include "pipeline/stages.h"
 #include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
 #include "testing/expect_error.h"
-#include "testing/run_command.h"
 #include "testing/temp_dir.h"
 
 namespace dome::pipeline {
 namespace {
 
 using dome::testing::ExpectInputError;
-using dome::testing::RunDomeBinary;
 using dome::testing::TempDir;
 
-class StereoStage : public ::testing::Test {
+class StereoStage : public SmallTakeSuite {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = new TempDir;
-    const auto synth =
-        RunDomeBinary("synth --preset small --instants 1 --out " + (*dir_ / "take").string());
-    ASSERT_EQ(synth.exit_code, 0) << synth.output;
-  }
-  static void TearDownTestSuite() {
-    delete dir_;
-    dir_ = nullptr;
-  }
-
   // The stereo job of camera `id` at the first instant with `settings`, run as a worker
   // runs it; returns the first window's depth (mm, 0 = none).
   static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings) {
-    const take::Take take = take::OpenTake(*dir_ / "take");
+    const take::Take take = take::OpenTake(TakeDir());
     const std::string instant = take.instants.front();
     const stereo::TakeStereoOptions options = stereo::FromStereoSettings(settings, "test");
     const stereo::StereoInput input = stereo::LoadStereoInput(take, instant, id, options.cluster);
@@ -52,9 +40,9 @@ class StereoStage : public ::testing::Test {
     auto* sj = job.mutable_stereo();
     sj->set_camera(id);
     *sj->mutable_stereo() = settings;
-    std::vector<std::string> blobs;
+    JobBlobs blobs;
     auto add = [&](const std::filesystem::path& path) {
-      blobs.push_back(io::ReadFileBytes(path));
+      blobs.push_back(std::make_shared<const std::string>(io::ReadFileBytes(path)));
       job.add_blobs()->set_name(path.string());
     };
     add(take.dir / "rig.json");
@@ -73,11 +61,7 @@ class StereoStage : public ::testing::Test {
     session.mutable_stereo()->add_window_sizes_px(7);
     return stereo::ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
-
-  static TempDir* dir_;
 };
-
-TempDir* StereoStage::dir_ = nullptr;
 
 TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
   const runtime::StereoSettings full = DefaultSettings();
@@ -119,7 +103,7 @@ TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
 }
 
 TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
-  const take::Take take = take::OpenTake(*dir_ / "take");
+  const take::Take take = take::OpenTake(TakeDir());
   const geometry::TsaiCamera& cam = take.rig.cameras.front().model;
   // A cube of half side h on the optical axis at depth z: its corners span
   // z +- h (|r20| + |r21| + |r22|) along the axis (r2: the third row of world -> camera).

@@ -1,0 +1,14 @@
+// Process-wide allocator settings for the compute binaries.
+#pragma once
+
+namespace dome::core {
+
+// Keeps freed large buffers in the heap instead of returning them to the kernel.
+// Stereo, fusion and texture jobs allocate and free buffers of 1-30 MB every job; with
+// glibc's defaults each becomes a fresh mmap whose pages fault in again (zero-filled
+// by the kernel, serialised on the process's memory map when two in-process workers
+// do it at once). With these settings the second job of a size reuses the first one's
+// pages. Call once at the start of main(), before any thread starts; idempotent.
+void RetainFreedMemory();
+
+}  // namespace dome::core

@@ -1,0 +1,101 @@
+// The fusion job (pipeline/stages.h RunJob) with a worker's JobMemo: the slab jobs of
+// one instant prepare the range images and tables once, give the same bytes as jobs
+// run without a memo, and a job with other inputs is not served stale tables.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/depth_tiff.h"
+#include "io/file_util.h"
+#include "pipeline/content_hash.h"
+#include "pipeline/session.h"
+#include "pipeline/small_take_suite.h"
+#include "pipeline/stages.h"
+#include "take/take.h"
+
+namespace dome::pipeline {
+namespace {
+
+class FusionStage : public SmallTakeSuite {
+ protected:
+  // The blobs of a fusion job at the take's instant: the rig, then one stereo output
+  // per camera made from the ground-truth depth, `scale` times it for camera 0.
+  static JobBlobs Blobs(double scale) {
+    const take::Take take = take::OpenTake(TakeDir());
+    const std::string instant = take.instants.front();
+    JobBlobs blobs{std::make_shared<const std::string>(io::ReadFileBytes(take.dir / "rig.json"))};
+    for (size_t c = 0; c < take.rig.cameras.size(); ++c) {
+      const std::string& id = take.rig.cameras[c].model.id;
+      stereo::StereoResult r;
+      r.camera = id;
+      stereo::RangeImage ri;
+      ri.window_px = 7;
+      ri.depth_mm = io::ReadDepthTiff(take.TruthDepthPath(instant, id));
+      if (c == 0) ri.depth_mm *= scale;
+      ri.reliability = cv::Mat::zeros(ri.depth_mm.size(), CV_32FC1);
+      r.range_images.push_back(ri);
+      blobs.push_back(std::make_shared<const std::string>(EncodeStereoOutput(r)));
+    }
+    return blobs;
+  }
+
+  // The fusion job of planes [k0, k1) over `blobs`: a 3 m cube of 50 mm voxels.
+  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1) {
+    fusion::VolumeGrid grid;
+    grid.origin_mm = Eigen::Vector3d(-1500, -1500, -500);
+    grid.voxel_size_mm = 50;
+    grid.nx = grid.ny = grid.nz = 60;
+    fusion::FusionOptions options;
+    options.truncation_mm = options.front_clamp_mm = 3 * grid.voxel_size_mm;
+    runtime::Job job;
+    job.set_id("s/i/fusion/" + std::to_string(k0));
+    job.set_threads(2);
+    auto* fj = job.mutable_fusion();
+    fj->set_k0(k0);
+    fj->set_k1(k1);
+    *fj->mutable_volume() = ToVolume(grid);
+    *fj->mutable_fusion() = ToFusionSettings(options);
+    for (const auto& b : blobs) job.add_blobs()->set_sha256(Sha256Hex(*b));
+    return job;
+  }
+
+  static std::string Slab(const JobBlobs& blobs, int k0, int k1, JobMemo* memo) {
+    const auto outputs = RunJob(Job(blobs, k0, k1), blobs, memo);
+    EXPECT_EQ(outputs.size(), 1u);
+    return outputs.at(0).data();
+  }
+};
+
+TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
+  const JobBlobs blobs = Blobs(1.0);
+  JobMemo memo;
+  const int bounds[] = {0, 20, 37, 60};
+  for (int s = 0; s < 3; ++s) {
+    const std::string with = Slab(blobs, bounds[s], bounds[s + 1], &memo);
+    const std::string without = Slab(blobs, bounds[s], bounds[s + 1], nullptr);
+    EXPECT_EQ(with, without) << "slab " << s;
+    // Not an empty slab: the surface passes through it or the free space before it.
+    const fusion::Slab decoded = fusion::DecodeSlab(with, "slab");
+    int64_t weighted = 0;
+    for (float w : decoded.weight) weighted += w > 0;
+    EXPECT_GT(weighted, 1000) << "slab " << s;
+  }
+  EXPECT_EQ(memo.fusion_preparations(), 1);
+}
+
+TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
+  const JobBlobs blobs = Blobs(1.0), moved = Blobs(1.05);
+  JobMemo memo;
+  const std::string first = Slab(blobs, 10, 30, &memo);
+  const std::string other = Slab(moved, 10, 30, &memo);
+  EXPECT_EQ(memo.fusion_preparations(), 2);
+  EXPECT_NE(first, other);
+  EXPECT_EQ(other, Slab(moved, 10, 30, nullptr));
+  EXPECT_EQ(first, Slab(blobs, 10, 30, &memo));
+  EXPECT_EQ(memo.fusion_preparations(), 3);
+}
+
+}  // namespace
+}  // namespace dome::pipeline
