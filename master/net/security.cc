@@ -230,6 +230,40 @@ std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
 
 // ---- ZAP ---------------------------------------------------------------------------
 
+namespace {
+
+// Refused peers retry every reconnect interval: one log line per key (a peer and its
+// cause) every kLogEvery, with the count of refusals in between.
+class LogThrottle {
+ public:
+  // The refusals of `key` since its last log line, or nothing when it is too soon.
+  std::optional<int64_t> ShouldLog(const std::string& key) {
+    const auto now = std::chrono::steady_clock::now();
+    auto [it, fresh] = logged_.try_emplace(key, Logged{now, 0});
+    if (!fresh && now - it->second.last < kLogEvery) {
+      ++it->second.since;
+      return std::nullopt;
+    }
+    const int64_t n = it->second.since;
+    it->second = Logged{now, 0};
+    if (logged_.size() > 10000) logged_.clear();  // bounded, whatever the peers do
+    return n;
+  }
+  static std::string Repeats(int64_t n) {
+    return n > 0 ? " (" + std::to_string(n) + " more refusals since the last line)" : "";
+  }
+
+ private:
+  static constexpr std::chrono::seconds kLogEvery{10};
+  struct Logged {
+    std::chrono::steady_clock::time_point last;
+    int64_t since = 0;
+  };
+  std::map<std::string, Logged> logged_;
+};
+
+}  // namespace
+
 struct ZapHandler::Impl {
   zmq::socket_t socket;
   std::set<std::string> allowed;
@@ -237,14 +271,7 @@ struct ZapHandler::Impl {
   std::atomic<bool> stop{false};
   std::atomic<int64_t> accepted{0}, refused{0};
   std::thread thread;
-  // Refused peers retry every reconnect interval: one log line per peer and key every
-  // kLogEvery, with the count of refusals in between.
-  static constexpr std::chrono::seconds kLogEvery{10};
-  struct Logged {
-    std::chrono::steady_clock::time_point last;
-    int64_t since = 0;
-  };
-  std::map<std::string, Logged> logged;
+  LogThrottle throttle;  // per peer and key
 
   Impl(zmq::context_t* context, std::set<std::string> keys, bool plaintext)
       : socket(*context, zmq::socket_type::rep),
@@ -276,23 +303,6 @@ struct ZapHandler::Impl {
     }
   }
 
-  // The refusals of `peer` since its last log line, or nothing when it is too soon.
-  std::optional<int64_t> ShouldLog(const std::string& peer) {
-    const auto now = std::chrono::steady_clock::now();
-    auto [it, fresh] = logged.try_emplace(peer, Logged{now, 0});
-    if (!fresh && now - it->second.last < kLogEvery) {
-      ++it->second.since;
-      return std::nullopt;
-    }
-    const int64_t n = it->second.since;
-    it->second = Logged{now, 0};
-    if (logged.size() > 10000) logged.clear();  // bounded, whatever the peers do
-    return n;
-  }
-  static std::string Repeats(int64_t n) {
-    return n > 0 ? " (" + std::to_string(n) + " more refusals since the last line)" : "";
-  }
-
   // RFC 27: version, request id, domain, address, identity, mechanism, credentials...
   void Answer(const std::vector<zmq::message_t>& f) {
     std::string request_id = f.size() > 1 ? f[1].to_string() : "";
@@ -310,9 +320,9 @@ struct ZapHandler::Impl {
           spdlog::debug("ZAP: CURVE client {} from {} accepted", key, address);
         } else {
           text = "public key not on the allow-list";
-          if (auto n = ShouldLog(address + " " + key)) {
+          if (auto n = throttle.ShouldLog(address + " " + key)) {
             spdlog::warn("refused CURVE client from {}: public key {} is not on the allow-list{}",
-                         address, key, Repeats(*n));
+                         address, key, LogThrottle::Repeats(*n));
           }
         }
       } else if (mechanism == "NULL" && allow_plaintext) {
@@ -320,9 +330,9 @@ struct ZapHandler::Impl {
         text = "OK";
       } else {
         text = "mechanism " + mechanism + " not allowed";
-        if (auto n = ShouldLog(address + " " + mechanism)) {
+        if (auto n = throttle.ShouldLog(address + " " + mechanism)) {
           spdlog::warn("refused {} client from {}: only CURVE clients with allowed keys{}",
-                       mechanism, address, Repeats(*n));
+                       mechanism, address, LogThrottle::Repeats(*n));
         }
       }
     }
@@ -348,5 +358,103 @@ ZapHandler::~ZapHandler() {
 
 int64_t ZapHandler::accepted() const { return impl_->accepted; }
 int64_t ZapHandler::refused() const { return impl_->refused; }
+
+// ---- handshake failures --------------------------------------------------------------
+
+namespace {
+
+// Why a handshake failed, from a monitor event and its value (zmq_socket_monitor(3)).
+std::string HandshakeFailure(uint16_t event, uint32_t value) {
+  if (event == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) {
+    if (value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH) {
+      return "the peer speaks another security mechanism (plaintext against CURVE or the "
+             "reverse: check its --master-key and --insecure flags against the master's)";
+    }
+    if (value == ZMQ_PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC) {
+      return "the peer's CURVE handshake does not decrypt (it encrypts to another master "
+             "public key, or its messages are corrupt)";
+    }
+    char hex[16];
+    std::snprintf(hex, sizeof hex, "0x%08x", unsigned(value));
+    return std::string("ZMTP protocol error ") + hex + " (a malformed greeting or handshake)";
+  }
+  // Which side notices a mismatch first is a race: the peer may hang up before this
+  // side reads its greeting.
+  return std::string("the handshake broke off (") + std::strerror(int(value)) +
+         "): a peer with another security mechanism or key, or one that went away";
+}
+
+}  // namespace
+
+struct HandshakeLog::Impl {
+  struct Watched {
+    zmq::socket_t* socket;
+    std::string name;
+    zmq::socket_t monitor;  // PAIR, connected to the socket's monitor endpoint
+  };
+  std::vector<Watched> watched;
+  std::atomic<bool> stop{false};
+  std::atomic<int64_t> failures{0};
+  LogThrottle throttle;
+  std::thread thread;
+
+  void Serve() {
+    while (!stop) {
+      std::vector<zmq::pollitem_t> items;
+      for (auto& w : watched) items.push_back({w.monitor.handle(), 0, ZMQ_POLLIN, 0});
+      zmq::poll(items, std::chrono::milliseconds(50));
+      for (size_t i = 0; i < watched.size(); ++i) {
+        if (items[i].revents & ZMQ_POLLIN) Read(&watched[i]);
+      }
+    }
+  }
+
+  // One event: a frame of 6 bytes (event id, value), then a frame with the endpoint.
+  void Read(Watched* w) {
+    zmq::message_t head, address;
+    while (w->monitor.recv(head, zmq::recv_flags::dontwait)) {
+      if (!head.more() || !w->monitor.recv(address, zmq::recv_flags::dontwait)) continue;
+      if (head.size() != 6) continue;
+      uint16_t event;
+      uint32_t value;
+      std::memcpy(&event, head.data(), 2);
+      std::memcpy(&value, static_cast<const char*>(head.data()) + 2, 4);
+      ++failures;
+      const std::string why = HandshakeFailure(event, value);
+      if (auto n = throttle.ShouldLog(w->name + " " + why)) {
+        spdlog::warn("refused a peer on the {} socket ({}): {}{}", w->name, address.to_string(),
+                     why, LogThrottle::Repeats(*n));
+      }
+    }
+  }
+};
+
+HandshakeLog::HandshakeLog(zmq::context_t* context,
+                           const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets)
+    : impl_(std::make_unique<Impl>()) {
+  // Failures the ZAP handler refuses are logged by it; these come before it is asked.
+  const int events = ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL;
+  for (const auto& [socket, name] : sockets) {
+    char endpoint[64];
+    std::snprintf(endpoint, sizeof endpoint, "inproc://dome.handshake.%p", socket->handle());
+    if (zmq_socket_monitor(socket->handle(), endpoint, events) != 0) {
+      throw core::InputError(
+          name + " socket", std::string("cannot monitor handshakes: ") + zmq_strerror(zmq_errno()));
+    }
+    Impl::Watched w{socket, name, zmq::socket_t(*context, zmq::socket_type::pair)};
+    w.monitor.set(zmq::sockopt::linger, 0);
+    w.monitor.connect(endpoint);
+    impl_->watched.push_back(std::move(w));
+  }
+  impl_->thread = std::thread([this] { impl_->Serve(); });
+}
+
+HandshakeLog::~HandshakeLog() {
+  impl_->stop = true;
+  impl_->thread.join();
+  for (auto& w : impl_->watched) zmq_socket_monitor(w.socket->handle(), nullptr, 0);
+}
+
+int64_t HandshakeLog::failures() const { return impl_->failures; }
 
 }  // namespace dome::net

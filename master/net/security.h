@@ -20,6 +20,8 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 #include <zmq.hpp>
 
 namespace dome::net {
@@ -89,6 +91,27 @@ class ZapHandler {
 
   int64_t accepted() const;
   int64_t refused() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Logs the handshakes that fail on server sockets before the ZAP handler is asked,
+// which ZeroMQ reports only to a socket monitor: a plaintext peer on a CURVE socket
+// (mechanism mismatch), a peer encrypting to another server key, a malformed greeting.
+// One thread reads the monitors of `sockets` (each with its name for the log, e.g.
+// "worker") from construction to destruction; lines are throttled per socket and cause
+// like the ZAP handler's. The sockets must outlive it.
+class HandshakeLog {
+ public:
+  HandshakeLog(zmq::context_t* context,
+               const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets);
+  ~HandshakeLog();
+  HandshakeLog(const HandshakeLog&) = delete;
+  HandshakeLog& operator=(const HandshakeLog&) = delete;
+
+  int64_t failures() const;
 
  private:
   struct Impl;

@@ -23,6 +23,7 @@
 #include "core/error.h"
 #include "io/file_util.h"
 #include "io/ply.h"
+#include "net/security.h"
 #include "pipeline/content_hash.h"
 #include "pipeline/session.h"
 #include "pipeline/stages.h"
@@ -222,6 +223,7 @@ struct Master::Impl {
   MasterOptions options;
   MasterEndpoints endpoints;
   zmq::socket_t workers_socket, control_socket, events_socket;
+  std::unique_ptr<net::HandshakeLog> handshake_log;  // after the sockets: destroyed first
   std::map<std::string, WorkerRec> workers;
   std::map<std::string, std::unique_ptr<SessionRec>> sessions;
   std::vector<std::string> session_order;
@@ -244,6 +246,10 @@ struct Master::Impl {
     Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
     Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
     Bind(&events_socket, options.events_endpoint, "--events", &endpoints.events);
+    handshake_log = std::make_unique<net::HandshakeLog>(
+        ctx,
+        std::vector<std::pair<zmq::socket_t*, std::string>>{
+            {&workers_socket, "worker"}, {&control_socket, "control"}, {&events_socket, "events"}});
     if (!options.capture_endpoint.empty()) {
       capture_ingest =
           HostCaptureIngest(context, options.capture_endpoint, options.capture_take, options.socket,

@@ -227,8 +227,15 @@ TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
 TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   // A stranger's request gets no answer; the master names its key and address.
   ExpectInputError([&] { List("stranger", 1500); }, {"no answer", "allow-list"});
-  // A plaintext client neither.
+  // A plaintext client neither, nor one encrypting to another master's public key;
+  // their handshakes fail before the allow-list is asked, and the master says why.
   ExpectInputError([&] { List("", 1500); }, {"no answer"});
+  net::SocketOptions wrong_master;
+  net::ApplyClientKeys(dir_.File("stranger.pub"), dir_.File("client.key"), false, &wrong_master);
+  runtime::ControlRequest list;
+  list.mutable_list();
+  ExpectInputError([&] { client::Request(&context_, control_, list, 1500, wrong_master); },
+                   {"no answer"});
   // Meanwhile an allowed client is served.
   EXPECT_TRUE(List("client").sessions().empty());
   const std::string log = master_->Log();
@@ -237,6 +244,12 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
       << log;
   EXPECT_NE(log.find("refused CURVE client from 127.0.0.1"), std::string::npos) << log;
   EXPECT_EQ(log.find(PublicKey("client")), std::string::npos) << "allowed key logged as refused";
+  EXPECT_NE(log.find("refused a peer on the control socket"), std::string::npos) << log;
+  // The plaintext peer: a mismatch, or a hang-up when it noticed the mismatch first.
+  EXPECT_TRUE(log.find("speaks another security mechanism") != std::string::npos ||
+              log.find("the handshake broke off") != std::string::npos)
+      << log;
+  EXPECT_NE(log.find("CURVE handshake does not decrypt"), std::string::npos) << log;
 
   // The worker socket: a stranger's Hello and a plaintext Hello are never answered,
   // and neither joins; both would be heartbeated within 200 ms if they had.
