@@ -19,7 +19,9 @@
 #      and voxels need MIN_WEIGHT images;
 #   4. the reconstruction, timed (wall and CPU seconds, user + system; the import is
 #      not timed):
-#      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS;
+#      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS
+#        (default 1) --threads THREADS (default 2), SLAB_PLANES (24) planes per fusion
+#        job, decimation ratio DECIMATE (default 1: none, mesh.ply is what is evaluated);
 #        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
 #        values below and the volume box as clip box (each camera's depth range: its
 #        nearest and farthest box corner +-2 mm); C2F=0: the full-range search;
@@ -63,7 +65,13 @@ C2F_TRIM=${C2F_TRIM:-0.2}
 C2F_UNIQ=${C2F_UNIQ:-0.5}
 CROP=${CROP:-1}
 CROP_MARGIN_PX=${CROP_MARGIN_PX:-16}
-WORKERS=${WORKERS:-2}
+# One take instant: one in-process worker with both threads keeps every stage parallel
+# (its slab jobs share one set of fusion tables); several workers pay off over instants.
+WORKERS=${WORKERS:-1}
+THREADS=${THREADS:-2}
+SLAB_PLANES=${SLAB_PLANES:-24}
+# The evaluated mesh is mesh.ply; 1 leaves it undecimated (the baselines do not decimate).
+DECIMATE=${DECIMATE:-1}
 # Heartbeat intervals before an in-process worker is presumed lost (dome run
 # --heartbeat-liveness; empty: dome's default). On a loaded machine the master can be
 # busy for seconds writing a result, and a stereo job is then lost and redone.
@@ -115,7 +123,7 @@ s = {"take": take, "out": "",
                 "dims": [int(d) for d in dims]},
      "fusion": {"truncation_mm": float("$TRUNC_VOXELS") * vox,
                 "front_clamp_mm": float("$TRUNC_VOXELS") * vox},
-     "slab_planes": int(dims[2] + 1) // 2 + 1, "decimate_ratio": 0.5, "texture": False,
+     "slab_planes": int("$SLAB_PLANES"), "decimate_ratio": float("$DECIMATE"), "texture": False,
      "write_previews": False}
 # Only what is asked for: the fields stay readable by builds without them.
 if int("$CONSISTENT") > 0: s["fusion"]["min_consistent_views"] = int("$CONSISTENT")
@@ -155,7 +163,7 @@ print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for
         ${EXACT_WARP:+--exact-warp} \
         > "$dst/stereo.log" 2>&1 ||
       ! /usr/bin/time -f "%U %S" -o "$dst/cpu_fuse.txt" "$DOME" fuse "$dst/take" \
-        --depth-dir "$dst/depth" --out "$dst/run" --threads "$WORKERS" "${fuse_args[@]}" \
+        --depth-dir "$dst/depth" --out "$dst/run" --threads "$THREADS" "${fuse_args[@]}" \
         > "$dst/run.log" 2>&1; then
       echo "{\"scene\": \"$scene\", \"error\": \"c2f_stereo or dome fuse failed, see $dst\"}" |
         tee "$dst/result.json"
@@ -167,7 +175,7 @@ print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for
     echo "{\"stages\": {\"stereo_cpu\": $t_stereo, \"fuse_cpu\": $(awk '{print $1 + $2}' "$dst/cpu_fuse.txt")}}" \
       > "$dst/c2f_report.json"
   elif ! /usr/bin/time -f "%U %S" -o "$dst/cpu.txt" "$DOME" run "$dst/session.json" \
-    --out "$dst/run" --workers "$WORKERS" ${LIVENESS:+--heartbeat-liveness "$LIVENESS"} \
+    --out "$dst/run" --workers "$WORKERS" --threads "$THREADS" ${LIVENESS:+--heartbeat-liveness "$LIVENESS"} \
     > "$dst/run.log" 2>&1; then
     echo "{\"scene\": \"$scene\", \"error\": \"dome run failed, see $dst/run.log\"}" | tee "$dst/result.json"
     continue

@@ -27,7 +27,7 @@ struct SessionOptions {
   fusion::VolumeGrid grid;           // default: the seed's 6 m cube of 20 mm voxels
   fusion::FusionOptions fusion;      // truncation and clamp default to 3 voxels, mm
   int slab_planes = 16;              // voxel planes per fusion job (count)
-  double decimate_ratio = 0.1;       // fraction of triangles kept, (0, 1]
+  double decimate_ratio = 0.1;       // fraction of triangles kept, (0, 1]; 1: not decimated
   bool texture = true;               // also write textured.obj/.mtl/.png
 
   // Throws core::InputError naming "session: <field>" for the first bad option.

@@ -173,12 +173,17 @@ std::vector<runtime::Output> RunFusion(const runtime::Job& job, const JobBlobs& 
 
 std::vector<runtime::Output> RunDecimate(const runtime::Job& job, const JobBlobs& blobs) {
   RequireBlobs(job, blobs, 1);
-  const io::Mesh surface = io::ParsePly(*blobs[0], BlobName(job, 0));
   mesh::DecimationOptions options;
   options.target_ratio = job.decimate().ratio();
   options.Check();
   runtime::Output out;
   out.set_name(kDecimatedOutput);
+  if (options.target_ratio == 1.0) {
+    // Ratio 1 keeps the surface as extracted (EncodeMeshPly bytes, as this blob is).
+    out.set_data(*blobs[0]);
+    return {out};
+  }
+  const io::Mesh surface = io::ParsePly(*blobs[0], BlobName(job, 0));
   out.set_data(EncodeMeshPly(mesh::Decimate(surface, options)));
   return {out};
 }

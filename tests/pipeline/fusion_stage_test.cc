@@ -1,14 +1,17 @@
 // The fusion job (pipeline/stages.h RunJob) with a worker's JobMemo: the slab jobs of
 // one instant prepare the range images and tables once, give the same bytes as jobs
-// run without a memo, and a job with other inputs is not served stale tables.
+// run without a memo, and a job with other inputs is not served stale tables. The
+// decimation job with ratio 1 returns the surface as extracted.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
+#include "io/ply.h"
 #include "pipeline/content_hash.h"
 #include "pipeline/session.h"
 #include "pipeline/small_take_suite.h"
@@ -95,6 +98,35 @@ TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   EXPECT_EQ(other, Slab(moved, 10, 30, nullptr));
   EXPECT_EQ(first, Slab(blobs, 10, 30, &memo));
   EXPECT_EQ(memo.fusion_preparations(), 3);
+}
+
+TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
+  // A wavy 20 x 20 grid of 800 triangles, as the master's surface blob.
+  io::Mesh grid;
+  for (int y = 0; y <= 20; ++y) {
+    for (int x = 0; x <= 20; ++x) {
+      grid.vertices.emplace_back(10.0f * x, 10.0f * y, 5.0f * std::sin(0.5f * x));
+    }
+  }
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 20; ++x) {
+      const int v = y * 21 + x;
+      grid.faces.emplace_back(v, v + 1, v + 22);
+      grid.faces.emplace_back(v, v + 22, v + 21);
+    }
+  }
+  const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(grid))};
+  runtime::Job job;
+  job.set_id("s/i/decimate");
+  job.add_blobs()->set_sha256(Sha256Hex(*blobs[0]));
+  job.mutable_decimate()->set_ratio(1.0);
+  const auto kept = RunJob(job, blobs);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].data(), *blobs[0]);
+  job.mutable_decimate()->set_ratio(0.25);
+  const auto decimated = RunJob(job, blobs);
+  ASSERT_EQ(decimated.size(), 1u);
+  EXPECT_EQ(io::ParsePly(decimated[0].data(), "decimated").faces.size(), 200u);
 }
 
 }  // namespace
