@@ -17,10 +17,13 @@
 //     machine), the master loop's busy fraction and longest turn, and the load average.
 //   runtime_bench scaling TAKE OUT [--instants N] [--workers N]
 //     e2e with 1 worker (OUT/w1), then with N (default 2, OUT/wN): the parallel
-//     efficiency T1 / (N x TN), and both runs' utilisation. On this 2-core machine:
-//       dome synth --preset paper --instants 4 --out TAKE && runtime_bench scaling TAKE OUT
+//     efficiency T1 / (N x TN), both runs' utilisation and CPU seconds (more CPU for
+//     the same jobs with N workers is contention). On this 2-core machine, the whole
+//     paper take (11 instants):
+//       dome synth --preset paper --out TAKE && runtime_bench scaling TAKE OUT
 #include <signal.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -205,7 +208,16 @@ std::string LoadAverage() {
 struct EndToEndFigures {
   bool done = false;
   double seconds = 0, worker_job_seconds = 0;
+  double cpu_seconds = 0;  // user + system of this process (master and workers) during the run
 };
+
+// User + system CPU seconds of this process so far.
+double ProcessCpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 // A number field of report.json ("key": value), or NaN.
 double ReportNumber(const std::string& report, const std::string& key) {
@@ -226,7 +238,9 @@ EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
   e.workers = workers;
   e.threads_per_worker = 1;
   const std::string load_before = LoadAverage();
+  const double cpu_before = ProcessCpuSeconds();
   const auto st = client::RunEmbedded(s, e, nullptr);
+  const double cpu_seconds = ProcessCpuSeconds() - cpu_before;
   const std::string load_after = LoadAverage();
   const std::string report = io::ReadFileBytes(out / "report.json");
   auto field = [&](const std::string& key) {
@@ -238,18 +252,20 @@ EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
   };
   EndToEndFigures f;
   f.done = st.state() == "done";
+  f.cpu_seconds = cpu_seconds;
   f.seconds = ReportNumber(report, "seconds");
   f.worker_job_seconds = ReportNumber(report, "worker_job_seconds");
   std::printf(
       "{\"mode\": \"e2e\", \"workers\": %d, \"state\": \"%s\", \"instants\": %s, \"seconds\": %s, "
       "\"seconds_per_instant\": %s, \"worker_job_seconds\": %s, \"utilisation\": %.3f, "
       "\"master_loop_busy_fraction\": %s, \"master_loop_longest_turn_s\": %s, "
-      "\"bytes_to_workers\": %s, \"bytes_from_workers\": %s, \"load_average\": [%s, %s]}\n",
+      "\"bytes_to_workers\": %s, \"bytes_from_workers\": %s, \"cpu_seconds\": %.2f, "
+      "\"load_average\": [%s, %s]}\n",
       workers, st.state().c_str(), field("instants").c_str(), field("seconds").c_str(),
       field("seconds_per_instant").c_str(), field("worker_job_seconds").c_str(),
       f.worker_job_seconds / (workers * f.seconds), field("busy_fraction").c_str(),
       field("longest_turn_s").c_str(), field("bytes_to_workers").c_str(),
-      field("bytes_from_workers").c_str(), load_before.c_str(), load_after.c_str());
+      field("bytes_from_workers").c_str(), cpu_seconds, load_before.c_str(), load_after.c_str());
   std::fflush(stdout);
   return f;
 }
@@ -271,10 +287,11 @@ int Scaling(const fs::path& take, const fs::path& out, int workers,
   std::printf(
       "{\"mode\": \"scaling\", \"workers\": %d, \"seconds_1\": %.3f, \"seconds_%d\": %.3f, "
       "\"speedup\": %.3f, \"parallel_efficiency\": %.3f, \"utilisation_1\": %.3f, "
-      "\"utilisation_%d\": %.3f}\n",
+      "\"utilisation_%d\": %.3f, \"cpu_seconds_1\": %.2f, \"cpu_seconds_%d\": %.2f}\n",
       workers, one.seconds, workers, many.seconds, one.seconds / many.seconds,
       one.seconds / (workers * many.seconds), one.worker_job_seconds / one.seconds, workers,
-      many.worker_job_seconds / (workers * many.seconds));
+      many.worker_job_seconds / (workers * many.seconds), one.cpu_seconds, workers,
+      many.cpu_seconds);
   return one.done && many.done ? 0 : 1;
 }
 
