@@ -6,7 +6,9 @@
 //   OUT/depth/<camera>.f32 (float32 row-major, mm) and OUT/cameras.json (pinhole K of
 //   the undistorted camera, world->camera R and t in mm). Prints one JSON line;
 //   fusion_s is wall time (best of --repeat), fusion_cpu_s the process CPU time of that
-//   stage (all threads; a check on a machine shared with other work).
+//   stage (all threads; a check on a machine shared with other work). Each repeat builds
+//   a new integrator; from the second on it reuses the first one's table memory, as a
+//   worker fusing instant after instant does (fusion/integrate.h).
 //
 //   With --fusion-only 1 it stops after fusion and marching cubes (no decimation,
 //   texture or meshes written): a short run for timing fusion alone.
@@ -140,14 +142,7 @@ int main(int argc, char** argv) {
     const io::Mesh decimated = mesh::Decimate(mesh, dec);
     const double t_dec = w.ElapsedSeconds();
     io::WritePly(out / "mesh_decimated.ply", decimated);
-    std::vector<mesh::TextureView> views;
-    for (const auto& rc : take.rig.cameras) {
-      mesh::TextureView v;
-      v.camera = rc.model;
-      v.where = take.FramePath(instant, rc.model.id).string();
-      v.image = io::ReadImage(v.where, io::ImageMode::kBgr8);
-      views.push_back(std::move(v));
-    }
+    const std::vector<mesh::TextureView> views = mesh::LoadTextureViews(take, instant);
     mesh::TextureOptions tex;
     tex.num_threads = threads;
     io::Mesh coloured = decimated;

@@ -9,7 +9,8 @@
    keeps its JSON (per-stage seconds); it also writes the exact depth maps it fused.
 2. Fusion speed in --pairs back-to-back pairs, alternating which goes first: dome's
    fusion alone (fusion_bench --fusion-only 1 --repeat 2: the better of two instants
-   fused in one process, tables built each time) and Open3D's legacy UniformTSDFVolume
+   fused in one process, tables built each time, the second in the first one's table
+   memory as in a worker) and Open3D's legacy UniformTSDFVolume
    (6 m cube, 300^3, sdf_trunc = 3 voxels, OMP_NUM_THREADS = threads; the better of two
    fresh volumes, allocation not timed) on the same depth maps, with the undistorted
    pinhole K of each camera (Open3D has no Tsai distortion: the timing is what is

@@ -9,10 +9,18 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <new>
 
 #if defined(__AVX2__) || defined(__F16C__)
 #include <immintrin.h>
+#endif
+// The 16-lane paths (ExactRowPair, the per-voxel result) need these AVX-512 subsets.
+#if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512BW__) && \
+    defined(__AVX512VL__) && defined(__FMA__)
+#define DOME_FUSION_AVX512 1
+#else
+#define DOME_FUSION_AVX512 0
 #endif
 
 #include "core/error.h"
@@ -95,22 +103,61 @@ constexpr size_t kHugePage = size_t(2) << 20;
 // One mapping holds every camera's tables (tens of MB), asking for 2 MB pages: the hot
 // loop reads the tables of all cameras in turn, so with 4 KB pages most lookups would
 // also miss the TLB, and building the tables would take a page fault per 4 KB.
+// A process keeps the largest mapping it has freed and hands it to the next integrator
+// that fits: a worker fuses instant after instant of the same size, and faulting in
+// (and zeroing) tens of MB per instant was a visible part of building the tables.
+// Every table byte is written before it is read, so a reused mapping needs no clearing.
 struct Integrator::Arena {
-  explicit Arena(size_t bytes) : size(bytes + kHugePage) {
-    base = mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (base == MAP_FAILED) throw std::bad_alloc();
-    const uintptr_t b = reinterpret_cast<uintptr_t>(base);
-    start = reinterpret_cast<char*>((b + kHugePage - 1) & ~uintptr_t(kHugePage - 1));
+  explicit Arena(size_t bytes) {
+    const size_t need = (bytes + kHugePage - 1) & ~(kHugePage - 1);
+    {
+      std::lock_guard<std::mutex> lock(CacheMutex());
+      Mapping& cached = Cached();
+      if (cached.base != nullptr && cached.usable >= need) {
+        map = cached;
+        cached = Mapping();
+        return;
+      }
+    }
+    map.size = need + kHugePage;
+    map.base = mmap(nullptr, map.size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (map.base == MAP_FAILED) throw std::bad_alloc();
+    const uintptr_t b = reinterpret_cast<uintptr_t>(map.base);
+    map.start = reinterpret_cast<char*>((b + kHugePage - 1) & ~uintptr_t(kHugePage - 1));
+    map.usable = need;
 #ifdef MADV_HUGEPAGE
-    madvise(start, (bytes + kHugePage - 1) & ~(kHugePage - 1), MADV_HUGEPAGE);
+    madvise(map.start, need, MADV_HUGEPAGE);
 #endif
   }
-  ~Arena() { munmap(base, size); }
+  ~Arena() {
+    Mapping drop = map;
+    {
+      std::lock_guard<std::mutex> lock(CacheMutex());
+      Mapping& cached = Cached();
+      if (cached.usable < map.usable) std::swap(cached, drop);
+    }
+    if (drop.base != nullptr) munmap(drop.base, drop.size);
+  }
   Arena(const Arena&) = delete;
   Arena& operator=(const Arena&) = delete;
-  void* base;
-  size_t size;
-  char* start;
+  char* start() const { return map.start; }
+
+ private:
+  struct Mapping {
+    void* base = nullptr;
+    size_t size = 0;        // bytes mapped at base
+    char* start = nullptr;  // first 2 MB boundary in the mapping
+    size_t usable = 0;      // bytes from start
+  };
+  static std::mutex& CacheMutex() {
+    static std::mutex m;
+    return m;
+  }
+  static Mapping& Cached() {  // the idle mapping kept for the next integrator
+    static Mapping m;
+    return m;
+  }
+  Mapping map;
 };
 
 namespace {
@@ -149,28 +196,34 @@ struct Integrator::CameraTables {
   float rn2_max = 0;                                 // largest tabulated (x/z)^2 + (y/z)^2
   float lut_scale = 0;                               // (kLutSize - 1) / rn2_max
   Table<float> lambda;  // distortion factor over rn^2, kLutSize entries
+  // lambda[e], lambda[e + 1] side by side (the last entry repeated): the hot loop
+  // fetches both ends of its interval with one 8-byte load.
+  Table<float> lambda_pair;
   double xn_min = 0, xn_max = 0, yn_min = 0, yn_max = 0;  // frustum, normalized coords
   int width = 0, height = 0;
   Table<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
   Table<float> weight;     // empty = uniform
   // (width-1) x (height-1): bit 0 upper, bit 1 lower triangle (plus 3 unused entries
-  // at the end, the same count as quad_min/quad_max).
+  // at the end, the same count as quad_range's pairs).
   Table<uint8_t> quad;
-  // Per quad: least and largest of its valid depths (+inf / -inf if none), mm; any depth
-  // interpolated in a triangle of the quad lies between them. quad_min carries the
-  // quad's two triangle bits in the two low bits of its pattern, lowered first so that
-  // the value stays below the true least depth (one load gives both).
-  Table<float> quad_min, quad_max;
+  // Per quad, side by side (2 floats, one 8-byte load): least and largest of its valid
+  // depths (+inf / -inf if none), mm; any depth interpolated in a triangle of the quad
+  // lies between them. The least carries the quad's two triangle bits in the two low
+  // bits of its pattern, lowered first so that the value stays below the true least
+  // depth (one load gives both). QuadMin / QuadMax below read them.
+  Table<float> quad_range;
+  float QuadMin(size_t q) const { return quad_range[2 * q]; }
+  float QuadMax(size_t q) const { return quad_range[2 * q + 1]; }
   // Per tile of 2^kTileShift x 2^kTileShift quads, two IEEE half floats, mm: low 16
-  // bits the least quad_min of the tile rounded down when every quad has both
-  // triangles (-inf otherwise), high 16 bits the largest quad_max rounded up. 20 KB per
+  // bits the least QuadMin of the tile rounded down when every quad has both
+  // triangles (-inf otherwise), high 16 bits the largest QuadMax rounded up. 20 KB per
   // camera, so that most voxels of an exact row are found to be clamped free space or
   // far behind with one small lookup instead of the per-quad tables.
   int tile_w = 0;
   Table<uint32_t> tile;
   // Min/max depth pyramid over the quads for block culling. Level 0 is the quads
-  // themselves (quad_min: just below the least depth where both triangles exist;
-  // quad_max; connected = both triangles exist); pyramid[l - 1] holds level l >= 1, each
+  // themselves (QuadMin: just below the least depth where both triangles exist;
+  // QuadMax; connected = both triangles exist); pyramid[l - 1] holds level l >= 1, each
   // cell merging 2x2 cells of level l - 1: min (meaningful only where connected), max
   // (-inf if no valid depth), connected = all connected.
   struct Level {
@@ -197,8 +250,9 @@ void ForEachPyramidLevel(int qw, int qh, F&& level) {
 size_t CameraTableBytes(int w, int h, bool weighted) {
   const size_t px = size_t(w) * h, quads = size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3;
   const size_t tiles = size_t(((w - 1) >> kTileShift) + 1) * (((h - 1) >> kTileShift) + 1);
-  size_t bytes = TableBytes(kLutSize, 4) + TableBytes(px, 4) * (weighted ? 2 : 1) +
-                 TableBytes(quads, 1) + 2 * TableBytes(quads, 4) + TableBytes(tiles, 4);
+  size_t bytes = TableBytes(kLutSize, 4) + TableBytes(2 * kLutSize, 4) +
+                 TableBytes(px, 4) * (weighted ? 2 : 1) + TableBytes(quads, 1) +
+                 TableBytes(2 * quads, 4) + TableBytes(tiles, 4);
   ForEachPyramidLevel(w - 1, h - 1, [&](int lw, int lh) {
     bytes += 2 * TableBytes(size_t(lw) * lh, 4) + TableBytes(size_t(lw) * lh, 1);
   });
@@ -237,8 +291,8 @@ void BuildPyramid(Integrator::CameraTables* t, TableRegion* region) {
   Level l1;
   merge_into(&l1, qw, qh, [&](int x, int y, float* lo, float* hi, bool* connected) {
     const size_t q = size_t(y) * qw + x;
-    *lo = t->quad_min[q];
-    *hi = t->quad_max[q];
+    *lo = t->QuadMin(q);
+    *hi = t->QuadMax(q);
     *connected = t->quad[q] == 3;
   });
   t->pyramid.push_back(std::move(l1));
@@ -288,7 +342,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
       const cv::Mat& depth_mm = consistent.empty() ? image.depth_mm : consistent[c];
       const geometry::TsaiCamera& cam = image.camera;
       CameraTables& t = cameras_[c];
-      TableRegion region(arena_->start + region_begin[c], region_begin[c + 1] - region_begin[c]);
+      TableRegion region(arena_->start() + region_begin[c], region_begin[c + 1] - region_begin[c]);
       t.rotation = cam.rotation;
       t.translation_mm = cam.translation_mm;
       t.q000 = cam.rotation * grid_.VoxelCentreMm(0, 0, 0) + cam.translation_mm;
@@ -342,6 +396,11 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         down = down && t.lambda[e] <= t.lambda[e - 1];
       }
       t.lambda_monotonic = up || down;
+      t.lambda_pair = region.Take<float>(2 * kLutSize);
+      for (int e = 0; e < kLutSize; ++e) {
+        t.lambda_pair[2 * e] = t.lambda[e];
+        t.lambda_pair[2 * e + 1] = t.lambda[std::min(e + 1, kLutSize - 1)];
+      }
       // Inverse depths and the tessellation (seed §3: no triangle across a jump).
       t.inv_depth = region.Take<float>(size_t(w) * h);
       for (int y = 0; y < h; ++y) {
@@ -357,38 +416,41 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         }
       }
       const float ratio = static_cast<float>(options_.max_depth_jump_ratio);
-      auto connected = [&](float a, float b, float c) {
-        if (!(a > 0 && b > 0 && c > 0)) return false;
-        const float lo = std::min(a, std::min(b, c)), hi = std::max(a, std::max(b, c));
-        return hi - lo <= ratio * lo;
-      };
+      const float inf = std::numeric_limits<float>::infinity();
       const size_t quads = size_t(std::max(w - 1, 0)) * std::max(h - 1, 0) + 3;
       t.quad = region.Take<uint8_t>(quads);
-      t.quad_min = region.Take<float>(quads);
-      t.quad_max = region.Take<float>(quads);
-      std::fill(t.quad.begin(), t.quad.end(), uint8_t{0});
-      std::fill(t.quad_min.begin(), t.quad_min.end(), std::numeric_limits<float>::infinity());
-      std::fill(t.quad_max.begin(), t.quad_max.end(), -std::numeric_limits<float>::infinity());
+      t.quad_range = region.Take<float>(2 * quads);
+      for (size_t q = quads - 3; q < quads; ++q) {  // the unused entries at the end
+        t.quad[q] = 0;
+        t.quad_range[2 * q] = inf;
+        t.quad_range[2 * q + 1] = -inf;
+      }
+      // Without branches (a depth map's valid/invalid pattern defeats prediction): a
+      // triangle is connected when its three depths are valid and differ by at most
+      // `ratio` of the least; min and max are exact, so their order does not matter.
       for (int y = 0; y + 1 < h; ++y) {
         const float* r0 = depth_mm.ptr<float>(y);
         const float* r1 = depth_mm.ptr<float>(y + 1);
+        uint8_t* quad_row = t.quad.data() + size_t(y) * (w - 1);
+        float* range_row = t.quad_range.data() + 2 * size_t(y) * (w - 1);
         for (int x = 0; x + 1 < w; ++x) {
-          uint8_t q = 0;
-          if (connected(r0[x], r0[x + 1], r1[x + 1])) q |= 1;  // (0,0) (1,0) (1,1)
-          if (connected(r0[x], r1[x], r1[x + 1])) q |= 2;      // (0,0) (0,1) (1,1)
-          t.quad[size_t(y) * (w - 1) + x] = q;
-          float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-          for (float d : {r0[x], r0[x + 1], r1[x], r1[x + 1]}) {
-            if (d > 0) {
-              lo = std::min(lo, d);
-              hi = std::max(hi, d);
-            }
-          }
+          const float a = r0[x], b = r0[x + 1], c = r1[x], d = r1[x + 1];
+          const bool va = a > 0, vb = b > 0, vc = c > 0, vd = d > 0;
+          const float ad_lo = std::min(a, d), ad_hi = std::max(a, d);
+          const float ulo = std::min(ad_lo, b), uhi = std::max(ad_hi, b);  // (0,0) (1,0) (1,1)
+          const float llo = std::min(ad_lo, c), lhi = std::max(ad_hi, c);  // (0,0) (0,1) (1,1)
+          const uint32_t q = uint32_t(va & vd & vb & (uhi - ulo <= ratio * ulo)) |
+                             uint32_t(va & vd & vc & (lhi - llo <= ratio * llo)) << 1;
+          quad_row[x] = uint8_t(q);
+          const float lo =
+              std::min(std::min(va ? a : inf, vb ? b : inf), std::min(vc ? c : inf, vd ? d : inf));
+          const float hi = std::max(std::max(va ? a : -inf, vb ? b : -inf),
+                                    std::max(vc ? c : -inf, vd ? d : -inf));
           uint32_t bits;
           std::memcpy(&bits, &lo, 4);
           bits = ((bits - 4) & ~3u) | q;  // lo > 0: the pattern orders like the value
-          std::memcpy(&t.quad_min[size_t(y) * (w - 1) + x], &bits, 4);
-          t.quad_max[size_t(y) * (w - 1) + x] = hi;
+          std::memcpy(&range_row[2 * x], &bits, 4);
+          range_row[2 * x + 1] = hi;
         }
       }
       const int tw = ((w - 1) >> kTileShift) + 1, th = ((h - 1) >> kTileShift) + 1;
@@ -401,9 +463,9 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         for (int x = 0; x + 1 < w; ++x) {
           const size_t q = size_t(y) * (w - 1) + x;
           const size_t n = size_t(y >> kTileShift) * tw + (x >> kTileShift);
-          tlo[n] = t.quad[q] == 3 ? std::min(tlo[n], t.quad_min[q])
+          tlo[n] = t.quad[q] == 3 ? std::min(tlo[n], t.QuadMin(q))
                                   : -std::numeric_limits<float>::infinity();
-          thi[n] = std::max(thi[n], t.quad_max[q]);
+          thi[n] = std::max(thi[n], t.QuadMax(q));
         }
       }
       for (size_t n = 0; n < tlo.size(); ++n) {
@@ -528,8 +590,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
     for (int cy = qy0; cy <= qy1; ++cy) {
       for (int cx = qx0; cx <= qx1; ++cx) {
         const size_t idx = size_t(cy) * (w - 1) + cx;
-        dmin = std::min(dmin, t.quad_min[idx]);
-        dmax = std::max(dmax, t.quad_max[idx]);
+        dmin = std::min(dmin, t.QuadMin(idx));
+        dmax = std::max(dmax, t.QuadMax(idx));
         all_connected = all_connected && t.quad[idx] == 3;
       }
     }
@@ -573,8 +635,10 @@ struct RowParams {
 };
 
 #if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
-__attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y, float c0z, int ib,
-                                        int lanes, float* sum_wd, float* sum_w, int32_t* count) {
+[[maybe_unused]] __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y,
+                                                         float c0z, int ib, int lanes,
+                                                         float* sum_wd, float* sum_w,
+                                                         int32_t* count) {
   const Integrator::CameraTables& t = *p.t;
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 active = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), lane));
@@ -646,7 +710,7 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
   const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
   const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
   const __m256i qi = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width - 1)), x0);
-  const __m256 lo = _mm256_i32gather_ps(t.quad_min.data(), qi, 4);
+  const __m256 lo = _mm256_i32gather_ps(t.quad_range.data(), _mm256_slli_epi32(qi, 1), 4);
   const __m256i q = _mm256_and_si256(_mm256_castps_si256(lo), _mm256_set1_epi32(3));
   // Upper triangle (bit 0) where ax >= ay, lower (bit 1) otherwise.
   const __m256 upper = _mm256_cmp_ps(ax, ay, _CMP_GE_OQ);
@@ -669,7 +733,7 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
           : _mm256_setzero_ps();
   __m256 rest = _mm256_andnot_ps(free_fast, valid);
   if (p.shortcuts && _mm256_movemask_ps(rest) != 0) {
-    const __m256 hi = _mm256_i32gather_ps(t.quad_max.data(), qm, 4);
+    const __m256 hi = _mm256_i32gather_ps(t.quad_range.data() + 1, _mm256_slli_epi32(qm, 1), 4);
     const __m256 behind = _mm256_cmp_ps(
         _mm256_add_ps(_mm256_fmsub_ps(hi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
         _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
@@ -775,6 +839,210 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
 }
 #endif
 
+// Two rows of up to 8 voxels each (rows j and j + 1 of a block, `rows` of them), i = ib + m
+// for m < lanes, their accumulators `stride` floats apart: one 16-lane pass where the
+// machine has AVX-512 (gathers of 16 indices cost less per index than two of 8, and the
+// per-call work is shared), else ExactRow per row. The per-lane arithmetic is the same
+// operation sequence as ExactRow's, so the values are bit-identical.
+#if DOME_FUSION_AVX512
+// GCC 12's AVX-512 headers start unmasked intrinsics from an "undefined" register, which
+// -Wmaybe-uninitialized reports at every use; nothing here reads an undefined lane.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// For 16 indices `idx` (lanes not in `k` read nothing and give 0): the float pairs
+// (base[2 idx], base[2 idx + 1]) as `first`, `second`, with two 8-byte gathers of 8.
+// With kScale 4: base[idx], base[idx + 1] (two adjacent floats at any index).
+template <int kScale = 8>
+inline void GatherPairs(__m512i idx, __mmask16 k, const float* base, __m512* first,
+                        __m512* second) {
+  const __m512i g0 = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), __mmask8(k),
+                                                 _mm512_castsi512_si256(idx), base, kScale);
+  const __m512i g1 = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), __mmask8(k >> 8),
+                                                 _mm512_extracti64x4_epi64(idx, 1), base, kScale);
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+  *first = _mm512_castsi512_ps(_mm512_permutex2var_epi32(g0, even, g1));
+  *second = _mm512_castsi512_ps(_mm512_permutex2var_epi32(g0, odd, g1));
+}
+
+__attribute__((noinline)) void ExactRowPair(const RowParams& p, const float c0[3],
+                                            const float c1[3], int ib, int lanes, int rows,
+                                            int stride, float* sum_wd, float* sum_w,
+                                            int32_t* count) {
+  const Integrator::CameraTables& t = *p.t;
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
+  const __mmask16 row_mask = static_cast<__mmask16>((1u << lanes) - 1u);
+  const __mmask16 active = static_cast<__mmask16>(row_mask | (rows > 1 ? row_mask << 8 : 0));
+  const __mmask16 second = 0xff00;
+  const __m512 fi = _mm512_cvtepi32_ps(_mm512_add_epi32(_mm512_set1_epi32(ib), lane));
+  const __m512 bx = _mm512_mask_blend_ps(second, _mm512_set1_ps(c0[0]), _mm512_set1_ps(c1[0]));
+  const __m512 by = _mm512_mask_blend_ps(second, _mm512_set1_ps(c0[1]), _mm512_set1_ps(c1[1]));
+  const __m512 bz = _mm512_mask_blend_ps(second, _mm512_set1_ps(c0[2]), _mm512_set1_ps(c1[2]));
+  const __m512 x = _mm512_fmadd_ps(fi, _mm512_set1_ps(p.sx), bx);
+  const __m512 y = _mm512_fmadd_ps(fi, _mm512_set1_ps(p.sy), by);
+  const __m512 z = _mm512_fmadd_ps(fi, _mm512_set1_ps(p.sz), bz);
+  const __m512 inv_z = _mm512_div_ps(_mm512_set1_ps(1.0f), z);
+  const __m512 xn = _mm512_mul_ps(x, inv_z), yn = _mm512_mul_ps(y, inv_z);
+  const __m512 rn2 = _mm512_fmadd_ps(xn, xn, _mm512_mul_ps(yn, yn));
+  // Accumulator updates, applied once on the way out.
+  __mmask16 add_count = 0;
+  __mmask16 add_d = 0;  // unweighted: sum_wd += d, sum_w += 1
+  __m512 d = _mm512_setzero_ps();
+  __m512 add_wd = _mm512_setzero_ps(), add_w = _mm512_setzero_ps();  // weighted
+  bool weighted_add = false;
+  do {
+    __mmask16 ok = _mm512_cmp_ps_mask(z, _mm512_set1_ps(p.near), _CMP_GT_OQ) &
+                   _mm512_cmp_ps_mask(rn2, _mm512_set1_ps(t.rn2_max), _CMP_LE_OQ) & active;
+    if (ok == 0) break;
+    // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
+    const __m512 e = _mm512_min_ps(_mm512_mul_ps(rn2, _mm512_set1_ps(t.lut_scale)),
+                                   _mm512_set1_ps(float(kLutSize - 1) - 0.5f));
+    const __m512i ei = _mm512_cvttps_epi32(e);
+    __m512 l0, l1;
+    GatherPairs(ei, 0xffff, t.lambda_pair.data(), &l0, &l1);
+    const __m512 lambda =
+        _mm512_fmadd_ps(_mm512_sub_ps(e, _mm512_cvtepi32_ps(ei)), _mm512_sub_ps(l1, l0), l0);
+    const __m512 u = _mm512_fmadd_ps(_mm512_mul_ps(xn, lambda), _mm512_set1_ps(t.fx_px),
+                                     _mm512_set1_ps(t.cx_px));
+    const __m512 v = _mm512_fmadd_ps(_mm512_mul_ps(yn, lambda), _mm512_set1_ps(t.fy_px),
+                                     _mm512_set1_ps(t.cy_px));
+    const __m512 zero = _mm512_setzero_ps();
+    __mmask16 in = ok & _mm512_cmp_ps_mask(u, zero, _CMP_GE_OQ) &
+                   _mm512_cmp_ps_mask(u, _mm512_set1_ps(float(t.width - 1)), _CMP_LT_OQ) &
+                   _mm512_cmp_ps_mask(v, zero, _CMP_GE_OQ) &
+                   _mm512_cmp_ps_mask(v, _mm512_set1_ps(float(t.height - 1)), _CMP_LT_OQ);
+    if (in == 0) break;
+    const __m512i x0 = _mm512_maskz_cvttps_epi32(in, u);
+    const __m512i y0 = _mm512_maskz_cvttps_epi32(in, v);
+    if (p.shortcuts) {
+      // Whole tile decides (see ExactRow).
+      const __m512i ti = _mm512_add_epi32(
+          _mm512_mullo_epi32(_mm512_srli_epi32(y0, kTileShift), _mm512_set1_epi32(t.tile_w)),
+          _mm512_srli_epi32(x0, kTileShift));
+      const __m512i packed = _mm512_i32gather_epi32(ti, t.tile.data(), 4);
+      const __m512 tlo = _mm512_cvtph_ps(_mm512_cvtepi32_epi16(packed));
+      const __m512 thi = _mm512_cvtph_ps(_mm512_cvtepi32_epi16(_mm512_srli_epi32(packed, 16)));
+      const __mmask16 behind =
+          _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_fmsub_ps(thi, _mm512_set1_ps(1.0f + 1e-5f), z),
+                                           _mm512_set1_ps(0.01f)),
+                             _mm512_set1_ps(-p.truncation), _CMP_LT_OQ);
+      in &= ~behind;
+      if (t.weight.empty()) {
+        const __mmask16 free =
+            in &
+            _mm512_cmp_ps_mask(_mm512_sub_ps(_mm512_fmsub_ps(tlo, _mm512_set1_ps(1.0f - 1e-5f), z),
+                                             _mm512_set1_ps(0.01f)),
+                               _mm512_set1_ps(p.clamp), _CMP_GE_OQ);
+        add_count |= free;
+        in &= ~free;
+      }
+      if (in == 0) break;
+    }
+    const __m512 ax = _mm512_sub_ps(u, _mm512_cvtepi32_ps(x0));
+    const __m512 ay = _mm512_sub_ps(v, _mm512_cvtepi32_ps(y0));
+    const __m512i qi = _mm512_add_epi32(_mm512_mullo_epi32(y0, _mm512_set1_epi32(t.width - 1)), x0);
+    __m512 lo, hi;  // hi is read only with the shortcuts
+    GatherPairs(qi, in, t.quad_range.data(), &lo, &hi);
+    const __m512i q = _mm512_and_si512(_mm512_castps_si512(lo), _mm512_set1_epi32(3));
+    // Upper triangle (bit 0) where ax >= ay, lower (bit 1) otherwise.
+    const __mmask16 upper = _mm512_cmp_ps_mask(ax, ay, _CMP_GE_OQ);
+    const __m512i bit = _mm512_mask_blend_epi32(upper, _mm512_set1_epi32(2), _mm512_set1_epi32(1));
+    __mmask16 valid = in & _mm512_cmpeq_epi32_mask(_mm512_and_si512(q, bit), bit);
+    if (valid == 0) break;
+    const __mmask16 free_fast =
+        p.shortcuts
+            ? static_cast<__mmask16>(
+                  valid & _mm512_cmp_ps_mask(
+                              _mm512_sub_ps(_mm512_fmsub_ps(lo, _mm512_set1_ps(1.0f - 1e-5f), z),
+                                            _mm512_set1_ps(0.01f)),
+                              _mm512_set1_ps(p.clamp), _CMP_GE_OQ))
+            : __mmask16{0};
+    __mmask16 rest = valid & ~free_fast;
+    if (p.shortcuts && rest != 0) {
+      const __mmask16 behind =
+          _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_fmsub_ps(hi, _mm512_set1_ps(1.0f + 1e-5f), z),
+                                           _mm512_set1_ps(0.01f)),
+                             _mm512_set1_ps(-p.truncation), _CMP_LT_OQ);
+      rest &= ~behind;
+    }
+    if (rest == 0) {
+      if (t.weight.empty()) {
+        add_count |= free_fast;
+        break;
+      }
+      if (free_fast == 0) break;  // all untouched
+    }
+    const __m512i p00 = _mm512_add_epi32(_mm512_mullo_epi32(y0, _mm512_set1_epi32(t.width)), x0);
+    const float* id = t.inv_depth.data();
+    __m512 i00, i10, i01, i11;  // the quad's corners, two 8-byte loads per lane
+    GatherPairs<4>(p00, valid, id, &i00, &i10);
+    GatherPairs<4>(p00, valid, id + t.width, &i01, &i11);
+    // Upper: i00 + ax (i10 - i00) + ay (i11 - i10); lower: i00 + ay (i01 - i00) + ax (i11 - i01).
+    const __m512 a = _mm512_mask_blend_ps(upper, ay, ax), b = _mm512_mask_blend_ps(upper, ax, ay);
+    const __m512 mid = _mm512_mask_blend_ps(upper, i01, i10);
+    const __m512 inv = _mm512_fmadd_ps(b, _mm512_sub_ps(i11, mid),
+                                       _mm512_fmadd_ps(a, _mm512_sub_ps(mid, i00), i00));
+    const __m512 scale = _mm512_sqrt_ps(_mm512_add_ps(_mm512_set1_ps(1.0f), rn2));
+    d = _mm512_mul_ps(
+        _mm512_sub_ps(_mm512_div_ps(_mm512_set1_ps(1.0f),
+                                    _mm512_mask_blend_ps(valid, _mm512_set1_ps(1.0f), inv)),
+                      z),
+        scale);
+    valid &= _mm512_cmp_ps_mask(d, _mm512_set1_ps(-p.truncation), _CMP_GE_OQ);
+    const __m512 clamp = _mm512_set1_ps(p.clamp);
+    if (t.weight.empty()) {
+      const __mmask16 free = valid & _mm512_cmp_ps_mask(d, clamp, _CMP_GE_OQ);
+      add_count |= free;
+      add_d = valid & ~free;
+    } else {
+      const float* wm = t.weight.data();
+      const __m512 w00 = _mm512_mask_i32gather_ps(zero, valid, p00, wm, 4);
+      const __m512 w10 = _mm512_mask_i32gather_ps(zero, valid, p00, wm + 1, 4);
+      const __m512 w01 = _mm512_mask_i32gather_ps(zero, valid, p00, wm + t.width, 4);
+      const __m512 w11 = _mm512_mask_i32gather_ps(zero, valid, p00, wm + t.width + 1, 4);
+      const __m512 wmid = _mm512_mask_blend_ps(upper, w01, w10);
+      const __m512 wt = _mm512_fmadd_ps(b, _mm512_sub_ps(w11, wmid),
+                                        _mm512_fmadd_ps(a, _mm512_sub_ps(wmid, w00), w00));
+      add_wd = _mm512_maskz_mov_ps(valid, _mm512_mul_ps(wt, _mm512_min_ps(d, clamp)));
+      add_w = _mm512_maskz_mov_ps(valid, wt);
+      weighted_add = true;
+    }
+  } while (false);
+  // Rows are 8 lanes each, `stride` apart in the accumulators.
+  auto load2 = [stride](const float* ptr) {
+    return _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(ptr)),
+                              _mm256_loadu_ps(ptr + stride), 1);
+  };
+  auto store2 = [stride](float* ptr, __m512 v) {
+    _mm256_storeu_ps(ptr, _mm512_castps512_ps256(v));
+    _mm256_storeu_ps(ptr + stride, _mm512_extractf32x8_ps(v, 1));
+  };
+  if (add_count != 0) {
+    const __m512 c = _mm512_castsi512_ps(
+        _mm512_add_epi32(_mm512_castps_si512(load2(reinterpret_cast<const float*>(count))),
+                         _mm512_maskz_mov_epi32(add_count, _mm512_set1_epi32(1))));
+    store2(reinterpret_cast<float*>(count), c);
+  }
+  if (add_d != 0) {
+    store2(sum_wd, _mm512_add_ps(load2(sum_wd), _mm512_maskz_mov_ps(add_d, d)));
+    store2(sum_w, _mm512_add_ps(load2(sum_w), _mm512_maskz_mov_ps(add_d, _mm512_set1_ps(1.0f))));
+  } else if (weighted_add) {
+    store2(sum_wd, _mm512_add_ps(load2(sum_wd), add_wd));
+    store2(sum_w, _mm512_add_ps(load2(sum_w), add_w));
+  }
+}
+#pragma GCC diagnostic pop
+#else
+void ExactRowPair(const RowParams& p, const float c0[3], const float c1[3], int ib, int lanes,
+                  int rows, int stride, float* sum_wd, float* sum_w, int32_t* count) {
+  ExactRow(p, c0[0], c0[1], c0[2], ib, lanes, sum_wd, sum_w, count);
+  if (rows > 1) {
+    ExactRow(p, c1[0], c1[1], c1[2], ib, lanes, sum_wd + stride, sum_w + stride, count + stride);
+  }
+}
+#endif
+
 }  // namespace
 
 // Super-block (si, sj, sk) clipped to the slab's planes [k0, k1): every camera in its
@@ -821,11 +1089,16 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
           continue;
         }
         for (int k = kb; k < ke; ++k) {
-          for (int j = bj0; j < bj1; ++j) {
-            const Eigen::Vector3d c0 = t.q000 + double(j) * t.ey + double(k) * t.ez;
+          for (int j = bj0; j < bj1; j += 2) {
+            // Rows j and j + 1 (blocks start at even j, so both lie in one plane of
+            // the scratch); the start of each row is computed as for a single row.
+            const Eigen::Vector3d r0 = t.q000 + double(j) * t.ey + double(k) * t.ez;
+            const Eigen::Vector3d r1 = t.q000 + double(j + 1) * t.ey + double(k) * t.ez;
+            const float c0[3] = {float(r0.x()), float(r0.y()), float(r0.z())};
+            const float c1[3] = {float(r1.x()), float(r1.y()), float(r1.z())};
             const int o = ((k - kb) * kSuperXY + (j - jb)) * kSuperXY + (bi0 - ib);
-            ExactRow(p, float(c0.x()), float(c0.y()), float(c0.z()), bi0, bi1 - bi0, s->sum_wd + o,
-                     s->sum_w + o, s->count + o);
+            ExactRowPair(p, c0, c1, bi0, bi1 - bi0, std::min(2, bj1 - j), kSuperXY, s->sum_wd + o,
+                         s->sum_w + o, s->count + o);
           }
         }
       }
@@ -838,6 +1111,30 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
       const int o = ((k - kb) * kSuperXY + (j - jb)) * kSuperXY;
       const size_t out = (size_t(k - slab->k0) * ny + j) * nx + ib;
       const int32_t* bc = s->block_count + ((j - jb) / kBlock) * kSuperBlocks;
+#if DOME_FUSION_AVX512
+#pragma GCC diagnostic push  // as for ExactRowPair
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+      // The scalar loop below, 16 voxels (two blocks) at a time, the same operations.
+      for (int m = 0; m < ie - ib; m += 16) {
+        const int lanes = std::min(16, ie - ib - m);
+        const __mmask16 store = lanes == 16 ? __mmask16(0xffff) : __mmask16((1u << lanes) - 1u);
+        const __m512i blocks = _mm512_mask_blend_epi32(0xff00, _mm512_set1_epi32(bc[m / kBlock]),
+                                                       _mm512_set1_epi32(bc[m / kBlock + 1]));
+        const __m512i cnt =
+            _mm512_add_epi32(_mm512_add_epi32(_mm512_set1_epi32(s->super_count), blocks),
+                             _mm512_loadu_si512(s->count + o + m));
+        const __m512 n = _mm512_cvtepi32_ps(cnt);
+        const __m512 w = _mm512_add_ps(_mm512_loadu_ps(s->sum_w + o + m), n);
+        const __mmask16 kept = _mm512_cmp_ps_mask(w, _mm512_setzero_ps(), _CMP_GT_OQ) &
+                               _mm512_cmp_ps_mask(w, _mm512_set1_ps(min_weight), _CMP_GE_OQ);
+        const __m512 num = _mm512_add_ps(_mm512_loadu_ps(s->sum_wd + o + m),
+                                         _mm512_mul_ps(n, _mm512_set1_ps(clamp)));
+        _mm512_mask_storeu_ps(slab->weight.data() + out + m, store, _mm512_maskz_mov_ps(kept, w));
+        _mm512_mask_storeu_ps(slab->distance_mm.data() + out + m, store,
+                              _mm512_maskz_div_ps(kept, num, w));
+      }
+#pragma GCC diagnostic pop
+#else
       for (int m = 0; m < ie - ib; ++m) {
         const float n = float(s->super_count + bc[m / kBlock] + s->count[o + m]);
         const float w = s->sum_w[o + m] + n;
@@ -845,6 +1142,7 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
         slab->weight[out + m] = kept ? w : 0.0f;
         slab->distance_mm[out + m] = kept ? (s->sum_wd[o + m] + n * clamp) / w : 0.0f;
       }
+#endif
     }
   }
 }

@@ -90,7 +90,9 @@ struct RangeImage {
 void CheckRangeImage(const RangeImage& image);
 
 // Per-camera data precomputed once per instant (projection tables, frustum); reused
-// by every slab of that instant.
+// by every slab of that instant. The tables' memory (about 1.3 MB per 320x245 camera)
+// stays with the process when an integrator ends (the largest one freed is kept) and
+// is reused by the next one that fits, so that instant after instant do not fault it in.
 class Integrator {
  public:
   // Checks `grid`, `options` and every image (above). The images are referenced, not

@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -199,6 +200,40 @@ std::vector<double> NearestDistances(std::vector<Eigen::Vector3d> points,
   return out;
 }
 
+// Squared distance from p to the triangle abc (closest point by the Voronoi regions of
+// the corners, edges and face).
+double PointTriangleDistance2(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                              const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return ap.squaredNorm();
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return bp.squaredNorm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (ap - ab * (d1 / (d1 - d3))).squaredNorm();
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return cp.squaredNorm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (ap - ac * (d2 / (d2 - d6))).squaredNorm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+    return (bp - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))).squaredNorm();
+  }
+  const double sum = va + vb + vc;
+  if (!(sum > 0)) {  // degenerate: the nearest of its edges
+    auto seg = [&](const Eigen::Vector3d& s, const Eigen::Vector3d& t) {
+      const Eigen::Vector3d e = t - s;
+      const double l2 = e.squaredNorm();
+      const double h = l2 > 0 ? std::clamp((p - s).dot(e) / l2, 0.0, 1.0) : 0.0;
+      return (p - s - h * e).squaredNorm();
+    };
+    return std::min({seg(a, b), seg(b, c), seg(c, a)});
+  }
+  return (ap - ab * (vb / sum) - ac * (vc / sum)).squaredNorm();
+}
+
 // A min-heap of 64-bit keys with 8 children per node: a pop reads about a third of the
 // cache lines a binary heap's does, and cache misses are what a big queue costs.
 class OctalHeap {
@@ -222,6 +257,7 @@ class OctalHeap {
     }
     keys_[i] = key;
   }
+  uint64_t Top() const { return keys_[0]; }
   uint64_t Pop() {
     const uint64_t top = keys_[0];
     keys_[0] = keys_.back();
@@ -359,7 +395,8 @@ class EdgeCollapser {
       heaped_ = true;
       int64_t changes = 0;
       while (live_ > target && !heap_.empty()) {
-        const Candidate c = candidates_[uint32_t(heap_.Pop())];
+        const uint64_t key = heap_.Pop();
+        const Candidate c = candidates_[uint32_t(key)];
         if (c.keep < 0) {
           changes += DeleteComponent(c.gone, target);
           continue;
@@ -373,6 +410,22 @@ class EdgeCollapser {
         const double w = q.Weight();
         const double error = w > 0 ? std::sqrt(std::max(0.0, q.Eval(x)) / w) : 0.0;
         if (options_.max_error_mm > 0 && error > options_.max_error_mm) continue;
+        if (options_.deviation_weight > 0 && !c.deviation_costed) {
+          // Costed lazily, at the pop (measuring the deviation takes far longer than
+          // the quadric): the term only raises the cost, so the candidate goes back
+          // into the queue when something else is now cheaper, and is made when it
+          // comes out again with unchanged endpoints.
+          const double d = Deviation(c.keep, c.gone, x);
+          const double cost = KeyCost(key) + options_.deviation_weight * w * d * d;
+          // Rounding-level deviations (a flat region) leave the order as it was.
+          const double negligible = kDeviationFloor * (pos_[c.keep] - pos_[c.gone]).norm();
+          if (d > negligible && !heap_.empty() && KeyCost(heap_.Top()) < cost) {
+            Candidate again = c;
+            again.deviation_costed = true;
+            Queue(cost, again);
+            continue;
+          }
+        }
         if (!Collapsible(c.keep, c.gone, x)) continue;
         Collapse(c.keep, c.gone, x);
         ++changes;
@@ -418,7 +471,15 @@ class EdgeCollapser {
   struct Candidate {
     int keep, gone;
     uint32_t stamp_keep, stamp_gone;
+    bool deviation_costed = false;  // the cost includes the deviation term
   };
+
+  static double KeyCost(uint64_t key) {
+    const uint32_t bits = uint32_t(key >> 32);
+    float f;
+    std::memcpy(&f, &bits, sizeof f);
+    return double(f);
+  }
 
   // Queues a candidate: heap key = the cost's float bits (ordered as the non-negative
   // cost), then the candidate's index (ties in push order).
@@ -662,6 +723,57 @@ class EdgeCollapser {
     }
   }
 
+  // How far the new faces of a collapse of v into u at x stray from the surface before,
+  // mm: the largest distance of points of the faces around x (centroids and midpoints of
+  // the edges from x) to the faces around u and v before the collapse. It sees what the
+  // quadrics cannot, which measure the vertex only: a face spanning a gap between the
+  // fingers of a ragged border, or cutting across a fold. (Measuring the other way too,
+  // old vertices to the new faces, also charges a border for retreating, which costs
+  // accuracy on stereo meshes, whose ragged borders should straighten.)
+  double Deviation(int u, int v, const Eigen::Vector3d& x) {
+    old_tris_.clear();
+    new_tris_.clear();
+    new_from_.clear();
+    for (int s : {u, v}) {
+      for (int f : vfaces_[s]) {
+        const auto& t = faces_[f];
+        const bool has_u = t[0] == u || t[1] == u || t[2] == u;
+        const bool has_v = t[0] == v || t[1] == v || t[2] == v;
+        if (s == v && has_u) continue;  // listed with u already
+        std::array<Eigen::Vector3d, 3> p;
+        int at = 0;
+        for (int m = 0; m < 3; ++m) {
+          p[m] = pos_[t[m]];
+          if (t[m] == u || t[m] == v) at = m;
+        }
+        old_tris_.push_back(p);
+        if (has_u && has_v) continue;  // removed by the collapse
+        // Rotated so that x comes first; with the face it was.
+        new_tris_.push_back({{x, p[(at + 1) % 3], p[(at + 2) % 3]}});
+        new_from_.push_back(int(old_tris_.size()) - 1);
+      }
+    }
+    double worst2 = 0;
+    for (size_t i = 0; i < new_tris_.size(); ++i) {
+      const auto& t = new_tris_[i];
+      // The centroid and the midpoints of the edges from x (those on the border too).
+      for (const Eigen::Vector3d& p :
+           {Eigen::Vector3d((t[0] + t[1] + t[2]) / 3.0), Eigen::Vector3d(0.5 * (t[0] + t[1])),
+            Eigen::Vector3d(0.5 * (t[0] + t[2]))}) {
+        // The face it came from first: usually the nearest, and once a face is within
+        // worst2 the point cannot raise the maximum.
+        const auto& o = old_tris_[new_from_[i]];
+        double best = PointTriangleDistance2(p, o[0], o[1], o[2]);
+        for (size_t k = 0; k < old_tris_.size() && best > worst2; ++k) {
+          best = std::min(
+              best, PointTriangleDistance2(p, old_tris_[k][0], old_tris_[k][1], old_tris_[k][2]));
+        }
+        worst2 = std::max(worst2, best);
+      }
+    }
+    return std::sqrt(worst2);
+  }
+
   // Link condition (the result stays a 2-manifold with the same topology, open borders
   // counted as joined to one virtual vertex), then no triangle flipped or degenerate.
   // (A triangle-quality bound was tried and cost accuracy: 0.324 against 0.303 mm mean
@@ -785,6 +897,8 @@ class EdgeCollapser {
   // det(A) above this times trace(A)^3 bounds the eigenvalue ratio above it (> kEigenFloor).
   static constexpr double kDirectFloor = 1e-5;
   static constexpr double kMinNormalCos = 0.0;  // refuse collapses turning a face > 90 deg
+  // Deviations below this times the edge length count as none (rounding), dimensionless.
+  static constexpr double kDeviationFloor = 1e-6;
 
   const DecimationOptions& options_;
   Eigen::Vector3d origin_;
@@ -804,6 +918,10 @@ class EdgeCollapser {
   double max_error_ = 0.0;
   OctalHeap heap_;
   std::vector<Candidate> candidates_;  // indexed by the heap keys' low bits
+  // Deviation's scratch: the faces around the edge before and after, and for each after
+  // the index of the face it was.
+  std::vector<std::array<Eigen::Vector3d, 3>> old_tris_, new_tris_;
+  std::vector<int> new_from_;
   bool heaped_ = true;
   // Components: per vertex (-1 when unused), live triangles, area (mm^2), bounding-box
   // diagonal (mm), vertices (CSR); the one with the largest area.
@@ -881,6 +999,9 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(min_component_diagonal_mm) && min_component_diagonal_mm >= 0.0,
                 "decimation: min_component_diagonal_mm",
                 "must be >= 0 mm, got " + std::to_string(min_component_diagonal_mm));
+  core::Require(std::isfinite(deviation_weight) && deviation_weight >= 0.0,
+                "decimation: deviation_weight",
+                "must be >= 0, got " + std::to_string(deviation_weight));
   core::Require(std::isfinite(component_deletion_factor) && component_deletion_factor >= 0.0,
                 "decimation: component_deletion_factor",
                 "must be >= 0, got " + std::to_string(component_deletion_factor));

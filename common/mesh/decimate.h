@@ -14,6 +14,8 @@
 // the reduction. During decimation a whole component can also be deleted when that is
 // cheaper than the next collapse (component_deletion_factor): the budget then goes to
 // the surface instead of to thousands of floaters each held at its last few triangles.
+// A collapse's cost also counts how far its new faces stray from the faces they
+// replace (deviation_weight), which the quadric does not see.
 //
 // kMeshoptimizer: meshoptimizer's topology-preserving simplifier (Debian
 // libmeshoptimizer-dev), surviving vertices optionally moved to the quadric optimum of
@@ -60,7 +62,21 @@ struct DecimationOptions {
   // surface instead of to thousands of floaters each held at its last few triangles.
   // The component with the largest area is never deleted, and a deletion that would go
   // below the target or above max_error_mm is skipped. Dimensionless, >= 0; 0 = never.
-  double component_deletion_factor = 0.025;
+  // (0.035 with the deviation term below, which makes collapses dearer: at 0.025 the
+  // deletions took so much of a stereo mesh at 10% that the original's mean distance
+  // to the result was 11.8 mm against 8.4.)
+  double component_deletion_factor = 0.035;
+  // kEdgeCollapse: add to a collapse's cost this weight times the merged area (the sum
+  // of its quadric's plane weights, mm^2) times the square of its deviation: the
+  // largest distance of points of the new faces (centroids, midpoints of the edges
+  // from the new vertex) to the faces around the edge before, mm. A face spanning a gap
+  // in a ragged border or cutting across a fold then costs what moving the whole area
+  // by that distance would; the quadric alone measures the vertex, not the faces
+  // around it, and lets such faces through at a low cost. This bounds the worst-case
+  // distance to the original surface (at 10% of a fused mesh's triangles: 2.9 mm
+  // against 7.7 mm without, the mean 4% lower too) for about twice the time.
+  // Dimensionless, >= 0; 0 = quadric only.
+  double deviation_weight = 1.0;
   DecimationMethod method = DecimationMethod::kEdgeCollapse;
   // kMeshoptimizer only: place surviving interior vertices at their quadric optimum.
   bool relocate_vertices = true;

@@ -49,18 +49,6 @@
 namespace dome::cli {
 namespace {
 
-std::vector<mesh::TextureView> LoadViews(const take::Take& take, const std::string& instant) {
-  std::vector<mesh::TextureView> views;
-  for (const auto& rc : take.rig.cameras) {
-    mesh::TextureView v;
-    v.camera = rc.model;
-    v.where = take.FramePath(instant, rc.model.id).string();
-    v.image = io::ReadImage(v.where, io::ImageMode::kBgr8);
-    views.push_back(std::move(v));
-  }
-  return views;
-}
-
 const geometry::TsaiCamera& FindCamera(const take::Take& take, const std::string& id) {
   for (const auto& rc : take.rig.cameras) {
     if (rc.model.id == id) return rc.model;
@@ -262,7 +250,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       io::Mesh decimated = mesh::Decimate(surface, dec);
       const double t_dec = w.ElapsedSeconds();
       w.Restart();
-      const auto views = LoadViews(take, instant);
+      const auto views = mesh::LoadTextureViews(take, instant);
       mesh::TextureOptions tex;
       tex.num_threads = options.num_threads;
       mesh::ColorVertices(&decimated, views, tex);
@@ -375,6 +363,10 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
                   "collapse, as if moving their area this factor times the geometric mean of "
                   "their diagonal and their distance to the largest part; 0 = never")
       ->capture_default_str();
+  dec->add_option("--deviation-weight", d->options.deviation_weight,
+                  "add this times the merged area times the squared distance of the new faces "
+                  "to the faces they replace to a collapse's cost; 0 = quadric only")
+      ->capture_default_str();
   dec->add_flag("--meshoptimizer", d->meshoptimizer,
                 "meshoptimizer's topology-preserving simplifier instead of edge collapse");
   dec->callback([=] {
@@ -420,7 +412,7 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
   tex->callback([=] {
     const take::Take take = take::OpenTake(t->take);
     io::Mesh m = io::ReadPly(t->in);
-    const auto views = LoadViews(take, t->instant);
+    const auto views = mesh::LoadTextureViews(take, t->instant);
     const mesh::TexturedMesh textured = mesh::BuildTextureAtlas(m, views, t->options);
     if (std::filesystem::path(t->out).extension() == ".glb") {
       mesh::WriteGlb(t->out, textured);

@@ -169,6 +169,45 @@ TEST(Integrate, AnySlabPartitionAndThreadCountIsBitIdentical) {
   }
 }
 
+// An integrator's table memory is handed on to the next one (integrate.cc): results must
+// not depend on what an earlier integrator, of another scene or size, left there, nor on
+// several being alive at once.
+TEST(Integrate, ReusedTableMemoryChangesNothing) {
+  const auto spheres = testing::RingImages(testing::StackedSpheres(), 6, 64, 48, {500, 1500});
+  // Another scene of the same sizes (a flat wall behind everything) and a larger one.
+  std::vector<RangeImage> wall = spheres;
+  for (auto& im : wall) im.depth_mm = cv::Mat(im.depth_mm.size(), CV_32FC1, cv::Scalar(1400.0f));
+  const auto larger = testing::RingImages(testing::StackedSpheres(), 9, 96, 72, {500, 1500});
+  VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = 41;
+  g.ny = 33;
+  g.nz = 120;
+  g.origin_mm = Eigen::Vector3d(-200, -160, 100);
+  const FusionOptions o;
+  const Slab first = Integrator(g, spheres, o).IntegrateSlab(0, g.nz);
+  size_t observed = 0;
+  for (float w : first.weight) observed += w > 0;
+  EXPECT_GT(observed, first.weight.size() / 10);
+  auto same = [&](const Slab& s) {
+    return s.distance_mm.size() == first.distance_mm.size() &&
+           std::memcmp(s.distance_mm.data(), first.distance_mm.data(), s.distance_mm.size() * 4) ==
+               0 &&
+           std::memcmp(s.weight.data(), first.weight.data(), s.weight.size() * 4) == 0;
+  };
+  for (const std::vector<RangeImage>* other :
+       std::initializer_list<const std::vector<RangeImage>*>{&wall, &larger}) {
+    const Slab o_slab = Integrator(g, *other, o).IntegrateSlab(0, g.nz);
+    EXPECT_FALSE(same(o_slab));  // the other scene fills the tables differently
+    EXPECT_TRUE(same(Integrator(g, spheres, o).IntegrateSlab(0, g.nz)));
+  }
+  // Two alive at once, built in either order.
+  Integrator a(g, wall, o);
+  Integrator b(g, spheres, o);
+  EXPECT_TRUE(same(b.IntegrateSlab(0, g.nz)));
+  EXPECT_FALSE(same(a.IntegrateSlab(0, g.nz)));
+}
+
 TEST(Integrate, SlabRoundTripsThroughBytes) {
   Slab s;
   s.k0 = 3;

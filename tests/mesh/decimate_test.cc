@@ -503,6 +503,55 @@ TEST(Decimate, TheLargestComponentIsNeverDeleted) {
   EXPECT_EQ(int64_t(most.faces.size()), sphere_faces + 10);
 }
 
+// A comb on a gently curved sheet (z a paraboloid in x and y, mm): a 49 x 25 vertex grid
+// at 1.5 mm with 3 mm wide, 30 mm deep slots between 9 mm wide teeth.
+io::Mesh CurvedComb() {
+  const int nx = 49, ny = 25;
+  io::Mesh m;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const double x = 1.5 * i, y = 1.5 * j;
+      m.vertices.push_back(
+          Eigen::Vector3d(x, y, 0.01 * ((x - 36) * (x - 36) + (y - 18) * (y - 18))).cast<float>());
+    }
+  for (int j = 0; j + 1 < ny; ++j)
+    for (int i = 0; i + 1 < nx; ++i) {
+      if (i % 8 >= 6 && j >= 4) continue;  // a slot
+      const int a = j * nx + i;
+      m.faces.push_back(Eigen::Vector3i(a, a + 1, a + nx + 1));
+      m.faces.push_back(Eigen::Vector3i(a, a + nx + 1, a + nx));
+    }
+  return m;
+}
+
+// The quadrics price a border vertex by its distance to the border's planes only, so a
+// light border weight lets faces bridge the slots between the teeth, 1.5 mm from any
+// input face at their middle. The deviation term makes such faces dear: the coarse comb
+// keeps its slots open and stays within a fifth of that everywhere.
+TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
+  const io::Mesh m = CurvedComb();
+  ASSERT_EQ(m.faces.size(), 1824u);
+  auto to_input = [&m](const Eigen::Vector3d& p) {
+    double best = HUGE_VAL;
+    for (const auto& f : m.faces) {
+      best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
+                                                  m.vertices[f[1]].cast<double>(),
+                                                  m.vertices[f[2]].cast<double>()));
+    }
+    return best;
+  };
+  DecimationOptions o;
+  o.target_ratio = 0.05;
+  const io::Mesh bounded = Decimate(m, o);
+  o.deviation_weight = 0;
+  const io::Mesh quadric_only = Decimate(m, o);
+  EXPECT_NEAR(double(bounded.faces.size()), 91.0, 1.0);
+  EXPECT_NEAR(double(quadric_only.faces.size()), 91.0, 1.0);
+  EXPECT_GT(MaxDistanceToSurface(quadric_only, to_input), 1.0);
+  EXPECT_LT(MaxDistanceToSurface(bounded, to_input), 0.5);
+  EXPECT_EQ(AnalyzeTopology(bounded).non_manifold_edges, 0);
+}
+
 TEST(Decimate, BadOptionsAreRejected) {
   io::Mesh m;
   DecimationOptions o;
@@ -517,6 +566,9 @@ TEST(Decimate, BadOptionsAreRejected) {
   o = {};
   o.border_weight = -1;
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: border_weight"});
+  o = {};
+  o.deviation_weight = -2;
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: deviation_weight", "-2"});
   o = {};
   o.min_component_triangles = -1;
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: min_component_triangles"});
