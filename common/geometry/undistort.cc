@@ -1,5 +1,8 @@
 #include "geometry/undistort.h"
 
+#include <deque>
+#include <map>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <string>
 
@@ -52,6 +55,46 @@ RemapTables BuildUndistortTables(const TsaiCamera& camera) {
   return BuildTables(camera, [&camera](const Eigen::Vector2d& ideal, Eigen::Vector2d* source) {
     return camera.DistortPixelIfInRange(ideal, source);
   });
+}
+
+std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camera) {
+  const double intrinsics[] = {double(camera.width_px),
+                               double(camera.height_px),
+                               camera.sensor.ncx,
+                               camera.sensor.nfx,
+                               camera.sensor.dx_mm,
+                               camera.sensor.dy_mm,
+                               camera.focal_mm,
+                               camera.kappa1_per_mm2,
+                               camera.cx_px,
+                               camera.cy_px,
+                               camera.sx};
+  const std::string key(reinterpret_cast<const char*>(intrinsics), sizeof intrinsics);
+  static std::mutex mutex;
+  static std::map<std::string, std::shared_ptr<const RemapTables>> cache;
+  static std::deque<std::string> order;  // oldest first
+  static size_t bytes = 0;
+  constexpr size_t kMaxBytes = size_t(512) << 20;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+  }
+  // Built outside the lock; two threads building the same tables keep the first.
+  auto tables = std::make_shared<const RemapTables>(BuildUndistortTables(camera));
+  const size_t size = 2 * tables->map_x.total() * tables->map_x.elemSize();
+  std::lock_guard<std::mutex> lock(mutex);
+  auto [it, fresh] = cache.try_emplace(key, tables);
+  if (!fresh) return it->second;
+  order.push_back(key);
+  bytes += size;
+  while (bytes > kMaxBytes && order.size() > 1) {
+    const auto& old = cache.at(order.front());
+    bytes -= 2 * old->map_x.total() * old->map_x.elemSize();
+    cache.erase(order.front());
+    order.pop_front();
+  }
+  return tables;
 }
 
 RemapTables BuildDistortTables(const TsaiCamera& camera) {

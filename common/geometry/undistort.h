@@ -18,6 +18,7 @@
 // 16S, 32F, 64F; 1 to 4 channels); the output has the input's type.
 #pragma once
 
+#include <memory>
 #include <opencv2/core.hpp>
 
 #include "geometry/tsai_camera.h"
@@ -34,6 +35,11 @@ struct RemapTables {
 // For every pixel p of the ideal image: DistortPixel(p) in the distorted image.
 // camera.Check() must hold (InputError otherwise).
 RemapTables BuildUndistortTables(const TsaiCamera& camera);
+// The same tables from a process-wide cache keyed by the intrinsics (image size,
+// sensor, focal length, kappa1, centre, sx; not the pose), built on first use: a worker
+// undistorts each camera's frames in every stereo job it runs, as reference and as
+// neighbour. Bounded to about 512 MB of tables (oldest dropped first). Thread-safe.
+std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camera);
 // For every pixel p of the distorted image: UndistortPixel(p) in the ideal image.
 RemapTables BuildDistortTables(const TsaiCamera& camera);
 

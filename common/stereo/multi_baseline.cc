@@ -63,9 +63,9 @@ cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistor
   }
   if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
   if (undistort && cam.kappa1_per_mm2 != 0.0) {
-    const geometry::RemapTables tables = geometry::BuildUndistortTables(cam);
-    grey = geometry::Remap(grey, tables);
-    valid = geometry::Remap(valid, tables);
+    const auto tables = geometry::SharedUndistortTables(cam);
+    grey = geometry::Remap(grey, *tables);
+    valid = geometry::Remap(valid, *tables);
   }
   const cv::Mat invalid = valid < 255;
   if (normalize_contrast) {

@@ -126,6 +126,23 @@ TEST(Undistort, TablesHoldTheExactMapping) {
   }
 }
 
+TEST(Undistort, SharedTablesAreKeyedByTheIntrinsicsAlone) {
+  TsaiCamera camera = TypicalCamera(5.720865e-4);
+  const auto shared = SharedUndistortTables(camera);
+  const RemapTables built = BuildUndistortTables(camera);
+  EXPECT_EQ(cv::norm(shared->map_x, built.map_x, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(shared->map_y, built.map_y, cv::NORM_INF), 0.0);
+  // Another pose of the same intrinsics: the same tables, not built again.
+  camera.translation_mm += Eigen::Vector3d(100, 0, 0);
+  camera.id = "moved";
+  EXPECT_EQ(SharedUndistortTables(camera).get(), shared.get());
+  // Another kappa1: other tables, matching their own camera.
+  camera.kappa1_per_mm2 = -1e-3;
+  const auto other = SharedUndistortTables(camera);
+  EXPECT_NE(other.get(), shared.get());
+  EXPECT_EQ(cv::norm(other->map_x, BuildUndistortTables(camera).map_x, cv::NORM_INF), 0.0);
+}
+
 TEST(Undistort, NoDistortionIsTheIdentity) {
   const TsaiCamera camera = TypicalCamera(0.0);
   cv::Mat image(camera.height_px, camera.width_px, CV_8UC3);
