@@ -67,7 +67,9 @@ std::vector<fs::path> WriteStereoResult(const StereoResult& result, const std::s
     const fs::path depth = base / ("depth" + sfx) / (result.camera + ".tiff");
     io::WriteDepthTiff(depth, r.depth_mm);
     std::vector<uchar> bytes;
-    cv::imencode(".tiff", r.reliability, bytes);
+    // Uncompressed: OpenCV's default LZW costs the master more CPU than the stereo job's
+    // decoding of its frames, for a file that compresses poorly anyway (noisy floats).
+    cv::imencode(".tiff", r.reliability, bytes, {cv::IMWRITE_TIFF_COMPRESSION, 1});
     io::WriteFileAtomically(
         base / ("reliability" + sfx) / (result.camera + ".tiff"),
         std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
