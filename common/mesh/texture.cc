@@ -214,6 +214,27 @@ inline int RoundNonNegative(double x) {
   return x - i >= 0.5 ? i + 1 : i;
 }
 
+// Shade's depth test and bilinear sample at pixel (x, y), inside the image, of a point
+// at camera depth z_mm: adds the colour weighted by cos_angle^2 to sum[0..2] and the
+// weight to *wsum; nothing when the z-buffer hides the point.
+inline void AddSample(const FastView& v, double x, double y, double z_mm, double cos_angle,
+                      const TextureOptions& options, double* s0, double* s1, double* s2,
+                      double* wsum) {
+  const int w = v.width;
+  const int xi = RoundNonNegative(x), yi = RoundNonNegative(y);
+  if (z_mm > v.zbuffer[size_t(yi) * w + xi] + options.depth_tolerance_mm) return;
+  const int x0 = std::min(int(x), w - 2), y0 = std::min(int(y), v.height - 2);
+  const double ax = x - x0, ay = y - y0;
+  const uint8_t* top = v.bgr + size_t(y0) * v.bgr_step + 3 * size_t(x0);
+  const uint8_t* bottom = top + v.bgr_step;
+  const double w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
+  const double wt = cos_angle * cos_angle;
+  *s0 += wt * (w00 * top[0] + w01 * top[3] + w10 * bottom[0] + w11 * bottom[3]);
+  *s1 += wt * (w00 * top[1] + w01 * top[4] + w10 * bottom[1] + w11 * bottom[4]);
+  *s2 += wt * (w00 * top[2] + w01 * top[5] + w10 * bottom[2] + w11 * bottom[5]);
+  *wsum += wt;
+}
+
 // Shade's tests and weights over the views listed in `candidates` (all views when
 // null), with FastView's projection and the arithmetic rearranged (one square root
 // and one division for the cosine): the same colours to within rounding.
@@ -235,20 +256,8 @@ bool ShadeFast(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
     const double cz = r[6] * px_ + r[7] * py_ + r[8] * pz_ + v.translation_mm[2];
     double x, y;
     if (!v.Project(cx, cy, cz, &x, &y)) continue;
-    const int w = v.width, h = v.height;
-    if (!(x >= 0 && y >= 0 && x <= w - 1 && y <= h - 1)) continue;
-    const int xi = RoundNonNegative(x), yi = RoundNonNegative(y);
-    if (cz > v.zbuffer[size_t(yi) * w + xi] + options.depth_tolerance_mm) continue;
-    const int x0 = std::min(int(x), w - 2), y0 = std::min(int(y), h - 2);
-    const double ax = x - x0, ay = y - y0;
-    const uint8_t* top = v.bgr + size_t(y0) * v.bgr_step + 3 * size_t(x0);
-    const uint8_t* bottom = top + v.bgr_step;
-    const double w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
-    const double wt = cos_angle * cos_angle;
-    sum0 += wt * (w00 * top[0] + w01 * top[3] + w10 * bottom[0] + w11 * bottom[3]);
-    sum1 += wt * (w00 * top[1] + w01 * top[4] + w10 * bottom[1] + w11 * bottom[4]);
-    sum2 += wt * (w00 * top[2] + w01 * top[5] + w10 * bottom[2] + w11 * bottom[5]);
-    wsum += wt;
+    if (!(x >= 0 && y >= 0 && x <= v.width - 1 && y <= v.height - 1)) continue;
+    AddSample(v, x, y, cz, cos_angle, options, &sum0, &sum1, &sum2, &wsum);
   }
   if (wsum <= 0.0) return false;
   *bgr = Eigen::Vector3d(sum0, sum1, sum2) / wsum;
@@ -359,19 +368,8 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
         v.Project(xc, yc, zc, &x, &y);
       }
       if (!(x >= 0 && y >= 0 && x <= w - 1 && y <= h - 1)) continue;
-      const int xi = RoundNonNegative(x), yi = RoundNonNegative(y);
-      if (zc > v.zbuffer[size_t(yi) * w + xi] + options.depth_tolerance_mm) continue;
-      const int x0 = std::min(int(x), w - 2), y0 = std::min(int(y), h - 2);
-      const double ax = x - x0, ay = y - y0;
-      const uint8_t* top = v.bgr + size_t(y0) * v.bgr_step + 3 * size_t(x0);
-      const uint8_t* bottom = top + v.bgr_step;
-      const double w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay,
-                   w11 = ax * ay;
-      const double wt = cos_angle * cos_angle;
-      scratch->s0[k] += wt * (w00 * top[0] + w01 * top[3] + w10 * bottom[0] + w11 * bottom[3]);
-      scratch->s1[k] += wt * (w00 * top[1] + w01 * top[4] + w10 * bottom[1] + w11 * bottom[4]);
-      scratch->s2[k] += wt * (w00 * top[2] + w01 * top[5] + w10 * bottom[2] + w11 * bottom[5]);
-      scratch->wsum[k] += wt;
+      AddSample(v, x, y, zc, cos_angle, options, &scratch->s0[k], &scratch->s1[k], &scratch->s2[k],
+                &scratch->wsum[k]);
     }
   }
 }
