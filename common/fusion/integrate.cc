@@ -5,12 +5,14 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <new>
+#include <vector>
 
 #if defined(__AVX2__) || defined(__F16C__)
 #include <immintrin.h>
@@ -623,7 +625,8 @@ namespace {
 // forward mapping of seed Figure 6 (project, sample the tessellated depth map, signed
 // distance along the ray). The camera-frame position is affine in i, evaluated from
 // the row's start (`c0`, voxel i = 0) so that it does not depend on where a span
-// starts. Every voxel of every path goes through this one function.
+// starts. The scalar ExactRow is the reference; the SIMD paths (ExactRowPairAvx2, the
+// AVX-512 ExactRowPair) do its operations per lane in the same order: the same bits.
 struct RowParams {
   const Integrator::CameraTables* t;
   float sx, sy, sz;  // camera-frame step per voxel along i, mm
@@ -634,165 +637,312 @@ struct RowParams {
   bool shortcuts = true;
 };
 
+std::atomic<TableLookups> g_table_lookups{TableLookups::kAuto};
+
 #if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
-[[maybe_unused]] __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y,
-                                                         float c0z, int ib, int lanes,
-                                                         float* sum_wd, float* sum_w,
-                                                         int32_t* count) {
+// Table lookups of 8 lanes: hardware gathers, or scalar loads put together (kLoads).
+// Both read the same elements, so the values and every result are the same; which is
+// faster depends on the CPU (some run a gather of 8 as microcode slower than 8 loads),
+// and GathersAreSlow() times both once per process. Every index is valid (masked-off
+// lanes index 0).
+template <bool kLoads>
+struct Fetch {
+  // base[k] for the 8 indices k.
+  static inline __attribute__((always_inline)) __m256 Floats(const float* base, __m256i k) {
+    if constexpr (!kLoads) {
+      return _mm256_i32gather_ps(base, k, 4);
+    } else {
+      alignas(32) int32_t i[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(i), k);
+      return _mm256_setr_ps(base[i[0]], base[i[1]], base[i[2]], base[i[3]], base[i[4]], base[i[5]],
+                            base[i[6]], base[i[7]]);
+    }
+  }
+  static inline __attribute__((always_inline)) __m256i Ints(const uint32_t* base, __m256i k) {
+    if constexpr (!kLoads) {
+      return _mm256_i32gather_epi32(reinterpret_cast<const int*>(base), k, 4);
+    } else {
+      alignas(32) int32_t i[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(i), k);
+      return _mm256_setr_epi32(int(base[i[0]]), int(base[i[1]]), int(base[i[2]]), int(base[i[3]]),
+                               int(base[i[4]]), int(base[i[5]]), int(base[i[6]]), int(base[i[7]]));
+    }
+  }
+  // base[k] and base[k + 1] for the 8 indices k (with loads: one 8-byte load a lane).
+  static inline __attribute__((always_inline)) void Pairs(const float* base, __m256i k,
+                                                          __m256* first, __m256* second) {
+    if constexpr (!kLoads) {
+      *first = _mm256_i32gather_ps(base, k, 4);
+      *second = _mm256_i32gather_ps(base + 1, k, 4);
+    } else {
+      alignas(32) int32_t i[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(i), k);
+      const auto pair = [&](int a, int b) {
+        int64_t x, y;
+        std::memcpy(&x, base + i[a], 8);
+        std::memcpy(&y, base + i[b], 8);
+        return _mm_castsi128_ps(_mm_set_epi64x(y, x));
+      };
+      // [p0 p1 | p4 p5] and [p2 p3 | p6 p7], each pair (first, second).
+      const __m256 g0 = _mm256_insertf128_ps(_mm256_castps128_ps256(pair(0, 1)), pair(4, 5), 1);
+      const __m256 g1 = _mm256_insertf128_ps(_mm256_castps128_ps256(pair(2, 3)), pair(6, 7), 1);
+      *first = _mm256_shuffle_ps(g0, g1, 0x88);
+      *second = _mm256_shuffle_ps(g0, g1, 0xdd);
+    }
+  }
+};
+
+// Two rows of up to 8 voxels each, rows c0 and c1 (`rows` of them), accumulators
+// `stride` floats apart: ExactRow's operations per lane in 8-lane AVX2. The rows go
+// together so that their chains of dependent table lookups overlap (one row alone
+// mostly waits on them); updates are applied once on the way out.
+template <bool kLoads>
+__attribute__((noinline)) void ExactRowPairAvx2(const RowParams& p, const float c0[3],
+                                                const float c1[3], int ib, int lanes, int rows,
+                                                int stride, float* sum_wd, float* sum_w,
+                                                int32_t* count) {
+  using F = Fetch<kLoads>;
+  constexpr int R = 2;
   const Integrator::CameraTables& t = *p.t;
+  const bool weighted = !t.weight.empty();
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256 active = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), lane));
-  const __m256 fi = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(ib), lane));
-  const __m256 x = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sx), _mm256_set1_ps(c0x));
-  const __m256 y = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sy), _mm256_set1_ps(c0y));
-  const __m256 z = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sz), _mm256_set1_ps(c0z));
-  const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), z);
-  const __m256 xn = _mm256_mul_ps(x, inv_z), yn = _mm256_mul_ps(y, inv_z);
-  const __m256 rn2 = _mm256_fmadd_ps(xn, xn, _mm256_mul_ps(yn, yn));
-  __m256 ok = _mm256_and_ps(_mm256_cmp_ps(z, _mm256_set1_ps(p.near), _CMP_GT_OQ),
-                            _mm256_cmp_ps(rn2, _mm256_set1_ps(t.rn2_max), _CMP_LE_OQ));
-  ok = _mm256_and_ps(ok, active);
-  if (_mm256_movemask_ps(ok) == 0) return;
-  // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
-  const __m256 e = _mm256_min_ps(_mm256_mul_ps(rn2, _mm256_set1_ps(t.lut_scale)),
-                                 _mm256_set1_ps(float(kLutSize - 1) - 0.5f));
-  const __m256i ei = _mm256_cvttps_epi32(e);
-  const __m256 l0 = _mm256_i32gather_ps(t.lambda.data(), ei, 4);
-  const __m256 l1 = _mm256_i32gather_ps(t.lambda.data() + 1, ei, 4);
-  const __m256 lambda =
-      _mm256_fmadd_ps(_mm256_sub_ps(e, _mm256_cvtepi32_ps(ei)), _mm256_sub_ps(l1, l0), l0);
-  const __m256 u =
-      _mm256_fmadd_ps(_mm256_mul_ps(xn, lambda), _mm256_set1_ps(t.fx_px), _mm256_set1_ps(t.cx_px));
-  const __m256 v =
-      _mm256_fmadd_ps(_mm256_mul_ps(yn, lambda), _mm256_set1_ps(t.fy_px), _mm256_set1_ps(t.cy_px));
   const __m256 zero = _mm256_setzero_ps();
-  __m256 in = _mm256_and_ps(ok, _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
-  in = _mm256_and_ps(in, _mm256_cmp_ps(u, _mm256_set1_ps(float(t.width - 1)), _CMP_LT_OQ));
-  in = _mm256_and_ps(in, _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
-  in = _mm256_and_ps(in, _mm256_cmp_ps(v, _mm256_set1_ps(float(t.height - 1)), _CMP_LT_OQ));
-  if (_mm256_movemask_ps(in) == 0) return;
-  const __m256i in_i = _mm256_castps_si256(in);
-  const __m256i x0 = _mm256_and_si256(_mm256_cvttps_epi32(u), in_i);
-  const __m256i y0 = _mm256_and_si256(_mm256_cvttps_epi32(v), in_i);
-  if (p.shortcuts) {
-    // Whole tile decides (conservative: the tile's least lo and largest hi bound the
-    // quad's, and the tests below are monotonic in them): clamped free space or untouched.
-    const __m256i ti = _mm256_add_epi32(
-        _mm256_mullo_epi32(_mm256_srli_epi32(y0, kTileShift), _mm256_set1_epi32(t.tile_w)),
-        _mm256_srli_epi32(x0, kTileShift));
-    const __m256i packed =
-        _mm256_i32gather_epi32(reinterpret_cast<const int*>(t.tile.data()), ti, 4);
-    // Halves: [lo 0-3, hi 0-3 | lo 4-7, hi 4-7] -> [lo 0-7 | hi 0-7].
-    const __m256i halves = _mm256_permute4x64_epi64(
-        _mm256_packus_epi32(_mm256_and_si256(packed, _mm256_set1_epi32(0xffff)),
-                            _mm256_srli_epi32(packed, 16)),
-        0xd8);
-    const __m256 tlo = _mm256_cvtph_ps(_mm256_castsi256_si128(halves));
-    const __m256 thi = _mm256_cvtph_ps(_mm256_extracti128_si256(halves, 1));
-    const __m256 behind = _mm256_cmp_ps(
-        _mm256_add_ps(_mm256_fmsub_ps(thi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
-        _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
-    in = _mm256_andnot_ps(behind, in);
-    if (t.weight.empty()) {
-      const __m256 free = _mm256_and_ps(
-          in, _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(tlo, _mm256_set1_ps(1.0f - 1e-5f), z),
+  const __m256 row_active = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), lane));
+  const __m256 fi = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(ib), lane));
+  const float* c[R] = {c0, c1};
+  auto none = [](const __m256(&m)[R]) {
+    return (_mm256_movemask_ps(m[0]) | _mm256_movemask_ps(m[1])) == 0;
+  };
+  __m256 z[R], xn[R], yn[R], rn2[R], ok[R];
+  // Updates: count -1 where add_count, sums += (d, 1) where add_d (uniform weights), or
+  // += (add_wd, add_w) (weighted).
+  __m256 add_count[R] = {zero, zero}, add_d[R] = {zero, zero}, d[R] = {zero, zero};
+  __m256 add_wd[R] = {zero, zero}, add_w[R] = {zero, zero};
+  do {
+#pragma GCC unroll 2
+    for (int r = 0; r < R; ++r) {
+      const __m256 x = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sx), _mm256_set1_ps(c[r][0]));
+      const __m256 y = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sy), _mm256_set1_ps(c[r][1]));
+      z[r] = _mm256_fmadd_ps(fi, _mm256_set1_ps(p.sz), _mm256_set1_ps(c[r][2]));
+      const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), z[r]);
+      xn[r] = _mm256_mul_ps(x, inv_z), yn[r] = _mm256_mul_ps(y, inv_z);
+      rn2[r] = _mm256_fmadd_ps(xn[r], xn[r], _mm256_mul_ps(yn[r], yn[r]));
+      ok[r] = _mm256_and_ps(_mm256_cmp_ps(z[r], _mm256_set1_ps(p.near), _CMP_GT_OQ),
+                            _mm256_cmp_ps(rn2[r], _mm256_set1_ps(t.rn2_max), _CMP_LE_OQ));
+      ok[r] = _mm256_and_ps(ok[r], r < rows ? row_active : zero);
+    }
+    if (none(ok)) break;
+    __m256 u[R], v[R], in[R];
+    __m256i x0[R], y0[R];
+#pragma GCC unroll 2
+    for (int r = 0; r < R; ++r) {
+      // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
+      const __m256 e = _mm256_min_ps(_mm256_mul_ps(rn2[r], _mm256_set1_ps(t.lut_scale)),
+                                     _mm256_set1_ps(float(kLutSize - 1) - 0.5f));
+      const __m256i ei = _mm256_cvttps_epi32(e);
+      __m256 l0, l1;
+      F::Pairs(t.lambda.data(), ei, &l0, &l1);
+      const __m256 lambda =
+          _mm256_fmadd_ps(_mm256_sub_ps(e, _mm256_cvtepi32_ps(ei)), _mm256_sub_ps(l1, l0), l0);
+      u[r] = _mm256_fmadd_ps(_mm256_mul_ps(xn[r], lambda), _mm256_set1_ps(t.fx_px),
+                             _mm256_set1_ps(t.cx_px));
+      v[r] = _mm256_fmadd_ps(_mm256_mul_ps(yn[r], lambda), _mm256_set1_ps(t.fy_px),
+                             _mm256_set1_ps(t.cy_px));
+      __m256 m = _mm256_and_ps(ok[r], _mm256_cmp_ps(u[r], zero, _CMP_GE_OQ));
+      m = _mm256_and_ps(m, _mm256_cmp_ps(u[r], _mm256_set1_ps(float(t.width - 1)), _CMP_LT_OQ));
+      m = _mm256_and_ps(m, _mm256_cmp_ps(v[r], zero, _CMP_GE_OQ));
+      m = _mm256_and_ps(m, _mm256_cmp_ps(v[r], _mm256_set1_ps(float(t.height - 1)), _CMP_LT_OQ));
+      in[r] = m;
+      x0[r] = _mm256_and_si256(_mm256_cvttps_epi32(u[r]), _mm256_castps_si256(m));
+      y0[r] = _mm256_and_si256(_mm256_cvttps_epi32(v[r]), _mm256_castps_si256(m));
+    }
+    if (none(in)) break;
+    if (p.shortcuts) {
+#pragma GCC unroll 2
+      for (int r = 0; r < R; ++r) {
+        // Whole tile decides (conservative: the tile's least lo and largest hi bound the
+        // quad's, and the tests below are monotonic in them): clamped free space or
+        // untouched.
+        const __m256i ti = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_srli_epi32(y0[r], kTileShift), _mm256_set1_epi32(t.tile_w)),
+            _mm256_srli_epi32(x0[r], kTileShift));
+        const __m256i packed = F::Ints(t.tile.data(), ti);
+        const __m256i halves = _mm256_permute4x64_epi64(
+            _mm256_packus_epi32(_mm256_and_si256(packed, _mm256_set1_epi32(0xffff)),
+                                _mm256_srli_epi32(packed, 16)),
+            0xd8);
+        const __m256 tlo = _mm256_cvtph_ps(_mm256_castsi256_si128(halves));
+        const __m256 thi = _mm256_cvtph_ps(_mm256_extracti128_si256(halves, 1));
+        const __m256 behind =
+            _mm256_cmp_ps(_mm256_add_ps(_mm256_fmsub_ps(thi, _mm256_set1_ps(1.0f + 1e-5f), z[r]),
+                                        _mm256_set1_ps(0.01f)),
+                          _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
+        in[r] = _mm256_andnot_ps(behind, in[r]);
+        if (!weighted) {
+          const __m256 free = _mm256_and_ps(
+              in[r],
+              _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(tlo, _mm256_set1_ps(1.0f - 1e-5f), z[r]),
                                           _mm256_set1_ps(0.01f)),
                             _mm256_set1_ps(p.clamp), _CMP_GE_OQ));
-      if (_mm256_movemask_ps(free) != 0) {
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
-                            _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
-                                             _mm256_castps_si256(free)));
-        in = _mm256_andnot_ps(free, in);
+          add_count[r] = free;
+          in[r] = _mm256_andnot_ps(free, in[r]);
+        }
+      }
+      if (none(in)) break;
+    }
+    __m256 ax[R], ay[R], upper[R], valid[R], free_fast[R], rest[R];
+    __m256i qi[R];
+#pragma GCC unroll 2
+    for (int r = 0; r < R; ++r) {
+      ax[r] = _mm256_sub_ps(u[r], _mm256_cvtepi32_ps(x0[r]));
+      ay[r] = _mm256_sub_ps(v[r], _mm256_cvtepi32_ps(y0[r]));
+      qi[r] = _mm256_add_epi32(_mm256_mullo_epi32(y0[r], _mm256_set1_epi32(t.width - 1)), x0[r]);
+      __m256 lo, hi;
+      if constexpr (kLoads) {
+        F::Pairs(t.quad_range.data(), _mm256_slli_epi32(qi[r], 1), &lo, &hi);
+      } else {
+        lo = F::Floats(t.quad_range.data(), _mm256_slli_epi32(qi[r], 1));
+      }
+      const __m256i q = _mm256_and_si256(_mm256_castps_si256(lo), _mm256_set1_epi32(3));
+      upper[r] = _mm256_cmp_ps(ax[r], ay[r], _CMP_GE_OQ);
+      const __m256i bit = _mm256_blendv_epi8(_mm256_set1_epi32(2), _mm256_set1_epi32(1),
+                                             _mm256_castps_si256(upper[r]));
+      const __m256i has = _mm256_cmpeq_epi32(_mm256_and_si256(q, bit), bit);
+      valid[r] = _mm256_and_ps(in[r], _mm256_castsi256_ps(has));
+      free_fast[r] =
+          p.shortcuts
+              ? _mm256_and_ps(
+                    valid[r],
+                    _mm256_cmp_ps(
+                        _mm256_sub_ps(_mm256_fmsub_ps(lo, _mm256_set1_ps(1.0f - 1e-5f), z[r]),
+                                      _mm256_set1_ps(0.01f)),
+                        _mm256_set1_ps(p.clamp), _CMP_GE_OQ))
+              : zero;
+      rest[r] = _mm256_andnot_ps(free_fast[r], valid[r]);
+      if (p.shortcuts && _mm256_movemask_ps(rest[r]) != 0) {
+        if constexpr (!kLoads) {
+          const __m256i qm = _mm256_and_si256(qi[r], _mm256_castps_si256(valid[r]));
+          hi = F::Floats(t.quad_range.data() + 1, _mm256_slli_epi32(qm, 1));
+        }
+        const __m256 behind =
+            _mm256_cmp_ps(_mm256_add_ps(_mm256_fmsub_ps(hi, _mm256_set1_ps(1.0f + 1e-5f), z[r]),
+                                        _mm256_set1_ps(0.01f)),
+                          _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
+        rest[r] = _mm256_andnot_ps(behind, rest[r]);
       }
     }
-    if (_mm256_movemask_ps(in) == 0) return;
-  }
-  const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
-  const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
-  const __m256i qi = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width - 1)), x0);
-  const __m256 lo = _mm256_i32gather_ps(t.quad_range.data(), _mm256_slli_epi32(qi, 1), 4);
-  const __m256i q = _mm256_and_si256(_mm256_castps_si256(lo), _mm256_set1_epi32(3));
-  // Upper triangle (bit 0) where ax >= ay, lower (bit 1) otherwise.
-  const __m256 upper = _mm256_cmp_ps(ax, ay, _CMP_GE_OQ);
-  const __m256i bit =
-      _mm256_blendv_epi8(_mm256_set1_epi32(2), _mm256_set1_epi32(1), _mm256_castps_si256(upper));
-  const __m256i has = _mm256_cmpeq_epi32(_mm256_and_si256(q, bit), bit);
-  __m256 valid = _mm256_and_ps(in, _mm256_castsi256_ps(has));
-  if (_mm256_movemask_ps(valid) == 0) return;
-  // Shortcut, decided per voxel and exactly as the full computation would: with the
-  // quad's depth range [lo, hi], D - z >= lo - z >= clamp (+ margins for rounding, ray
-  // scale >= 1) is clamped free space; hi - z < -truncation is untouched.
-  const __m256i qm = _mm256_and_si256(qi, _mm256_castps_si256(valid));
-  const __m256 free_fast =
-      p.shortcuts
-          ? _mm256_and_ps(
-                valid,
-                _mm256_cmp_ps(_mm256_sub_ps(_mm256_fmsub_ps(lo, _mm256_set1_ps(1.0f - 1e-5f), z),
-                                            _mm256_set1_ps(0.01f)),
-                              _mm256_set1_ps(p.clamp), _CMP_GE_OQ))
-          : _mm256_setzero_ps();
-  __m256 rest = _mm256_andnot_ps(free_fast, valid);
-  if (p.shortcuts && _mm256_movemask_ps(rest) != 0) {
-    const __m256 hi = _mm256_i32gather_ps(t.quad_range.data() + 1, _mm256_slli_epi32(qm, 1), 4);
-    const __m256 behind = _mm256_cmp_ps(
-        _mm256_add_ps(_mm256_fmsub_ps(hi, _mm256_set1_ps(1.0f + 1e-5f), z), _mm256_set1_ps(0.01f)),
-        _mm256_set1_ps(-p.truncation), _CMP_LT_OQ);
-    rest = _mm256_andnot_ps(behind, rest);
-  }
-  if (_mm256_movemask_ps(rest) == 0) {
-    if (t.weight.empty()) {
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
-                          _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
-                                           _mm256_castps_si256(free_fast)));
-      return;
+    if (none(valid)) break;
+    if (none(rest)) {
+      if (!weighted) {
+        for (int r = 0; r < R; ++r) add_count[r] = _mm256_or_ps(add_count[r], free_fast[r]);
+        break;
+      }
+      if (none(free_fast)) break;  // all untouched
     }
-    if (_mm256_movemask_ps(free_fast) == 0) return;  // all untouched
-  }
-  const __m256i p00 =
-      _mm256_and_si256(_mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(t.width)), x0),
-                       _mm256_castps_si256(valid));
-  const float* id = t.inv_depth.data();
-  const __m256 i00 = _mm256_i32gather_ps(id, p00, 4);
-  const __m256 i10 = _mm256_i32gather_ps(id + 1, p00, 4);
-  const __m256 i01 = _mm256_i32gather_ps(id + t.width, p00, 4);
-  const __m256 i11 = _mm256_i32gather_ps(id + t.width + 1, p00, 4);
-  // Upper: i00 + ax (i10 - i00) + ay (i11 - i10); lower: i00 + ay (i01 - i00) + ax (i11 - i01).
-  const __m256 a = _mm256_blendv_ps(ay, ax, upper), b = _mm256_blendv_ps(ax, ay, upper);
-  const __m256 mid = _mm256_blendv_ps(i01, i10, upper);
-  const __m256 inv =
-      _mm256_fmadd_ps(b, _mm256_sub_ps(i11, mid), _mm256_fmadd_ps(a, _mm256_sub_ps(mid, i00), i00));
-  const __m256 scale = _mm256_sqrt_ps(_mm256_add_ps(_mm256_set1_ps(1.0f), rn2));
-  const __m256 d = _mm256_mul_ps(
-      _mm256_sub_ps(
-          _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_blendv_ps(_mm256_set1_ps(1.0f), inv, valid)),
-          z),
-      scale);
-  valid = _mm256_and_ps(valid, _mm256_cmp_ps(d, _mm256_set1_ps(-p.truncation), _CMP_GE_OQ));
-  const __m256 clamp = _mm256_set1_ps(p.clamp);
-  if (t.weight.empty()) {
-    const __m256 free = _mm256_and_ps(valid, _mm256_cmp_ps(d, clamp, _CMP_GE_OQ));
-    const __m256 add = _mm256_andnot_ps(free, valid);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(count),
-                        _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(count)),
-                                         _mm256_castps_si256(free)));
-    _mm256_storeu_ps(sum_wd, _mm256_add_ps(_mm256_loadu_ps(sum_wd), _mm256_and_ps(add, d)));
-    _mm256_storeu_ps(
-        sum_w, _mm256_add_ps(_mm256_loadu_ps(sum_w), _mm256_and_ps(add, _mm256_set1_ps(1.0f))));
-  } else {
-    const float* wm = t.weight.data();
-    const __m256 w00 = _mm256_i32gather_ps(wm, p00, 4);
-    const __m256 w10 = _mm256_i32gather_ps(wm + 1, p00, 4);
-    const __m256 w01 = _mm256_i32gather_ps(wm + t.width, p00, 4);
-    const __m256 w11 = _mm256_i32gather_ps(wm + t.width + 1, p00, 4);
-    const __m256 wmid = _mm256_blendv_ps(w01, w10, upper);
-    const __m256 wt = _mm256_fmadd_ps(b, _mm256_sub_ps(w11, wmid),
-                                      _mm256_fmadd_ps(a, _mm256_sub_ps(wmid, w00), w00));
-    _mm256_storeu_ps(
-        sum_wd, _mm256_add_ps(_mm256_loadu_ps(sum_wd),
-                              _mm256_and_ps(valid, _mm256_mul_ps(wt, _mm256_min_ps(d, clamp)))));
-    _mm256_storeu_ps(sum_w, _mm256_add_ps(_mm256_loadu_ps(sum_w), _mm256_and_ps(valid, wt)));
+#pragma GCC unroll 2
+    for (int r = 0; r < R; ++r) {
+      const __m256i p00 = _mm256_and_si256(
+          _mm256_add_epi32(_mm256_mullo_epi32(y0[r], _mm256_set1_epi32(t.width)), x0[r]),
+          _mm256_castps_si256(valid[r]));
+      const float* id = t.inv_depth.data();
+      __m256 i00, i10, i01, i11;  // the quad's corners
+      F::Pairs(id, p00, &i00, &i10);
+      F::Pairs(id + t.width, p00, &i01, &i11);
+      const __m256 a = _mm256_blendv_ps(ay[r], ax[r], upper[r]);
+      const __m256 b = _mm256_blendv_ps(ax[r], ay[r], upper[r]);
+      const __m256 mid = _mm256_blendv_ps(i01, i10, upper[r]);
+      const __m256 inv = _mm256_fmadd_ps(b, _mm256_sub_ps(i11, mid),
+                                         _mm256_fmadd_ps(a, _mm256_sub_ps(mid, i00), i00));
+      const __m256 scale = _mm256_sqrt_ps(_mm256_add_ps(_mm256_set1_ps(1.0f), rn2[r]));
+      d[r] = _mm256_mul_ps(
+          _mm256_sub_ps(_mm256_div_ps(_mm256_set1_ps(1.0f),
+                                      _mm256_blendv_ps(_mm256_set1_ps(1.0f), inv, valid[r])),
+                        z[r]),
+          scale);
+      const __m256 kept =
+          _mm256_and_ps(valid[r], _mm256_cmp_ps(d[r], _mm256_set1_ps(-p.truncation), _CMP_GE_OQ));
+      const __m256 clamp = _mm256_set1_ps(p.clamp);
+      if (!weighted) {
+        const __m256 free = _mm256_and_ps(kept, _mm256_cmp_ps(d[r], clamp, _CMP_GE_OQ));
+        add_count[r] = _mm256_or_ps(add_count[r], free);
+        add_d[r] = _mm256_andnot_ps(free, kept);
+      } else {
+        const float* wm = t.weight.data();
+        __m256 w00, w10, w01, w11;
+        F::Pairs(wm, p00, &w00, &w10);
+        F::Pairs(wm + t.width, p00, &w01, &w11);
+        const __m256 wmid = _mm256_blendv_ps(w01, w10, upper[r]);
+        const __m256 wt = _mm256_fmadd_ps(b, _mm256_sub_ps(w11, wmid),
+                                          _mm256_fmadd_ps(a, _mm256_sub_ps(wmid, w00), w00));
+        add_wd[r] = _mm256_and_ps(kept, _mm256_mul_ps(wt, _mm256_min_ps(d[r], clamp)));
+        add_w[r] = _mm256_and_ps(kept, wt);
+      }
+    }
+  } while (false);
+  for (int r = 0; r < rows; ++r) {
+    int32_t* cr = count + r * stride;
+    float* wd = sum_wd + r * stride;
+    float* w = sum_w + r * stride;
+    if (_mm256_movemask_ps(add_count[r]) != 0) {
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(cr),
+                          _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<__m256i*>(cr)),
+                                           _mm256_castps_si256(add_count[r])));
+    }
+    if (!weighted) {
+      if (_mm256_movemask_ps(add_d[r]) == 0) continue;
+      _mm256_storeu_ps(wd, _mm256_add_ps(_mm256_loadu_ps(wd), _mm256_and_ps(add_d[r], d[r])));
+      _mm256_storeu_ps(
+          w, _mm256_add_ps(_mm256_loadu_ps(w), _mm256_and_ps(add_d[r], _mm256_set1_ps(1.0f))));
+    } else {
+      _mm256_storeu_ps(wd, _mm256_add_ps(_mm256_loadu_ps(wd), add_wd[r]));
+      _mm256_storeu_ps(w, _mm256_add_ps(_mm256_loadu_ps(w), add_w[r]));
+    }
   }
 }
+
+// Whether 8 scalar loads beat one hardware gather of 8 floats on this CPU: both timed
+// over the same indices, best of several rounds, once per process (about a millisecond).
+[[maybe_unused]] bool GathersAreSlow() {
+  static const bool slow = [] {
+    std::vector<float> table(1 << 16);
+    for (size_t i = 0; i < table.size(); ++i) table[i] = float(i & 1023);
+    std::vector<int32_t> idx(8 * 512);
+    uint32_t r = 12345;
+    for (size_t k = 0; k < idx.size(); k += 8) {
+      r = r * 1664525u + 1013904223u;
+      const int32_t b = int32_t(r >> 17) % int32_t(table.size() - 64);
+      for (int m = 0; m < 8; ++m) idx[k + m] = b + 3 * m;  // a row's spread
+    }
+    const auto time = [&](auto fetch) {
+      double best = 1e30;
+      for (int round = 0; round < 5; ++round) {
+        const auto t0 = std::chrono::steady_clock::now();
+        __m256 acc = _mm256_setzero_ps();
+        for (size_t k = 0; k < idx.size(); k += 8) {
+          const __m256i i = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&idx[k]));
+          __m256 a, b;
+          fetch(i, &a, &b);
+          acc = _mm256_add_ps(acc, _mm256_add_ps(a, b));
+        }
+        alignas(32) float sink[8];
+        _mm256_store_ps(sink, acc);
+        volatile float keep = sink[0];
+        (void)keep;
+        best = std::min(
+            best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      }
+      return best;
+    };
+    const float* base = table.data();
+    const double gather =
+        time([&](__m256i i, __m256* a, __m256* b) { Fetch<false>::Pairs(base, i, a, b); });
+    const double loads =
+        time([&](__m256i i, __m256* a, __m256* b) { Fetch<true>::Pairs(base, i, a, b); });
+    return loads < gather;
+  }();
+  return slow;
+}
+
 #else
 __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y, float c0z, int ib,
                                         int lanes, float* sum_wd, float* sum_w, int32_t* count) {
@@ -1036,10 +1186,18 @@ __attribute__((noinline)) void ExactRowPair(const RowParams& p, const float c0[3
 #else
 void ExactRowPair(const RowParams& p, const float c0[3], const float c1[3], int ib, int lanes,
                   int rows, int stride, float* sum_wd, float* sum_w, int32_t* count) {
+#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
+  const TableLookups mode = g_table_lookups.load(std::memory_order_relaxed);
+  const bool loads =
+      mode == TableLookups::kLoads || (mode == TableLookups::kAuto && GathersAreSlow());
+  (loads ? ExactRowPairAvx2<true> : ExactRowPairAvx2<false>)(p, c0, c1, ib, lanes, rows, stride,
+                                                             sum_wd, sum_w, count);
+#else
   ExactRow(p, c0[0], c0[1], c0[2], ib, lanes, sum_wd, sum_w, count);
   if (rows > 1) {
     ExactRow(p, c1[0], c1[1], c1[2], ib, lanes, sum_wd + stride, sum_w + stride, count + stride);
   }
+#endif
 }
 #endif
 
@@ -1134,6 +1292,25 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
                               _mm512_maskz_div_ps(kept, num, w));
       }
 #pragma GCC diagnostic pop
+#elif defined(__AVX2__) && defined(__FMA__)
+      // The scalar loop below, 8 voxels (one block) at a time, the same operations.
+      for (int m = 0; m < ie - ib; m += 8) {
+        const int lanes = std::min(8, ie - ib - m);
+        const __m256i store =
+            _mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        const __m256i cnt = _mm256_add_epi32(_mm256_set1_epi32(s->super_count + bc[m / kBlock]),
+                                             _mm256_maskload_epi32(s->count + o + m, store));
+        const __m256 n = _mm256_cvtepi32_ps(cnt);
+        const __m256 w = _mm256_add_ps(_mm256_maskload_ps(s->sum_w + o + m, store), n);
+        const __m256 kept = _mm256_and_ps(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                          _mm256_cmp_ps(w, _mm256_set1_ps(min_weight), _CMP_GE_OQ));
+        const __m256 num = _mm256_add_ps(_mm256_maskload_ps(s->sum_wd + o + m, store),
+                                         _mm256_mul_ps(n, _mm256_set1_ps(clamp)));
+        // Lanes not kept may divide by zero; their results are masked to 0.
+        _mm256_maskstore_ps(slab->weight.data() + out + m, store, _mm256_and_ps(kept, w));
+        _mm256_maskstore_ps(slab->distance_mm.data() + out + m, store,
+                            _mm256_and_ps(kept, _mm256_div_ps(num, w)));
+      }
 #else
       for (int m = 0; m < ie - ib; ++m) {
         const float n = float(s->super_count + bc[m / kBlock] + s->count[o + m]);
@@ -1183,6 +1360,8 @@ void Integrator::IntegrateSlab(int k0, int k1, Slab* slab) const {
     }
   });
 }
+
+void SetTableLookups(TableLookups lookups) { g_table_lookups.store(lookups); }
 
 void FuseVolume(const VolumeGrid& grid, const std::vector<RangeImage>& images,
                 const FusionOptions& options, int planes_per_slab,

@@ -128,6 +128,13 @@ class Integrator {
   std::vector<CameraTables> cameras_;
 };
 
+// How the 8-lane (AVX2) kernel reads its per-camera tables: with the CPU's gathers, or
+// with scalar loads put together, which some CPUs run much faster. Both read the same
+// values, so every result is the same bits. kAuto (the default) times both once per
+// process; the others are for tests and benchmarks.
+enum class TableLookups { kAuto, kGathers, kLoads };
+void SetTableLookups(TableLookups lookups);
+
 // Convenience: fuses the whole volume in slabs of `planes_per_slab`, calling
 // `consume(slab)` for each in plane order (memory bounded by one slab).
 void FuseVolume(const VolumeGrid& grid, const std::vector<RangeImage>& images,

@@ -325,9 +325,15 @@ TEST(Integrate, BadInputGivesClearErrors) {
 namespace dome::fusion {
 namespace {
 
-// Block culling is a pure shortcut: with it off every voxel takes the full per-voxel
-// computation (no block, tile or quad shortcut), with uniform weights and with weight maps.
-TEST(Integrate, BlockCullingChangesNothing) {
+// Scenes that exercise every shortcut of the kernel, and the volume they fill: stacked
+// spheres seen by a ring of 8 cameras; the same with a far wall behind them (free space
+// everywhere); with a slanted wall through the volume (voxels near it, in front and
+// behind, are decided per voxel); and that with weight maps.
+struct KernelScenes {
+  std::vector<std::vector<RangeImage>> sets;
+  VolumeGrid grid;
+};
+KernelScenes MakeKernelScenes() {
   const std::vector<RangeImage> images =
       testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
   // A backdrop: every pixel has a surface (a far wall), so free space is everywhere.
@@ -354,14 +360,24 @@ TEST(Integrate, BlockCullingChangesNothing) {
     for (int y = 0; y < im.weight.rows; ++y)
       for (int x = 0; x < im.weight.cols; ++x) im.weight.at<float>(y, x) = 0.5f + (x + 2 * y) % 3;
   }
-  VolumeGrid g;
+  KernelScenes k;
+  VolumeGrid& g = k.grid;
   g.voxel_size_mm = 10;
   g.nx = 45;
   g.ny = 37;
   g.nz = 300;
   g.origin_mm = Eigen::Vector3d(-230, -190, 0);
-  for (const std::vector<RangeImage>* set : std::initializer_list<const std::vector<RangeImage>*>{
-           &images, &walled, &near_wall, &weighted}) {
+  k.sets = {images, walled, near_wall, weighted};
+  return k;
+}
+
+// Block culling is a pure shortcut: with it off every voxel takes the full per-voxel
+// computation (no block, tile or quad shortcut), with uniform weights and with weight maps.
+TEST(Integrate, BlockCullingChangesNothing) {
+  const KernelScenes scenes = MakeKernelScenes();
+  const VolumeGrid& g = scenes.grid;
+  for (const auto& images : scenes.sets) {
+    const std::vector<RangeImage>* set = &images;
     FusionOptions on, off;
     off.block_culling = false;
     const Slab a = Integrator(g, *set, on).IntegrateSlab(0, g.nz);
@@ -382,6 +398,31 @@ TEST(Integrate, BlockCullingChangesNothing) {
     EXPECT_EQ(std::memcmp(part.distance_mm.data(), a.distance_mm.data() + size_t(13) * 45 * 37,
                           part.distance_mm.size() * 4),
               0);
+  }
+}
+
+// The 8-lane kernel's two ways to read its tables (the CPU's gathers, scalar loads) give
+// the same bits, on every scene.
+TEST(Integrate, GathersAndScalarLoadsGiveTheSameBits) {
+  const KernelScenes scenes = MakeKernelScenes();
+  for (const auto& set : scenes.sets) {
+    std::vector<Slab> slabs;
+    for (TableLookups mode : {TableLookups::kGathers, TableLookups::kLoads, TableLookups::kAuto}) {
+      SetTableLookups(mode);
+      slabs.push_back(Integrator(scenes.grid, set, {}).IntegrateSlab(0, scenes.grid.nz));
+    }
+    SetTableLookups(TableLookups::kAuto);
+    size_t observed = 0;
+    for (float w : slabs[0].weight) observed += w > 0;
+    EXPECT_GT(observed, slabs[0].weight.size() / 10);
+    for (size_t m = 1; m < slabs.size(); ++m) {
+      EXPECT_EQ(std::memcmp(slabs[m].distance_mm.data(), slabs[0].distance_mm.data(),
+                            slabs[0].distance_mm.size() * 4),
+                0);
+      EXPECT_EQ(
+          std::memcmp(slabs[m].weight.data(), slabs[0].weight.data(), slabs[0].weight.size() * 4),
+          0);
+    }
   }
 }
 
