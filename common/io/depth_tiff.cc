@@ -53,12 +53,51 @@ struct TiffCloser {
 };
 using TiffHandle = std::unique_ptr<TIFF, TiffCloser>;
 
-TiffHandle OpenTiff(const std::filesystem::path& path, const char* mode, TiffMessages* messages) {
+// A TIFF file in memory: libtiff reads and writes it through these callbacks, so a
+// depth map can be encoded on one machine and written (or checked) on another.
+struct MemoryFile {
+  std::string bytes;  // the file
+  toff_t pos = 0;
+};
+
+tmsize_t MemRead(thandle_t h, void* buf, tmsize_t n) {
+  auto* f = static_cast<MemoryFile*>(h);
+  const toff_t left = f->pos < f->bytes.size() ? f->bytes.size() - f->pos : 0;
+  const tmsize_t k = static_cast<tmsize_t>(std::min<toff_t>(left, static_cast<toff_t>(n)));
+  if (k > 0) std::memcpy(buf, f->bytes.data() + f->pos, static_cast<size_t>(k));
+  f->pos += static_cast<toff_t>(k);
+  return k;
+}
+
+tmsize_t MemWrite(thandle_t h, void* buf, tmsize_t n) {
+  auto* f = static_cast<MemoryFile*>(h);
+  if (n < 0) return -1;
+  const size_t end = static_cast<size_t>(f->pos) + static_cast<size_t>(n);
+  if (end > f->bytes.size()) f->bytes.resize(end);
+  std::memcpy(f->bytes.data() + f->pos, buf, static_cast<size_t>(n));
+  f->pos = end;
+  return n;
+}
+
+toff_t MemSeek(thandle_t h, toff_t off, int whence) {
+  auto* f = static_cast<MemoryFile*>(h);
+  const toff_t base = whence == SEEK_CUR ? f->pos : (whence == SEEK_END ? f->bytes.size() : 0);
+  f->pos = base + off;
+  return f->pos;
+}
+
+int MemClose(thandle_t) { return 0; }
+toff_t MemSize(thandle_t h) { return static_cast<MemoryFile*>(h)->bytes.size(); }
+int MemMap(thandle_t, void**, toff_t*) { return 0; }
+void MemUnmap(thandle_t, void*, toff_t) {}
+
+TiffHandle OpenTiff(MemoryFile* file, const char* mode, TiffMessages* messages) {
   TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
   TIFFOpenOptionsSetErrorHandlerExtR(opts, OnTiffError, messages);
   TIFFOpenOptionsSetWarningHandlerExtR(opts, OnTiffWarning, messages);
   TIFFOpenOptionsSetMaxSingleMemAlloc(opts, static_cast<tmsize_t>(kMaxPixels) * 4);
-  TiffHandle tif(TIFFOpenExt(path.c_str(), mode, opts));
+  TiffHandle tif(TIFFClientOpenExt("depth map", mode, file, MemRead, MemWrite, MemSeek, MemClose,
+                                   MemSize, MemMap, MemUnmap, opts));
   TIFFOpenOptionsFree(opts);
   return tif;
 }
@@ -101,21 +140,14 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where) {
   }
 }
 
-void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) {
-  const std::string where = path.string();
+std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where) {
   CheckDepthMap(depth_mm, where);
   core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
-  RequireParentFolder(path);
-  const std::filesystem::path tmp = TempSiblingPath(path);
   TiffMessages messages;
+  MemoryFile file;
   {
-    TiffHandle tif = OpenTiff(tmp, "w", &messages);
-    if (!tif) {
-      throw core::InputError(
-          where, "cannot write into folder " +
-                     (path.has_parent_path() ? path.parent_path().string() : std::string(".")) +
-                     ": " + messages.error);
-    }
+    TiffHandle tif = OpenTiff(&file, "w", &messages);
+    core::Require(tif != nullptr, where, "cannot start a TIFF: " + messages.error);
     TIFF* t = tif.get();
     const bool deflate = TIFFIsCODECConfigured(COMPRESSION_ADOBE_DEFLATE) != 0;
     TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(depth_mm.cols));
@@ -131,8 +163,8 @@ void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) 
     // surfaces compress well under Deflate.
     if (deflate) {
       TIFFSetField(t, TIFFTAG_PREDICTOR, uint16_t{PREDICTOR_FLOATINGPOINT});
-      // zlib's fastest level: a master writes 51 of these per instant, and level 6
-      // costs several times the CPU for files only a few percent smaller.
+      // zlib's fastest level: level 6 costs several times the CPU for files only a
+      // few percent smaller.
       TIFFSetField(t, TIFFTAG_ZIPQUALITY, 1);
     }
     TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, TIFFDefaultStripSize(t, 0));
@@ -145,13 +177,15 @@ void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) 
       ok = TIFFWriteScanline(t, row.data(), static_cast<uint32_t>(y), 0) == 1;
     }
     ok = ok && TIFFFlush(t) == 1;
-    if (!ok) {
-      tif.reset();
-      std::remove(tmp.c_str());
-      throw core::InputError(where, "write failed: " + messages.error);
-    }
+    core::Require(ok, where, "encoding failed: " + messages.error);
   }
-  CommitTempFile(tmp, path);
+  return std::move(file.bytes);
+}
+
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) {
+  const std::string bytes = EncodeDepthTiff(depth_mm, path.string());
+  RequireParentFolder(path);
+  WriteFileAtomically(path, bytes);
 }
 
 cv::Mat ReadDepthTiff(const std::filesystem::path& path) {
@@ -161,8 +195,13 @@ cv::Mat ReadDepthTiff(const std::filesystem::path& path) {
   const auto status = std::filesystem::status(path, ec);
   core::Require(std::filesystem::exists(status), where, "no such file");
   core::Require(!std::filesystem::is_directory(status), where, "is a folder, expected a file");
+  return DecodeDepthTiff(ReadFileBytes(path), where);
+}
+
+cv::Mat DecodeDepthTiff(std::string bytes, const std::string& where) {
   TiffMessages messages;
-  TiffHandle tif = OpenTiff(path, "r", &messages);
+  MemoryFile file{std::move(bytes), 0};
+  TiffHandle tif = OpenTiff(&file, "r", &messages);
   core::Require(tif != nullptr, where,
                 "not a readable TIFF file (" +
                     (messages.error.empty() ? std::string("cannot open") : messages.error) + ")");
@@ -316,6 +355,12 @@ void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& dept
                           const DepthPreviewOptions& options) {
   CheckDepthMap(depth_mm, path.string());
   WriteImage(path, DepthPreview(depth_mm, options));
+}
+
+std::string EncodeDepthPreviewPng(const cv::Mat& depth_mm, const std::string& where,
+                                  const DepthPreviewOptions& options) {
+  CheckDepthMap(depth_mm, where);
+  return EncodePng(DepthPreview(depth_mm, options));
 }
 
 }  // namespace dome::io

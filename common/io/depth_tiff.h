@@ -38,6 +38,10 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where);
 // not a valid depth map (see CheckDepthMap) or the folder is missing / not writable.
 void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm);
 cv::Mat ReadDepthTiff(const std::filesystem::path& path);
+// The same file as bytes (the writer's file, byte for byte), and read back from bytes;
+// errors name `where`.
+std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where);
+cv::Mat DecodeDepthTiff(std::string bytes, const std::string& where);
 
 // 16-bit PNG in millimetres.
 void WriteDepthPng16(const std::filesystem::path& path, const cv::Mat& depth_mm);
@@ -65,5 +69,8 @@ struct DepthPreviewOptions {
 cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options = {});
 void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& depth_mm,
                           const DepthPreviewOptions& options = {});
+// The preview PNG file's bytes.
+std::string EncodeDepthPreviewPng(const cv::Mat& depth_mm, const std::string& where,
+                                  const DepthPreviewOptions& options = {});
 
 }  // namespace dome::io

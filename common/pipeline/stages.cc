@@ -18,6 +18,7 @@
 #include "mesh/texture.h"
 #include "pipeline/coarse_to_fine.h"
 #include "pipeline/session.h"
+#include "stereo/take_stereo.h"
 #include "take/rig.h"
 
 namespace dome::pipeline {
@@ -106,10 +107,15 @@ std::vector<runtime::Output> RunStereo(const runtime::Job& job, const JobBlobs& 
     result = stereo::ComputeDepth(input, options.stereo);
   }
   result.camera = sj.camera();
-  runtime::Output out;
-  out.set_name(kStereoOutput);
-  out.set_data(EncodeStereoOutput(result));
-  return {out};
+  std::vector<runtime::Output> outputs(1);
+  outputs[0].set_name(kStereoOutput);
+  outputs[0].set_data(EncodeStereoOutput(result));
+  for (stereo::StereoFile& f : stereo::EncodeStereoFiles(result, sj.write_previews())) {
+    runtime::Output& o = outputs.emplace_back();
+    o.set_name(std::move(f.path));
+    o.set_data(std::move(f.bytes));
+  }
+  return outputs;
 }
 
 // Identifies what PreparedFusion is built from: everything in the job but its planes.

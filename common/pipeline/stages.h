@@ -25,7 +25,9 @@
 
 namespace dome::pipeline {
 
-// Output names of the jobs (runtime.Output.name).
+// Output names of the jobs (runtime.Output.name). A stereo job's result also carries
+// its output files, named by their paths under OUT/<instant>/ (stereo/take_stereo.h
+// EncodeStereoFiles): the workers encode them, so the master only checks and writes.
 inline constexpr const char* kStereoOutput = "stereo";
 inline constexpr const char* kSlabOutput = "slab";
 inline constexpr const char* kDecimatedOutput = "mesh_decimated.ply";

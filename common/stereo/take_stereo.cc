@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
@@ -52,33 +53,93 @@ StereoInput LoadStereoInput(const take::Take& take, const std::string& instant,
   return input;
 }
 
-std::vector<fs::path> WriteStereoResult(const StereoResult& result, const std::string& instant,
-                                        const fs::path& out_dir, bool write_previews) {
-  std::vector<fs::path> written;
+std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews) {
+  std::vector<StereoFile> files;
   for (size_t k = 0; k < result.range_images.size(); ++k) {
     const RangeImage& r = result.range_images[k];
     const std::string sfx = Suffix(k, r.window_px);
-    const fs::path base = out_dir / instant;
-    std::error_code ec;
-    for (const char* sub : {"depth", "reliability", "preview"}) {
-      fs::create_directories(base / (sub + sfx), ec);
-      core::Require(!ec, (base / (sub + sfx)).string(), "cannot create folder: " + ec.message());
-    }
-    const fs::path depth = base / ("depth" + sfx) / (result.camera + ".tiff");
-    io::WriteDepthTiff(depth, r.depth_mm);
+    const std::string name =
+        result.camera + (k == 0 ? "" : " window " + std::to_string(r.window_px));
+    files.push_back({"depth" + sfx + "/" + result.camera + ".tiff",
+                     io::EncodeDepthTiff(r.depth_mm, "depth map of " + name)});
     std::vector<uchar> bytes;
-    // Uncompressed: OpenCV's default LZW costs the master more CPU than the stereo job's
-    // decoding of its frames, for a file that compresses poorly anyway (noisy floats).
+    // Uncompressed: LZW costs more CPU than the stereo job's decoding of its frames,
+    // for a file that compresses poorly anyway (noisy floats).
     cv::imencode(".tiff", r.reliability, bytes, {cv::IMWRITE_TIFF_COMPRESSION, 1});
-    io::WriteFileAtomically(
-        base / ("reliability" + sfx) / (result.camera + ".tiff"),
-        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    files.push_back({"reliability" + sfx + "/" + result.camera + ".tiff",
+                     std::string(bytes.begin(), bytes.end())});
     if (write_previews) {
-      io::WriteDepthPreviewPng(base / ("preview" + sfx) / (result.camera + ".png"), r.depth_mm);
+      files.push_back({"preview" + sfx + "/" + result.camera + ".png",
+                       io::EncodeDepthPreviewPng(r.depth_mm, "depth map of " + name)});
     }
-    written.push_back(depth);
+  }
+  return files;
+}
+
+void CheckStereoFiles(const StereoResult& result, bool write_previews,
+                      const std::vector<StereoFile>& files, const std::string& where) {
+  std::vector<std::string> expected;
+  for (size_t k = 0; k < result.range_images.size(); ++k) {
+    const std::string sfx = Suffix(k, result.range_images[k].window_px);
+    expected.push_back("depth" + sfx + "/" + result.camera + ".tiff");
+    expected.push_back("reliability" + sfx + "/" + result.camera + ".tiff");
+    if (write_previews) expected.push_back("preview" + sfx + "/" + result.camera + ".png");
+  }
+  core::Require(files.size() == expected.size(), where,
+                "expected " + std::to_string(expected.size()) + " stereo files, got " +
+                    std::to_string(files.size()));
+  const auto same = [](const cv::Mat& a, const cv::Mat& b) {
+    if (a.type() != b.type() || a.size() != b.size()) return false;
+    for (int y = 0; y < a.rows; ++y) {
+      if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
+    }
+    return true;
+  };
+  for (size_t i = 0; i < files.size(); ++i) {
+    const StereoFile& f = files[i];
+    core::Require(f.path == expected[i], where,
+                  "stereo file " + std::to_string(i) + " is '" + f.path.substr(0, 200) +
+                      "', expected '" + expected[i] + "'");
+    const RangeImage& r = result.range_images[i / (write_previews ? 3 : 2)];
+    const std::string what = where + " " + f.path;
+    switch (i % (write_previews ? 3 : 2)) {
+      case 0:  // the depth map, bit for bit
+        core::Require(same(io::DecodeDepthTiff(f.bytes, what), r.depth_mm), what,
+                      "is not the result's depth map");
+        break;
+      case 1: {
+        const cv::Mat rel = cv::imdecode(
+            cv::Mat(1, int(f.bytes.size()), CV_8UC1, const_cast<char*>(f.bytes.data())),
+            cv::IMREAD_UNCHANGED);
+        core::Require(same(rel, r.reliability), what, "is not the result's reliability map");
+        break;
+      }
+      default: {
+        const cv::Mat preview = io::DecodeImage(f.bytes, io::ImageMode::kUnchanged, what);
+        core::Require(preview.type() == CV_8UC3 && preview.size() == r.depth_mm.size(), what,
+                      "is not a colour preview of the depth map's size");
+      }
+    }
+  }
+}
+
+std::vector<fs::path> WriteStereoFiles(const std::vector<StereoFile>& files,
+                                       const std::string& instant, const fs::path& out_dir) {
+  std::vector<fs::path> written;
+  for (const StereoFile& f : files) {
+    const fs::path path = out_dir / instant / f.path;
+    std::error_code ec;
+    fs::create_directories(path.parent_path(), ec);
+    core::Require(!ec, path.parent_path().string(), "cannot create folder: " + ec.message());
+    io::WriteFileAtomically(path, f.bytes);
+    if (f.path.rfind("depth", 0) == 0) written.push_back(path);
   }
   return written;
+}
+
+std::vector<fs::path> WriteStereoResult(const StereoResult& result, const std::string& instant,
+                                        const fs::path& out_dir, bool write_previews) {
+  return WriteStereoFiles(EncodeStereoFiles(result, write_previews), instant, out_dir);
 }
 
 std::vector<StereoResult> RunTakeStereo(const fs::path& take_dir, const std::string& camera_id,

@@ -43,6 +43,28 @@ struct TakeStereoOptions {
 StereoInput LoadStereoInput(const take::Take& take, const std::string& instant,
                             const std::string& camera_id, const ClusterOptions& cluster);
 
+// One output file of a stereo result: its path under DIR/<instant>/ (layout above) and
+// its bytes.
+struct StereoFile {
+  std::string path;
+  std::string bytes;
+};
+
+// The files of one result, in layout order (per window: depth, reliability, preview).
+// A worker encodes them; the master checks and writes them.
+std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews);
+
+// Throws core::InputError naming `where` and the file unless `files` are exactly the
+// files of `result`: the layout's paths, the depth and reliability maps decoding to the
+// result's values bit for bit, previews decoding to colour images of the map's size.
+void CheckStereoFiles(const StereoResult& result, bool write_previews,
+                      const std::vector<StereoFile>& files, const std::string& where);
+
+// Writes files under `out_dir`/`instant`; returns the depth paths written.
+std::vector<std::filesystem::path> WriteStereoFiles(const std::vector<StereoFile>& files,
+                                                    const std::string& instant,
+                                                    const std::filesystem::path& out_dir);
+
 // Writes one result under `out_dir` (layout above) and returns the depth paths written,
 // one per window size.
 std::vector<std::filesystem::path> WriteStereoResult(const StereoResult& result,

@@ -463,6 +463,7 @@ struct Master::Impl {
         auto* sj = job.mutable_stereo();
         sj->set_camera(s->cameras[n.part]);
         *sj->mutable_stereo() = stereo::ToStereoSettings(s->options.stereo);
+        sj->set_write_previews(s->options.stereo.write_previews);
         const auto& frames = s->frames[n.instant];
         add(s->rig);
         add(frames[n.part]);
@@ -635,7 +636,14 @@ struct Master::Impl {
         stereo::StereoResult result = pipeline::DecodeStereoOutput(bytes, peer + " " + r.job_id());
         core::Require(result.camera == s->cameras[n.part], peer,
                       "result of " + r.job_id() + " is for camera '" + result.camera + "'");
-        stereo::WriteStereoResult(result, instant, s->out(), s->options.stereo.write_previews);
+        // The worker encoded the files; checking them costs a fraction of encoding.
+        std::vector<stereo::StereoFile> files;
+        for (const auto& o : r.outputs()) {
+          if (o.name() != pipeline::kStereoOutput) files.push_back({o.name(), o.data()});
+        }
+        stereo::CheckStereoFiles(result, s->options.stereo.write_previews, files,
+                                 peer + " result of " + r.job_id());
+        stereo::WriteStereoFiles(files, instant, s->out());
         outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kStereoOutput));
         break;
       }

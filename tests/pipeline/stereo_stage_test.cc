@@ -52,8 +52,16 @@ class StereoStage : public SmallTakeSuite {
       add(take.FramePath(instant, v.camera.id));
     }
     const auto outputs = RunJob(job, blobs);
-    EXPECT_EQ(outputs.size(), 1u);
-    return DecodeStereoOutput(outputs.at(0).data(), "test").range_images.at(0).depth_mm;
+    // The stereo blob, then the result's files (depth and reliability; no previews).
+    EXPECT_EQ(outputs.size(), 3u);
+    const stereo::StereoResult result = DecodeStereoOutput(outputs.at(0).data(), "test");
+    std::vector<stereo::StereoFile> files;
+    for (size_t i = 1; i < outputs.size(); ++i) {
+      files.push_back({outputs[i].name(), outputs[i].data()});
+    }
+    EXPECT_EQ(files.at(0).path, "depth/" + id + ".tiff");
+    stereo::CheckStereoFiles(result, false, files, "test");
+    return result.range_images.at(0).depth_mm;
   }
 
   static runtime::StereoSettings DefaultSettings() {
@@ -159,6 +167,65 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   const runtime::Session read = ReadSessionJson(dir / "session.json");
   EXPECT_EQ(read.stereo().coarse_to_fine().tile_px(), 48);
   EXPECT_EQ(read.stereo().coarse_to_fine().clip_max_mm(2), 3.0);
+}
+
+// The files a worker returns with a stereo result are checked against the result before
+// the master writes them: every file there, at its path, decoding to the result's maps.
+TEST(StereoFiles, AreCheckedAgainstTheResult) {
+  stereo::StereoResult result;
+  result.camera = "c07";
+  for (int window : {7, 11}) {
+    stereo::RangeImage r;
+    r.window_px = window;
+    r.depth_mm = cv::Mat(12, 16, CV_32FC1, cv::Scalar(0));
+    r.reliability = cv::Mat(12, 16, CV_32FC1, cv::Scalar(0));
+    for (int y = 2; y < 10; ++y) {
+      for (int x = 3; x < 13; ++x) {
+        r.depth_mm.at<float>(y, x) = 1800.0f + 3.25f * x + window;
+        r.reliability.at<float>(y, x) = 0.5f * y;
+      }
+    }
+    result.range_images.push_back(r);
+  }
+  for (bool previews : {false, true}) {
+    const std::vector<stereo::StereoFile> files = stereo::EncodeStereoFiles(result, previews);
+    ASSERT_EQ(files.size(), previews ? 6u : 4u);
+    EXPECT_EQ(files[0].path, "depth/c07.tiff");
+    EXPECT_EQ(files[previews ? 3 : 2].path, "depth-w11/c07.tiff");
+    stereo::CheckStereoFiles(result, previews, files, "worker w1 result of s/j");
+    // The same files as `dome stereo` writes.
+    const testing::TempDir dir;
+    stereo::WriteStereoResult(result, "00-00-00-00", dir.path(), previews);
+    for (const auto& f : files) {
+      EXPECT_EQ(io::ReadFileBytes(dir.path() / "00-00-00-00" / f.path), f.bytes) << f.path;
+    }
+    auto missing = files;
+    missing.pop_back();
+    ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, missing, "worker w1"); },
+                     {"worker w1", "expected " + std::to_string(files.size()) + " stereo files"});
+    auto renamed = files;
+    renamed[1].path = "../../etc/passwd";
+    ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, renamed, "worker w1"); },
+                     {"worker w1", "'../../etc/passwd'", "expected 'reliability/c07.tiff'"});
+    auto garbage = files;
+    garbage[0].bytes = "II*\0 not really a TIFF";
+    ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, garbage, "worker w1"); },
+                     {"worker w1 depth/c07.tiff"});
+    // A depth map one value off is refused.
+    stereo::StereoResult other = result;
+    other.range_images[0].depth_mm = result.range_images[0].depth_mm.clone();
+    other.range_images[0].depth_mm.at<float>(5, 5) += 0.001f;
+    auto tampered = files;
+    tampered[0] = stereo::EncodeStereoFiles(other, previews)[0];
+    ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, tampered, "worker w1"); },
+                     {"depth/c07.tiff", "is not the result's depth map"});
+    if (previews) {
+      auto swapped = files;
+      std::swap(swapped[1].bytes, swapped[2].bytes);  // reliability <-> preview
+      ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, swapped, "worker w1"); },
+                       {"reliability/c07.tiff", "is not the result's reliability map"});
+    }
+  }
 }
 
 }  // namespace
