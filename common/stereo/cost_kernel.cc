@@ -401,8 +401,9 @@ __attribute__((noinline)) void WindowSum(const float* __restrict v, int n, int h
 //
 // All of it is integer arithmetic in 16-bit fixed point (greys x kQ) up to one float
 // conversion and one fused multiply-add per pixel, so the AVX-512 path (32 pixels per
-// instruction, two permutes of a contiguous pair of loads per 32 pixels) and the scalar
-// path give the same bits.
+// instruction, two permutes of a contiguous pair of loads per 32 pixels), the AVX2 path
+// (16 pixels, byte shuffles of short loads: its gathers are slower than scalar loads)
+// and the scalar path give the same bits, and a cluster of mixed CPUs the same depths.
 // The pattern itself is computed once, outside the SIMD instances, with explicit fused
 // multiply-adds, so that no compiler contraction can tell the paths apart.
 struct Prewarped {
@@ -431,9 +432,13 @@ struct LevelPattern16 {
   std::vector<int32_t> base;  // per block: J column of its first pixel
   std::vector<int16_t> rel;   // per position: J column - block base
   std::vector<int16_t> frac;  // per position: fraction of the J column, Q15
-  // Per block: rel + 1 passes 63, too far for the AVX-512 permutes, resampled one
-  // position at a time.
+  // Per block: too far for the SIMD path's loads, resampled one position at a time
+  // (AVX-512: rel + 1 passes 63; AVX2: a group's taps span more than 8 columns).
   std::vector<uint8_t> scalar;
+  // AVX2: per position, the bytes of its left tap in the 8 columns loaded from its
+  // group's first column (2 r, 2 r + 1 for column offset r), as _mm256_shuffle_epi8
+  // takes them; 2 x 32 bytes per block.
+  std::vector<uint8_t> shuffle;
 };
 
 // Fixed point greys: grey x kQ in 16 bits. Squared differences of two neighbours sum in
@@ -670,6 +675,22 @@ __attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int w
     if (simd == SimdLevel::kAvx512) pat->scalar[k] = c[32 * k + 31] + 1 - b > 63;
     for (int p = 32 * k; p < 32 * k + 32; ++p) rel[p] = int16_t(c[p] - b);
   }
+  if (simd != SimdLevel::kAvx2) return;
+  pat->shuffle.resize(2 * size_t(n32));
+  for (int k = 0; k < n32 / 32; ++k) {
+    bool fits = true;
+    for (int g = 8 * k; g < 8 * k + 8; ++g) {
+      // A group's pixels are consecutive: its last position has the largest column.
+      const int first = rel[4 * g];
+      fits &= rel[4 * g + 3] + 1 - first <= 7;
+      for (int p = 4 * g; p < 4 * g + 4; ++p) {
+        const int r = std::min(rel[p] - first, 7);
+        pat->shuffle[2 * p] = uint8_t(2 * r);
+        pat->shuffle[2 * p + 1] = uint8_t(2 * r + 1);
+      }
+    }
+    pat->scalar[k] = !fits;
+  }
 }
 
 // J row and vertical fraction of reference row y (one copy for every path, as above).
@@ -681,7 +702,7 @@ __attribute__((noinline)) void PatternRow(const Prewarped& pw, const LevelPatter
   *ay = float(my - fl);
 }
 
-// (x f + 2^14) >> 15, as _mm512_mulhrs_epi16 rounds.
+// (x f + 2^14) >> 15, as _mm256_mulhrs_epi16 and _mm512_mulhrs_epi16 round.
 inline int16_t MulHrs(int x, int f) { return int16_t((x * f + (1 << 14)) >> 15); }
 
 // One fixed point J row resampled at the level's pattern, in stored order, over the
@@ -695,6 +716,52 @@ void HorizontalRowQScalar(const int16_t* __restrict jrow, const int16_t* __restr
     const int c = pat.base[i / 32] + pat.rel[i];
     out[i] = int16_t(jrow[c] + MulHrs(jrow[c + 1] - jrow[c], pat.frac[i]));
     if constexpr (kOk) ok_out[i] = ok_row[c];
+  }
+}
+
+// The same with AVX2, 16 positions per register. Per 128-bit lane, its two groups' 8
+// columns each come from one unaligned load, and byte shuffles pick both taps of every
+// position (the right tap two bytes after the left one).
+template <bool kOk>
+__attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
+    const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
+    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out) {
+  const __m256i two = _mm256_set1_epi8(2);
+  // Lane 0 from group offset r0, lane 1 from r1.
+  const auto load2 = [](const int16_t* p, int r0, int r1) {
+    return _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p + r0))),
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + r1)), 1);
+  };
+  for (int x = x_begin, k = x_begin / 32; x < x_end; x += 32, ++k) {
+    if (pat.scalar[k]) {
+      HorizontalRowQScalar<kOk>(jrow, ok_row, pat, x, x + 32, out, ok_out);
+      continue;
+    }
+    const int b = pat.base[k];
+    for (int h = x; h < x + 32; h += 16) {
+      const int16_t* rel = pat.rel.data() + h;
+      // First groups of the lanes (bytes 0..7) and second groups (bytes 8..15).
+      const __m256i first = load2(jrow + b, rel[0], rel[8]);
+      const __m256i second = load2(jrow + b, rel[4], rel[12]);
+      const __m256i sa =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pat.shuffle.data() + 2 * h));
+      const __m256i sc = _mm256_add_epi8(sa, two);
+      const __m256i a =
+          _mm256_blend_epi32(_mm256_shuffle_epi8(first, sa), _mm256_shuffle_epi8(second, sa), 0xCC);
+      const __m256i c =
+          _mm256_blend_epi32(_mm256_shuffle_epi8(first, sc), _mm256_shuffle_epi8(second, sc), 0xCC);
+      const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pat.frac.data() + h));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + h),
+                          _mm256_add_epi16(a, _mm256_mulhrs_epi16(_mm256_sub_epi16(c, a), f)));
+      if constexpr (kOk) {
+        const __m256i ok_first = load2(ok_row + b, rel[0], rel[8]);
+        const __m256i ok_second = load2(ok_row + b, rel[4], rel[12]);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ok_out + h),
+                            _mm256_blend_epi32(_mm256_shuffle_epi8(ok_first, sa),
+                                               _mm256_shuffle_epi8(ok_second, sa), 0xCC));
+      }
+    }
   }
 }
 
@@ -767,6 +834,75 @@ void VerticalSsdQScalar(const QRow* rows, int nn, float base, const int16_t* __r
     for (int i = 0; i < 32; ++i) {
       if (pixel[x + i] < width) ssd[pixel[x + i]] = std::fma(float(acc[i]), scale, base);
     }
+  }
+}
+
+// 16 differences of one neighbour against the reference r at positions h..h + 15 of
+// the block of pixels [x, last] (AVX2).
+__attribute__((target("avx2,fma"))) inline __attribute__((always_inline)) __m256i DiffQAvx2(
+    const QRow& row, int h, int x, int last, __m256i r, __m256i out, const int16_t* pixel) {
+  const __m256i t = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.top + h));
+  const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.bottom + h));
+  const __m256i v =
+      _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), _mm256_set1_epi16(row.ay)));
+  const __m256i d = _mm256_sub_epi16(v, r);
+  if (!row.ok_top) {
+    if (row.lo <= x && last <= row.hi) return d;
+    // lo <= p <= hi as signed compares (pixels are below 2^15 - 32).
+    const __m256i p = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel + h));
+    const __m256i in =
+        _mm256_and_si256(_mm256_cmpgt_epi16(p, _mm256_set1_epi16(int16_t(row.lo - 1))),
+                         _mm256_cmpgt_epi16(_mm256_set1_epi16(int16_t(row.hi + 1)), p));
+    return _mm256_blendv_epi8(out, d, in);
+  }
+  const __m256i ok =
+      _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.ok_top + h)),
+                       _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.ok_bottom + h)));
+  return _mm256_blendv_epi8(out, d, ok);
+}
+
+// VerticalSsdQScalar with AVX2. A block's positions 0..15 hold pixels 0..7 and 16..23,
+// positions 16..31 pixels 8..15 and 24..31: per register, the unpacks of two
+// neighbours' differences square and sum into those pixels in order.
+__attribute__((target("avx2,fma"))) void VerticalSsdQAvx2(const QRow* rows, int nn, float base,
+                                                          const int16_t* __restrict ref_q,
+                                                          int16_t d_out, float scale, int width,
+                                                          int n32, const int16_t* pixel,
+                                                          float* __restrict ssd) {
+  const __m256i out = _mm256_set1_epi16(d_out);
+  const __m256 vscale = _mm256_set1_ps(scale), vbase = _mm256_set1_ps(base);
+  for (int x = 0; x < n32; x += 32) {
+    // Positions past the width hold anything: their sums are never read.
+    const int last = std::min(x + 31, width - 1);
+    const __m256i r0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref_q + x));
+    const __m256i r1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref_q + x + 16));
+    __m256i acc0 = _mm256_setzero_si256(), acc1 = acc0, acc2 = acc0, acc3 = acc0;
+    for (int n = 0; n < nn; n += 2) {
+      __m256i dn0 = out, dn1 = out, dm0 = _mm256_setzero_si256(), dm1 = dm0;
+      const QRow& rn = rows[n];
+      if (rn.ok_top || (rn.hi >= x && rn.lo <= last)) {  // else no data in the block
+        dn0 = DiffQAvx2(rn, x, x, last, r0, out, pixel);
+        dn1 = DiffQAvx2(rn, x + 16, x, last, r1, out, pixel);
+      }
+      if (n + 1 < nn) {
+        const QRow& rm = rows[n + 1];
+        dm0 = dm1 = out;
+        if (rm.ok_top || (rm.hi >= x && rm.lo <= last)) {
+          dm0 = DiffQAvx2(rm, x, x, last, r0, out, pixel);
+          dm1 = DiffQAvx2(rm, x + 16, x, last, r1, out, pixel);
+        }
+      }
+      const __m256i lo0 = _mm256_unpacklo_epi16(dn0, dm0), hi0 = _mm256_unpackhi_epi16(dn0, dm0);
+      const __m256i lo1 = _mm256_unpacklo_epi16(dn1, dm1), hi1 = _mm256_unpackhi_epi16(dn1, dm1);
+      acc0 = _mm256_add_epi32(acc0, _mm256_madd_epi16(lo0, lo0));  // pixels 0..7
+      acc1 = _mm256_add_epi32(acc1, _mm256_madd_epi16(hi0, hi0));  // 16..23
+      acc2 = _mm256_add_epi32(acc2, _mm256_madd_epi16(lo1, lo1));  // 8..15
+      acc3 = _mm256_add_epi32(acc3, _mm256_madd_epi16(hi1, hi1));  // 24..31
+    }
+    _mm256_storeu_ps(ssd + x, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc0), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 8, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc2), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 16, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc1), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 24, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc3), vscale, vbase));
   }
 }
 
@@ -847,7 +983,7 @@ struct Prepared {
 
 // The band loop, instantiated once per path; the SIMD instances sit inside functions
 // with the matching target attribute, so the warp calls inline there.
-enum class Path { kScalar, kAvx2, kAvx512, kPrewarpScalar, kPrewarpAvx512 };
+enum class Path { kScalar, kAvx2, kAvx512, kPrewarpScalar, kPrewarpAvx2, kPrewarpAvx512 };
 
 template <Path kPath>
 inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, const Prepared& prep,
@@ -874,9 +1010,11 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
   // Pre-warped paths: the column pattern of each neighbour at the current level, the
   // resampled J rows and pair_ok rows in two slots per neighbour (by row parity) and
   // the J row each holds, and whether a slot's row is a run.
-  constexpr bool kFixed = kPath == Path::kPrewarpScalar || kPath == Path::kPrewarpAvx512;
-  constexpr SimdLevel kPatternSimd =
-      kPath == Path::kPrewarpAvx512 ? SimdLevel::kAvx512 : SimdLevel::kNone;
+  constexpr bool kFixed =
+      kPath == Path::kPrewarpScalar || kPath == Path::kPrewarpAvx2 || kPath == Path::kPrewarpAvx512;
+  constexpr SimdLevel kPatternSimd = kPath == Path::kPrewarpAvx512 ? SimdLevel::kAvx512
+                                     : kPath == Path::kPrewarpAvx2 ? SimdLevel::kAvx2
+                                                                   : SimdLevel::kNone;
   const int nn = static_cast<int>(prep.prewarped.size());
   std::vector<int> slot_row(2 * nn, -1);
   const int n32 = (width + 31) / 32 * 32;
@@ -980,6 +1118,9 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                   (run ? HorizontalRowQAvx512<false>
                        : HorizontalRowQAvx512<true>)(jrow, ok_row, pat, x_begin, x_end, out,
                                                      ok_out);
+                } else if constexpr (kPath == Path::kPrewarpAvx2) {
+                  (run ? HorizontalRowQAvx2<false>
+                       : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out);
                 } else {
                   (run ? HorizontalRowQScalar<false>
                        : HorizontalRowQScalar<true>)(jrow, ok_row, pat, x_begin, x_end, out,
@@ -1015,8 +1156,9 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
             }
             ++active;
           }
-          constexpr auto kVerticalSsd =
-              kPath == Path::kPrewarpAvx512 ? VerticalSsdQAvx512 : VerticalSsdQScalar;
+          constexpr auto kVerticalSsd = kPath == Path::kPrewarpAvx512 ? VerticalSsdQAvx512
+                                        : kPath == Path::kPrewarpAvx2 ? VerticalSsdQAvx2
+                                                                      : VerticalSsdQScalar;
           kVerticalSsd(qrow.data(), active, base_cost, prep.ref_q.data() + size_t(y) * stride,
                        prep.d_out, q_scale, width, n32, position_x.data(), row);
           continue;
@@ -1144,6 +1286,13 @@ void RunBandsPrewarpScalar(const KernelInput& in, const Prepared& prep, int64_t 
   RunBandsImpl<Path::kPrewarpScalar>(in, prep, b, e, outputs);
 }
 
+__attribute__((target("avx2,fma"))) void RunBandsPrewarpAvx2(const KernelInput& in,
+                                                             const Prepared& prep, int64_t b,
+                                                             int64_t e,
+                                                             std::vector<KernelOutput>* outputs) {
+  RunBandsImpl<Path::kPrewarpAvx2>(in, prep, b, e, outputs);
+}
+
 __attribute__((target("avx512f,avx512bw,fma"))) void RunBandsPrewarpAvx512(
     const KernelInput& in, const Prepared& prep, int64_t b, int64_t e,
     std::vector<KernelOutput>* outputs) {
@@ -1186,13 +1335,11 @@ SimdLevel CostKernelSimd() {
 void RunCostKernel(const KernelInput& input, int num_threads, std::vector<KernelOutput>* outputs) {
   SimdLevel simd = std::min(input.max_simd, CostKernelSimd());
   Prepared prep;
-  // The pre-warped kernel has AVX-512 and scalar paths; on an AVX2 CPU the exact AVX2
-  // warp is the faster of the two. The fixed point sums hold up to kMaxQNeighbours
-  // neighbours and differences up to 255 grey levels; its pixel columns are 16-bit.
+  // The fixed point sums of the pre-warped kernel hold up to kMaxQNeighbours neighbours
+  // and differences up to 255 grey levels; its pixel columns are 16-bit.
   const bool fits_fixed = input.neighbours.size() <= size_t(kMaxQNeighbours) &&
                           input.outside_cost <= 255.0f * 255.0f && input.width < (1 << 15) - 32;
-  const bool prewarp = input.prewarp && simd != SimdLevel::kAvx2 && fits_fixed &&
-                       PreparePrewarp(input, num_threads, &prep);
+  const bool prewarp = input.prewarp && fits_fixed && PreparePrewarp(input, num_threads, &prep);
   if (prewarp) {
     prep.stride = (input.width + 31) / 32 * 32;
     // The fixed point reference, in the pattern's stored order.
@@ -1235,7 +1382,7 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
         (prewarp ? RunBandsPrewarpAvx512 : RunBandsAvx512)(input, prep, b, e, outputs);
         break;
       case SimdLevel::kAvx2:
-        RunBandsAvx2(input, prep, b, e, outputs);
+        (prewarp ? RunBandsPrewarpAvx2 : RunBandsAvx2)(input, prep, b, e, outputs);
         break;
       case SimdLevel::kNone:
         (prewarp ? RunBandsPrewarpScalar : RunBandsScalar)(input, prep, b, e, outputs);

@@ -8,8 +8,9 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
+#include <bit>
 #include <cmath>
-#include <cstring>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -220,14 +221,17 @@ TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
 size_t BitDifferences(const std::vector<float>& a, const std::vector<float>& b) {
   if (a.size() != b.size()) return std::max(a.size(), b.size());
   size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    n += std::bit_cast<uint32_t>(a[i]) != std::bit_cast<uint32_t>(b[i]);
+  }
   return n;
 }
 
 // The pre-warped kernel is integer arithmetic up to one float conversion and one fused
-// multiply-add per pixel, so its scalar and AVX-512 paths give the same bits. Scenes: a neighbour
-// with a hole (the rows with holes take the masked branch); no holes and a width that is not a
-// multiple of 32 (every row a run, a partial last block); a neighbour 450 mm nearer the scene,
+// multiply-add per pixel, so its scalar, AVX2 and AVX-512 paths give the same bits, and
+// workers with different CPUs the same depths. Scenes: a neighbour with a hole (the rows
+// with holes take the masked branch); no holes and a width that is not a multiple of
+// 32 (every row a run, a partial last block); a neighbour 450 mm nearer the scene,
 // which magnifies up to 2.5x at the near levels, so that blocks too wide for the SIMD
 // loads take the per-position fallback.
 TEST(CostKernelTest, PrewarpedPathsGiveTheSameBits) {
@@ -252,7 +256,7 @@ TEST(CostKernelTest, PrewarpedPathsGiveTheSameBits) {
     // The pre-warp ran (it differs from the exact warp).
     const auto exact = RunKernel(in, SimdLevel::kNone);
     EXPECT_GT(BitDifferences(scalar[0].best_cost, exact[0].best_cost), 0u) << c.name;
-    for (SimdLevel simd : {SimdLevel::kAvx512}) {
+    for (SimdLevel simd : {SimdLevel::kAvx2, SimdLevel::kAvx512}) {
       if (CostKernelSimd() < simd) continue;  // this CPU cannot run it
       const auto fast = RunKernel(in, simd, true);
       for (size_t k = 0; k < fast.size(); ++k) {
