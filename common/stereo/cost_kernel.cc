@@ -393,47 +393,52 @@ __attribute__((noinline)) void WindowSum(const float* __restrict v, int n, int h
 // a scaling. So per level and neighbour a reference row reads one fixed J row pair
 // and J columns that are affine in x with the same pattern (column, fraction) for
 // every row: no per-pixel division and no per-pixel address logic. Each J row a level
-// needs is resampled along x once (bilinear: two permutes of a contiguous pair of loads
-// per 32 pixels in the AVX-512 path's 16-bit fixed point) and serves the two reference
-// rows that fall next to it; the vertical interpolation, difference and square follow
-// per reference row (VerticalSsdQ). Where a J row has no holes (the usual case: data
-// ends only at the neighbour's image border) the pixels whose samples have data are one
-// run, found from the pattern (PixelRun), and blocks outside it are neither resampled
-// nor interpolated.
+// needs is resampled along x once and serves the two reference rows that fall next to
+// it; the vertical interpolation, difference and square follow per reference row
+// (VerticalSsdQ*). Where a J row has no holes (the usual case: data ends only at the
+// neighbour's image border) the pixels whose samples have data are one run, found from
+// the pattern (PixelRun), and blocks outside it are neither resampled nor interpolated.
+//
+// All of it is integer arithmetic in 16-bit fixed point (greys x kQ) up to one float
+// conversion and one fused multiply-add per pixel, so the AVX-512 path (32 pixels per
+// instruction, two permutes of a contiguous pair of loads per 32 pixels), the AVX2 path
+// (16 pixels, byte shuffles of short loads: its gathers are slower than scalar loads)
+// and the scalar path give the same bits, and a cluster of mixed CPUs the same depths.
+// The pattern itself is computed once, outside the SIMD instances, with explicit fused
+// multiply-adds, so that no compiler contraction can tell the paths apart.
 struct Prewarped {
-  int cols = 0, rows = 0, stride = 0;
+  int cols = 0, rows = 0;
   double ox = 0.0, oy = 0.0;  // m of J pixel (0, 0), in reference pixels
   double c[3] = {0.0, 0.0, 0.0};
-  std::vector<float> value;       // rows x stride, NaN = no data (always on the margin)
-  std::vector<uint8_t> has_data;  // per row: any value not NaN
-  // Fixed point copy for the AVX-512 path (kQ): J as grey x 32 clamped to 0..255 grey
-  // (0 where no data), and pair_ok[c] = -1 where J(c) and J(c + 1) both have data, else
-  // 0; rows x qstride. Per row, pair_ok is -1 on all of [ok_lo, ok_hi] when ok_run.
+  std::vector<uint8_t> has_data;  // per row: any J pixel with data
+  // J in fixed point (kQ): grey x 32 clamped to 0..255 grey (0 where no data), and
+  // pair_ok[c] = -1 where J(c) and J(c + 1) both have data, else 0; rows x qstride.
+  // Per row, pair_ok is -1 on all of [ok_lo, ok_hi] when ok_run.
   int qstride = 0;
   std::vector<int16_t> q, pair_ok;
   std::vector<int32_t> ok_lo, ok_hi;
   std::vector<uint8_t> ok_run;
 };
 
-struct LevelPattern {
-  double s = 1.0, my0 = 0.0;    // J row coordinate of reference row y: s y + my0
-  std::vector<int32_t> base;    // per block of 16 pixels: J column of its first pixel
-  std::vector<int32_t> rel;     // per pixel: J column - block base
-  std::vector<float> frac;      // per pixel: fraction of the J column
-  std::vector<uint8_t> gather;  // per block: rel + 1 passes 31, too far for the permutes
-};
-
-// The column pattern of the fixed point path, in blocks of 32 pixels stored in the
+// The column pattern of the fixed point paths, in blocks of 32 pixels stored in the
 // order that 16-bit unpacks of two neighbours' rows put back in pixel order
-// (kStoredPixel): position 8 L + j of a block holds pixel 4 L + j, position 8 L + 4 + j
-// pixel 16 + 4 L + j (L = 0..3, j = 0..3).
+// (StoredPixel): position 8 L + j of a block holds pixel 4 L + j, position 8 L + 4 + j
+// pixel 16 + 4 L + j (L = 0..3, j = 0..3). Positions 4 G..4 G + 3 (group G) hold
+// consecutive pixels; a 256-bit register holds positions 0..15 or 16..31, groups
+// 2 L (positions 8 L..8 L + 3) and 2 L + 1 in its 128-bit lanes.
 struct LevelPattern16 {
-  double s = 1.0, my0 = 0.0;    // as LevelPattern
-  double mx0 = 0.0;             // J column coordinate of pixel x: s x + mx0
-  std::vector<int32_t> base;    // per block: J column of its first pixel
-  std::vector<int16_t> rel;     // per position: J column - block base
-  std::vector<int16_t> frac;    // per position: fraction of the J column, Q15
-  std::vector<uint8_t> scalar;  // per block: rel + 1 passes 63, too far for the permutes
+  double s = 1.0, my0 = 0.0;  // J row coordinate of reference row y: s y + my0
+  double mx0 = 0.0;           // J column coordinate of pixel x: s x + mx0
+  std::vector<int32_t> base;  // per block: J column of its first pixel
+  std::vector<int16_t> rel;   // per position: J column - block base
+  std::vector<int16_t> frac;  // per position: fraction of the J column, Q15
+  // Per block: too far for the SIMD path's loads, resampled one position at a time
+  // (AVX-512: rel + 1 passes 63; AVX2: a group's taps span more than 8 columns).
+  std::vector<uint8_t> scalar;
+  // AVX2: per position, the bytes of its left tap in the 8 columns loaded from its
+  // group's first column (2 r, 2 r + 1 for column offset r), as _mm256_shuffle_epi8
+  // takes them; 2 x 32 bytes per block.
+  std::vector<uint8_t> shuffle;
 };
 
 // Fixed point greys: grey x kQ in 16 bits. Squared differences of two neighbours sum in
@@ -516,8 +521,7 @@ bool PlanPrewarp(const KernelNeighbour& nb, int width, int height, double w0, do
   if (!(cols * rows <= kMaxPrewarpArea * width * height)) return false;
   pw->cols = int(cols);
   pw->rows = int(rows);
-  pw->stride = pw->cols + 48;   // the permutes load 32 columns from a block's base
-  pw->qstride = pw->cols + 80;  // the 16-bit permutes load 64 columns from a block's base
+  pw->qstride = pw->cols + 80;  // the AVX-512 permutes load 64 columns from a block's base
   return true;
 }
 
@@ -548,13 +552,15 @@ inline __attribute__((always_inline)) void CubicWeights(float t, float w[4]) {
 // warp on the synthetic dome).
 void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  pw->value = FloatPool::Take(size_t(pw->rows) * pw->stride);
-  std::fill(pw->value.begin(), pw->value.end(), nan);
+  // J in float, NaN = no data (always on the margin); only its fixed point copy is kept.
+  const int stride = pw->cols;
+  Scratch value(size_t(pw->rows) * stride);
+  std::fill(value.v.begin(), value.v.end(), nan);
   const double umax = nb.width - 1, vmax = nb.height - 1;
   const int i0 = kPrewarpMargin, i1 = pw->cols - kPrewarpMargin;
   std::vector<double> us(std::max(0, i1 - i0)), vs(us.size());
   for (int j = kPrewarpMargin; j < pw->rows - kPrewarpMargin; ++j) {
-    float* row = pw->value.data() + size_t(j) * pw->stride;
+    float* row = value.data() + size_t(j) * stride;
     const double my = pw->oy + j;
     // The row's homography in one vectorizable pass (one reciprocal per pixel); u = -1
     // marks a point behind the neighbour.
@@ -596,7 +602,7 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
   }
   pw->has_data.resize(pw->rows);
   for (int j = 0; j < pw->rows; ++j) {
-    const float* row = pw->value.data() + size_t(j) * pw->stride;
+    const float* row = value.data() + size_t(j) * stride;
     pw->has_data[j] = std::any_of(row, row + pw->cols, [](float g) { return g == g; });
   }
   // The fixed point copy.
@@ -608,7 +614,7 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
   pw->ok_hi.assign(pw->rows, 0);
   pw->ok_run.assign(pw->rows, 0);
   for (int j = 0; j < pw->rows; ++j) {
-    const float* row = pw->value.data() + size_t(j) * pw->stride;
+    const float* row = value.data() + size_t(j) * stride;
     int16_t* q = pw->q.data() + size_t(j) * pw->qstride;
     int16_t* ok = pw->pair_ok.data() + size_t(j) * pw->qstride;
     for (int i = 0; i < pw->cols; ++i) {
@@ -632,90 +638,20 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
   }
 }
 
-// The column pattern of inverse depth w over `n16` pixels (a multiple of 16; pixels at
-// and past `width` repeat the last one).
-inline __attribute__((always_inline)) void MakePattern(const Prewarped& pw, float w, int width,
-                                                       int n16, LevelPattern* pat) {
-  pat->s = 1.0 / (1.0 + double(w) * pw.c[2]);
-  pat->my0 = pat->s * double(w) * pw.c[1] - pw.oy;
-  const double s = pat->s, mx0 = pat->s * double(w) * pw.c[0] - pw.ox;
-  pat->base.resize(n16 / 16);
-  pat->gather.resize(n16 / 16);
-  pat->rel.resize(n16);
-  pat->frac.resize(n16);
-  int32_t* __restrict col = pat->rel.data();
-  float* __restrict frac = pat->frac.data();
-  const int last = pw.cols - 1;
-  // Plain loops that vectorize in the SIMD instances.
-  for (int x = 0; x < n16; ++x) {
-    const double mx = s * double(x < width ? x : width - 1) + mx0;
-    const double fl = std::floor(mx);
-    const int c = int(fl);
-    col[x] = c < 0 ? 0 : (c > last ? last : c);
-    frac[x] = x < width ? float(mx - fl) : 0.0f;
-  }
-  for (int k = 0; k < n16 / 16; ++k) {
-    const int32_t b = col[16 * k];
-    pat->base[k] = b;
-    for (int i = 0; i < 16; ++i) col[16 * k + i] -= b;
-    pat->gather[k] = col[16 * k + 15] > 30;
-  }
-}
-
-// J row and vertical fraction of reference row y.
-template <class Pattern>
-inline void PatternRow(const Prewarped& pw, const Pattern& pat, int y, int* r, float* ay) {
-  const double my = pat.s * y + pat.my0;
-  const double fl = std::floor(my);
-  *r = std::clamp(int(fl), 0, pw.rows - 2);
-  *ay = float(my - fl);
-}
-
-// One J row resampled at the level's column pattern: out[x] = J(col(x) + frac(x), j)
-// for x in [0, n16) (scalar).
-void HorizontalRowScalar(const float* __restrict jrow, const LevelPattern& pat, int n16,
-                         float* __restrict out) {
-  for (int x = 0; x < n16; ++x) {
-    const float* p = jrow + pat.base[x / 16] + pat.rel[x];
-    out[x] = p[0] + pat.frac[x] * (p[1] - p[0]);
-  }
-}
-
-// The SSD of one reference row over all neighbours: per neighbour n the resampled J
-// rows top[n], bottom[n] and the vertical fraction ay[n]; ssd[x] = base + the sum over n
-// of the squared difference, or outside_cost where the sample is NaN (scalar, x in
-// [0, count)).
-void VerticalSsdScalar(const float* const* top, const float* const* bottom, const float* ay, int nn,
-                       float base, const float* __restrict ref, float outside_cost, int count,
-                       float* __restrict ssd) {
-  for (int x = 0; x < count; ++x) ssd[x] = base;
-  for (int n = 0; n < nn; ++n) {
-    const float* __restrict t = top[n];
-    const float* __restrict b = bottom[n];
-    const float a = ay[n];
-    for (int x = 0; x < count; ++x) {
-      const float d = t[x] + a * (b[x] - t[x]) - ref[x];
-      const float c = d * d;
-      ssd[x] += c == c ? c : outside_cost;
-    }
-  }
-}
-
 // The fixed point column pattern of inverse depth w over `n32` positions (a multiple of
-// 32). `pixel` holds the pixel of each position (pixels at and past the width
-// repeating the last one) and `frac_scale` 32768 for pixels inside the width, else 0;
-// `col` is scratch.
-inline __attribute__((always_inline)) void MakePattern16(const Prewarped& pw, float w, int width,
-                                                         int n32, const double* pixel,
-                                                         const double* frac_scale,
-                                                         std::vector<int32_t>* col,
-                                                         LevelPattern16* pat) {
-  pat->s = 1.0 / (1.0 + double(w) * pw.c[2]);
-  pat->my0 = pat->s * double(w) * pw.c[1] - pw.oy;
-  const double s = pat->s, mx0 = pat->s * double(w) * pw.c[0] - pw.ox;
+// 32), for the loads of path `simd`. `pixel` holds the pixel of each position (pixels at
+// and past the width repeating the last one) and `frac_scale` 32768 for pixels inside
+// the width, else 0; `col` is scratch. Not inlined: every path runs this one copy.
+__attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int width, int n32,
+                                             SimdLevel simd, const double* pixel,
+                                             const double* frac_scale, std::vector<int32_t>* col,
+                                             LevelPattern16* pat) {
+  pat->s = 1.0 / std::fma(double(w), pw.c[2], 1.0);
+  pat->my0 = std::fma(pat->s * double(w), pw.c[1], -pw.oy);
+  const double s = pat->s, mx0 = std::fma(pat->s * double(w), pw.c[0], -pw.ox);
   pat->mx0 = mx0;
   pat->base.resize(n32 / 32);
-  pat->scalar.resize(n32 / 32);
+  pat->scalar.assign(n32 / 32, 0);
   pat->rel.resize(n32);
   pat->frac.resize(n32);
   col->resize(n32);
@@ -725,7 +661,7 @@ inline __attribute__((always_inline)) void MakePattern16(const Prewarped& pw, fl
   const int last = pw.cols - 1;
   // Plain loops that vectorize.
   for (int p = 0; p < n32; ++p) {
-    const double mx = s * pixel[p] + mx0;
+    const double mx = std::fma(s, pixel[p], mx0);
     const double fl = std::floor(mx);
     const int ci = int(fl);
     c[p] = ci < 0 ? 0 : (ci > last ? last : ci);
@@ -736,34 +672,113 @@ inline __attribute__((always_inline)) void MakePattern16(const Prewarped& pw, fl
     // Positions 0 and 31 hold the block's first and last pixels.
     const int32_t b = c[32 * k];
     pat->base[k] = b;
-    pat->scalar[k] = c[32 * k + 31] + 1 - b > 63;
+    if (simd == SimdLevel::kAvx512) pat->scalar[k] = c[32 * k + 31] + 1 - b > 63;
     for (int p = 32 * k; p < 32 * k + 32; ++p) rel[p] = int16_t(c[p] - b);
+  }
+  if (simd != SimdLevel::kAvx2) return;
+  pat->shuffle.resize(2 * size_t(n32));
+  for (int k = 0; k < n32 / 32; ++k) {
+    bool fits = true;
+    for (int g = 8 * k; g < 8 * k + 8; ++g) {
+      // A group's pixels are consecutive: its last position has the largest column.
+      const int first = rel[4 * g];
+      fits &= rel[4 * g + 3] + 1 - first <= 7;
+      for (int p = 4 * g; p < 4 * g + 4; ++p) {
+        const int r = std::min(rel[p] - first, 7);
+        pat->shuffle[2 * p] = uint8_t(2 * r);
+        pat->shuffle[2 * p + 1] = uint8_t(2 * r + 1);
+      }
+    }
+    pat->scalar[k] = !fits;
   }
 }
 
-// (x f + 2^14) >> 15, as _mm512_mulhrs_epi16 rounds.
+// J row and vertical fraction of reference row y (one copy for every path, as above).
+__attribute__((noinline)) void PatternRow(const Prewarped& pw, const LevelPattern16& pat, int y,
+                                          int* r, float* ay) {
+  const double my = std::fma(pat.s, double(y), pat.my0);
+  const double fl = std::floor(my);
+  *r = std::clamp(int(fl), 0, pw.rows - 2);
+  *ay = float(my - fl);
+}
+
+// (x f + 2^14) >> 15, as _mm256_mulhrs_epi16 and _mm512_mulhrs_epi16 round.
 inline int16_t MulHrs(int x, int f) { return int16_t((x * f + (1 << 14)) >> 15); }
 
 // One fixed point J row resampled at the level's pattern, in stored order, over the
-// blocks [x_begin, x_end) (multiples of 32): out = J(col + frac), and with kOk
-// ok_out = pair_ok(col).
+// positions [x_begin, x_end) (multiples of 32): out = J(col + frac), and with kOk
+// ok_out = pair_ok(col). Scalar; the SIMD paths' arithmetic is the same.
 template <bool kOk>
-__attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQ(
+void HorizontalRowQScalar(const int16_t* __restrict jrow, const int16_t* __restrict ok_row,
+                          const LevelPattern16& pat, int x_begin, int x_end,
+                          int16_t* __restrict out, int16_t* __restrict ok_out) {
+  for (int i = x_begin; i < x_end; ++i) {
+    const int c = pat.base[i / 32] + pat.rel[i];
+    out[i] = int16_t(jrow[c] + MulHrs(jrow[c + 1] - jrow[c], pat.frac[i]));
+    if constexpr (kOk) ok_out[i] = ok_row[c];
+  }
+}
+
+// The same with AVX2, 16 positions per register. Per 128-bit lane, its two groups' 8
+// columns each come from one unaligned load, and byte shuffles pick both taps of every
+// position (the right tap two bytes after the left one).
+template <bool kOk>
+__attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
+    const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
+    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out) {
+  const __m256i two = _mm256_set1_epi8(2);
+  // Lane 0 from group offset r0, lane 1 from r1.
+  const auto load2 = [](const int16_t* p, int r0, int r1) {
+    return _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p + r0))),
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + r1)), 1);
+  };
+  for (int x = x_begin, k = x_begin / 32; x < x_end; x += 32, ++k) {
+    if (pat.scalar[k]) {
+      HorizontalRowQScalar<kOk>(jrow, ok_row, pat, x, x + 32, out, ok_out);
+      continue;
+    }
+    const int b = pat.base[k];
+    for (int h = x; h < x + 32; h += 16) {
+      const int16_t* rel = pat.rel.data() + h;
+      // First groups of the lanes (bytes 0..7) and second groups (bytes 8..15).
+      const __m256i first = load2(jrow + b, rel[0], rel[8]);
+      const __m256i second = load2(jrow + b, rel[4], rel[12]);
+      const __m256i sa =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pat.shuffle.data() + 2 * h));
+      const __m256i sc = _mm256_add_epi8(sa, two);
+      const __m256i a =
+          _mm256_blend_epi32(_mm256_shuffle_epi8(first, sa), _mm256_shuffle_epi8(second, sa), 0xCC);
+      const __m256i c =
+          _mm256_blend_epi32(_mm256_shuffle_epi8(first, sc), _mm256_shuffle_epi8(second, sc), 0xCC);
+      const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pat.frac.data() + h));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + h),
+                          _mm256_add_epi16(a, _mm256_mulhrs_epi16(_mm256_sub_epi16(c, a), f)));
+      if constexpr (kOk) {
+        const __m256i ok_first = load2(ok_row + b, rel[0], rel[8]);
+        const __m256i ok_second = load2(ok_row + b, rel[4], rel[12]);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ok_out + h),
+                            _mm256_blend_epi32(_mm256_shuffle_epi8(ok_first, sa),
+                                               _mm256_shuffle_epi8(ok_second, sa), 0xCC));
+      }
+    }
+  }
+}
+
+// The same with AVX-512, 32 positions per register: one pair of loads and two
+// permutes serve both taps of all 32 positions.
+template <bool kOk>
+__attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQAvx512(
     const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
     int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out) {
   const __m512i one = _mm512_set1_epi16(1);
   for (int x = x_begin, k = x_begin / 32; x < x_end; x += 32, ++k) {
     const int b = pat.base[k];
     if (pat.scalar[k]) {
-      for (int i = x; i < x + 32; ++i) {
-        const int c = b + pat.rel[i];
-        out[i] = int16_t(jrow[c] + MulHrs(jrow[c + 1] - jrow[c], pat.frac[i]));
-        if constexpr (kOk) ok_out[i] = ok_row[c];
-      }
+      HorizontalRowQScalar<kOk>(jrow, ok_row, pat, x, x + 32, out, ok_out);
       continue;
     }
     const __m512i rel = _mm512_loadu_si512(pat.rel.data() + x);
-    // One pair of loads serves both taps of all 32 pixels.
     const __m512i lo = _mm512_loadu_si512(jrow + b), hi = _mm512_loadu_si512(jrow + b + 32);
     const __m512i a = _mm512_permutex2var_epi16(lo, rel, hi);
     const __m512i c = _mm512_permutex2var_epi16(lo, _mm512_add_epi16(rel, one), hi);
@@ -778,7 +793,7 @@ __attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQ(
   }
 }
 
-// One neighbour's part of a reference row in the fixed point path (VerticalSsdQ): its
+// One neighbour's part of a reference row in the fixed point paths (VerticalSsdQ*): its
 // resampled J rows above and below (stored order), the vertical fraction (Q15), and
 // where its samples have data: pixels lo..hi when ok_top is null (J rows without
 // holes: the pattern reads their pairs with data over one run of pixels), else where
@@ -792,10 +807,109 @@ struct QRow {
   int16_t ay = 0;
 };
 
+// The SSD of one reference row over the neighbours rows[0..nn) in fixed point.
+// Differences are grey x kQ (v = top + MulHrs(bottom - top, ay), d = v - ref); a sample
+// without data differs by d_out. The squares sum exactly in 32 bits, and
+// ssd[x] = fma(float(sum), scale, base) for x in [0, width): the SIMD paths give the
+// same bits (scalar; `pixel` holds the pixel of each stored position).
+void VerticalSsdQScalar(const QRow* rows, int nn, float base, const int16_t* __restrict ref_q,
+                        int16_t d_out, float scale, int width, int n32, const int16_t* pixel,
+                        float* __restrict ssd) {
+  for (int x = 0; x < n32; x += 32) {
+    int32_t acc[32] = {};
+    for (int n = 0; n < nn; ++n) {
+      const QRow& row = rows[n];
+      for (int i = 0; i < 32; ++i) {
+        const int p = x + i;
+        const bool ok = row.ok_top ? (row.ok_top[p] & row.ok_bottom[p]) != 0
+                                   : pixel[p] >= row.lo && pixel[p] <= row.hi;
+        int d = d_out;
+        if (ok) {
+          const int v = int16_t(row.top[p] + MulHrs(row.bottom[p] - row.top[p], row.ay));
+          d = int16_t(v - ref_q[p]);
+        }
+        acc[i] += d * d;
+      }
+    }
+    for (int i = 0; i < 32; ++i) {
+      if (pixel[x + i] < width) ssd[pixel[x + i]] = std::fma(float(acc[i]), scale, base);
+    }
+  }
+}
+
+// 16 differences of one neighbour against the reference r at positions h..h + 15 of
+// the block of pixels [x, last] (AVX2).
+__attribute__((target("avx2,fma"))) inline __attribute__((always_inline)) __m256i DiffQAvx2(
+    const QRow& row, int h, int x, int last, __m256i r, __m256i out, const int16_t* pixel) {
+  const __m256i t = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.top + h));
+  const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.bottom + h));
+  const __m256i v =
+      _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), _mm256_set1_epi16(row.ay)));
+  const __m256i d = _mm256_sub_epi16(v, r);
+  if (!row.ok_top) {
+    if (row.lo <= x && last <= row.hi) return d;
+    // lo <= p <= hi as signed compares (pixels are below 2^15 - 32).
+    const __m256i p = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel + h));
+    const __m256i in =
+        _mm256_and_si256(_mm256_cmpgt_epi16(p, _mm256_set1_epi16(int16_t(row.lo - 1))),
+                         _mm256_cmpgt_epi16(_mm256_set1_epi16(int16_t(row.hi + 1)), p));
+    return _mm256_blendv_epi8(out, d, in);
+  }
+  const __m256i ok =
+      _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.ok_top + h)),
+                       _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.ok_bottom + h)));
+  return _mm256_blendv_epi8(out, d, ok);
+}
+
+// VerticalSsdQScalar with AVX2. A block's positions 0..15 hold pixels 0..7 and 16..23,
+// positions 16..31 pixels 8..15 and 24..31: per register, the unpacks of two
+// neighbours' differences square and sum into those pixels in order.
+__attribute__((target("avx2,fma"))) void VerticalSsdQAvx2(const QRow* rows, int nn, float base,
+                                                          const int16_t* __restrict ref_q,
+                                                          int16_t d_out, float scale, int width,
+                                                          int n32, const int16_t* pixel,
+                                                          float* __restrict ssd) {
+  const __m256i out = _mm256_set1_epi16(d_out);
+  const __m256 vscale = _mm256_set1_ps(scale), vbase = _mm256_set1_ps(base);
+  for (int x = 0; x < n32; x += 32) {
+    // Positions past the width hold anything: their sums are never read.
+    const int last = std::min(x + 31, width - 1);
+    const __m256i r0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref_q + x));
+    const __m256i r1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref_q + x + 16));
+    __m256i acc0 = _mm256_setzero_si256(), acc1 = acc0, acc2 = acc0, acc3 = acc0;
+    for (int n = 0; n < nn; n += 2) {
+      __m256i dn0 = out, dn1 = out, dm0 = _mm256_setzero_si256(), dm1 = dm0;
+      const QRow& rn = rows[n];
+      if (rn.ok_top || (rn.hi >= x && rn.lo <= last)) {  // else no data in the block
+        dn0 = DiffQAvx2(rn, x, x, last, r0, out, pixel);
+        dn1 = DiffQAvx2(rn, x + 16, x, last, r1, out, pixel);
+      }
+      if (n + 1 < nn) {
+        const QRow& rm = rows[n + 1];
+        dm0 = dm1 = out;
+        if (rm.ok_top || (rm.hi >= x && rm.lo <= last)) {
+          dm0 = DiffQAvx2(rm, x, x, last, r0, out, pixel);
+          dm1 = DiffQAvx2(rm, x + 16, x, last, r1, out, pixel);
+        }
+      }
+      const __m256i lo0 = _mm256_unpacklo_epi16(dn0, dm0), hi0 = _mm256_unpackhi_epi16(dn0, dm0);
+      const __m256i lo1 = _mm256_unpacklo_epi16(dn1, dm1), hi1 = _mm256_unpackhi_epi16(dn1, dm1);
+      acc0 = _mm256_add_epi32(acc0, _mm256_madd_epi16(lo0, lo0));  // pixels 0..7
+      acc1 = _mm256_add_epi32(acc1, _mm256_madd_epi16(hi0, hi0));  // 16..23
+      acc2 = _mm256_add_epi32(acc2, _mm256_madd_epi16(lo1, lo1));  // 8..15
+      acc3 = _mm256_add_epi32(acc3, _mm256_madd_epi16(hi1, hi1));  // 24..31
+    }
+    _mm256_storeu_ps(ssd + x, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc0), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 8, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc2), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 16, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc1), vscale, vbase));
+    _mm256_storeu_ps(ssd + x + 24, _mm256_fmadd_ps(_mm256_cvtepi32_ps(acc3), vscale, vbase));
+  }
+}
+
 // 32 differences of one neighbour against the reference r at the block of pixels
-// [x, last], fixed point; `pixel` holds the pixel of each stored position.
-__attribute__((target("avx512f,avx512bw,fma"))) inline __attribute__((always_inline)) __m512i DiffQ(
-    const QRow& row, int x, int last, __m512i r, __m512i out, const int16_t* pixel) {
+// [x, last] (AVX-512).
+__attribute__((target("avx512f,avx512bw,fma"))) inline __attribute__((always_inline)) __m512i
+DiffQAvx512(const QRow& row, int x, int last, __m512i r, __m512i out, const int16_t* pixel) {
   if (!row.ok_top && (row.hi < x || row.lo > last)) return out;  // no data in the block
   const __m512i t = _mm512_loadu_si512(row.top + x), b = _mm512_loadu_si512(row.bottom + x);
   const __m512i v =
@@ -813,11 +927,9 @@ __attribute__((target("avx512f,avx512bw,fma"))) inline __attribute__((always_inl
   return _mm512_ternarylogic_epi32(ok, d, out, 0xCA);  // ok ? d : out
 }
 
-// The SSD of one reference row over the neighbours rows[0..nn) in fixed point.
-// Differences are grey x kQ; a sample without data differs by d_out. Two neighbours'
-// differences are interleaved so that one multiply-add squares and sums them into 32
-// bits, back in pixel order. ssd[x] = base + scale x the sum, x in [0, n32).
-__attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdQ(
+// VerticalSsdQScalar with AVX-512: per 128-bit lane L, the unpacks of two neighbours'
+// differences square and sum into pixels 4 L..4 L + 3 (low) and 16 + 4 L.. (high).
+__attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdQAvx512(
     const QRow* rows, int nn, float base, const int16_t* __restrict ref_q, int16_t d_out,
     float scale, int width, int n32, const int16_t* pixel, float* __restrict ssd) {
   const __m512i out = _mm512_set1_epi16(d_out);
@@ -828,9 +940,9 @@ __attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdQ(
     const __m512i r = _mm512_loadu_si512(ref_q + x);
     __m512i acc_lo = _mm512_setzero_si512(), acc_hi = _mm512_setzero_si512();
     for (int n = 0; n < nn; n += 2) {
-      const __m512i dn = DiffQ(rows[n], x, last, r, out, pixel);
+      const __m512i dn = DiffQAvx512(rows[n], x, last, r, out, pixel);
       const __m512i dm =
-          n + 1 < nn ? DiffQ(rows[n + 1], x, last, r, out, pixel) : _mm512_setzero_si512();
+          n + 1 < nn ? DiffQAvx512(rows[n + 1], x, last, r, out, pixel) : _mm512_setzero_si512();
       const __m512i lo = _mm512_unpacklo_epi16(dn, dm), hi = _mm512_unpackhi_epi16(dn, dm);
       acc_lo = _mm512_add_epi32(acc_lo, _mm512_madd_epi16(lo, lo));
       acc_hi = _mm512_add_epi32(acc_hi, _mm512_madd_epi16(hi, hi));
@@ -844,7 +956,7 @@ __attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdQ(
 // computes it, monotone in x) lies in [c_lo, c_hi]; lo > hi when none.
 void PixelRun(const LevelPattern16& pat, int width, int c_lo, int c_hi, int* lo, int* hi) {
   const double s = pat.s, mx0 = pat.mx0;
-  const auto col = [&](int x) { return int(std::floor(s * double(x) + mx0)); };
+  const auto col = [&](int x) { return int(std::floor(std::fma(s, double(x), mx0))); };
   // The first x with col(x) >= c: from the inverse, then corrected by the exact
   // expression so that rounding cannot move it.
   const auto first = [&](int c) {
@@ -864,14 +976,14 @@ struct Prepared {
   std::vector<std::vector<uint32_t>> taps;  // per neighbour (SIMD paths only)
   std::vector<bool> holes;                  // per neighbour: has pixels without data
   std::vector<Prewarped> prewarped;         // per neighbour (pre-warped paths only)
-  std::vector<int16_t> ref_q;               // fixed point pre-warped path: the reference
-                                            // grey x kQ, rows x stride, stored order
+  std::vector<int16_t> ref_q;               // pre-warped paths: the reference grey x kQ,
+                                            // rows x stride, stored order
   int16_t d_out = 0;                        // its difference of a sample without data
 };
 
 // The band loop, instantiated once per path; the SIMD instances sit inside functions
 // with the matching target attribute, so the warp calls inline there.
-enum class Path { kScalar, kAvx2, kAvx512, kPrewarpScalar, kPrewarpAvx512 };
+enum class Path { kScalar, kAvx2, kAvx512, kPrewarpScalar, kPrewarpAvx2, kPrewarpAvx512 };
 
 template <Path kPath>
 inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, const Prepared& prep,
@@ -895,18 +1007,16 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
   // shared rows are warped twice.
   const bool keep_halo = size_t(halo) * stride * in.num_levels <= (size_t(1) << 24);
   Scratch halo_cache(keep_halo ? size_t(halo) * stride * in.num_levels : 0);
-  // Pre-warped paths: the column pattern of each neighbour at the current level.
+  // Pre-warped paths: the column pattern of each neighbour at the current level, the
+  // resampled J rows and pair_ok rows in two slots per neighbour (by row parity) and
+  // the J row each holds, and whether a slot's row is a run.
+  constexpr bool kFixed =
+      kPath == Path::kPrewarpScalar || kPath == Path::kPrewarpAvx2 || kPath == Path::kPrewarpAvx512;
+  constexpr SimdLevel kPatternSimd = kPath == Path::kPrewarpAvx512 ? SimdLevel::kAvx512
+                                     : kPath == Path::kPrewarpAvx2 ? SimdLevel::kAvx2
+                                                                   : SimdLevel::kNone;
   const int nn = static_cast<int>(prep.prewarped.size());
-  std::vector<LevelPattern> patterns(nn);
-  const int n16 = (width + 15) / 16 * 16;
-  // Resampled J rows, two slots per neighbour (by row parity), and the J row each holds.
-  std::vector<float> hrows(size_t(2 * nn) * n16);
   std::vector<int> slot_row(2 * nn, -1);
-  std::vector<const float*> top(nn), bottom(nn);
-  std::vector<float> ay(nn);
-  // Fixed point pre-warped path: its patterns, resampled rows and pair_ok rows per slot,
-  // whether a slot's row has data at every pixel, and an all-ok row for those.
-  constexpr bool kFixed = kPath == Path::kPrewarpAvx512;
   const int n32 = (width + 31) / 32 * 32;
   std::vector<LevelPattern16> patterns16(kFixed ? nn : 0);
   std::vector<int32_t> pattern_col;
@@ -940,17 +1050,16 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
     const int n0 = std::max(s0, s1 - halo);
     for (auto& s : states) s.Reset(size_t(y1 - y0) * stride);
     for (int l = 0; l < in.num_levels; ++l) {
-      const float w = in.w_far + float(l) * in.w_step;
+      // The product is exact in double, so a contracted multiply-add (which the SIMD
+      // instances may use and the scalar one not) rounds the same: one w for every path.
+      const float w = float(double(in.w_far) + double(l) * double(in.w_step));
       float* cache = keep_halo ? halo_cache.data() + size_t(halo) * stride * l : nullptr;
       if constexpr (kFixed) {
         for (int n = 0; n < nn; ++n) {
-          MakePattern16(prep.prewarped[n], w, width, n32, position_pixel.data(),
+          MakePattern16(prep.prewarped[n], w, width, n32, kPatternSimd, position_pixel.data(),
                         position_frac_scale.data(), &pattern_col, &patterns16[n]);
           run_memo[n] = RunMemo{1, -1, 0, -1};  // matches no row: ok_lo <= ok_hi or (1, 0)
         }
-        std::fill(slot_row.begin(), slot_row.end(), -1);
-      } else if constexpr (kPath == Path::kPrewarpScalar) {
-        for (int n = 0; n < nn; ++n) MakePattern(prep.prewarped[n], w, width, n16, &patterns[n]);
         std::fill(slot_row.begin(), slot_row.end(), -1);
       }
       if (c1 > s0) {
@@ -961,9 +1070,12 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
       for (int y = c1; y < s1; ++y) {
         float* row = ssd.data() + size_t(y - s0) * stride;
         if constexpr (kFixed) {
-          // As below, in fixed point. A J row without holes has data over one run of
-          // the row's pixels, found from the pattern; only rows with holes resample
-          // their pair_ok row as well.
+          // Reference row y reads J rows r and r + 1 of each neighbour, resampled along
+          // x once per level and kept in the slot of their parity (r grows with y). A
+          // neighbour whose two rows have no data at all (the row falls outside its
+          // image at this depth, often at near levels) adds the outside cost everywhere.
+          // A J row without holes has data over one run of the row's pixels, found from
+          // the pattern; only rows with holes resample their pair_ok row as well.
           int active = 0;
           float base_cost = 0.0f;
           for (int n = 0; n < nn; ++n) {
@@ -998,11 +1110,22 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                   x_begin = slot_lo[slot] / 32 * 32;
                   x_end = slot_lo[slot] <= slot_hi[slot] ? (slot_hi[slot] / 32 + 1) * 32 : x_begin;
                 }
-                (run ? HorizontalRowQ<false>
-                     : HorizontalRowQ<true>)(pw.q.data() + size_t(j) * pw.qstride,
-                                             pw.pair_ok.data() + size_t(j) * pw.qstride, pat,
-                                             x_begin, x_end, qrows.data() + size_t(slot) * n32,
-                                             qoks.data() + size_t(slot) * n32);
+                const int16_t* jrow = pw.q.data() + size_t(j) * pw.qstride;
+                const int16_t* ok_row = pw.pair_ok.data() + size_t(j) * pw.qstride;
+                int16_t* out = qrows.data() + size_t(slot) * n32;
+                int16_t* ok_out = qoks.data() + size_t(slot) * n32;
+                if constexpr (kPath == Path::kPrewarpAvx512) {
+                  (run ? HorizontalRowQAvx512<false>
+                       : HorizontalRowQAvx512<true>)(jrow, ok_row, pat, x_begin, x_end, out,
+                                                     ok_out);
+                } else if constexpr (kPath == Path::kPrewarpAvx2) {
+                  (run ? HorizontalRowQAvx2<false>
+                       : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out);
+                } else {
+                  (run ? HorizontalRowQScalar<false>
+                       : HorizontalRowQScalar<true>)(jrow, ok_row, pat, x_begin, x_end, out,
+                                                     ok_out);
+                }
                 slot_row[slot] = j;
                 slot_masked[slot] = !run;
                 slot_ok_filled[slot] = !run;
@@ -1033,39 +1156,11 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
             }
             ++active;
           }
-          VerticalSsdQ(qrow.data(), active, base_cost, prep.ref_q.data() + size_t(y) * stride,
+          constexpr auto kVerticalSsd = kPath == Path::kPrewarpAvx512 ? VerticalSsdQAvx512
+                                        : kPath == Path::kPrewarpAvx2 ? VerticalSsdQAvx2
+                                                                      : VerticalSsdQScalar;
+          kVerticalSsd(qrow.data(), active, base_cost, prep.ref_q.data() + size_t(y) * stride,
                        prep.d_out, q_scale, width, n32, position_x.data(), row);
-          continue;
-        }
-        if constexpr (kPath == Path::kPrewarpScalar) {
-          // Reference row y reads J rows r and r + 1 of each neighbour, resampled along
-          // x once per level and kept in the slot of their parity (r grows with y). A
-          // neighbour whose two rows have no data at all (the row falls outside its
-          // image at this depth, often at near levels) adds the outside cost everywhere.
-          int active = 0;
-          float base_cost = 0.0f;
-          for (int n = 0; n < nn; ++n) {
-            const Prewarped& pw = prep.prewarped[n];
-            const LevelPattern& pat = patterns[n];
-            int r;
-            PatternRow(pw, pat, y, &r, &ay[active]);
-            if (!pw.has_data[r] && !pw.has_data[r + 1]) {
-              base_cost += in.outside_cost;
-              continue;
-            }
-            for (int j = r; j <= r + 1; ++j) {
-              const int slot = 2 * n + (j & 1);
-              float* out = hrows.data() + size_t(slot) * n16;
-              if (slot_row[slot] != j) {
-                HorizontalRowScalar(pw.value.data() + size_t(j) * pw.stride, pat, n16, out);
-                slot_row[slot] = j;
-              }
-              (j == r ? top : bottom)[active] = out;
-            }
-            ++active;
-          }
-          VerticalSsdScalar(top.data(), bottom.data(), ay.data(), active, base_cost,
-                            in.reference + size_t(y) * width, in.outside_cost, width, row);
           continue;
         }
         if constexpr (kPath != Path::kAvx512) std::fill(row, row + stride, 0.0f);
@@ -1191,6 +1286,13 @@ void RunBandsPrewarpScalar(const KernelInput& in, const Prepared& prep, int64_t 
   RunBandsImpl<Path::kPrewarpScalar>(in, prep, b, e, outputs);
 }
 
+__attribute__((target("avx2,fma"))) void RunBandsPrewarpAvx2(const KernelInput& in,
+                                                             const Prepared& prep, int64_t b,
+                                                             int64_t e,
+                                                             std::vector<KernelOutput>* outputs) {
+  RunBandsImpl<Path::kPrewarpAvx2>(in, prep, b, e, outputs);
+}
+
 __attribute__((target("avx512f,avx512bw,fma"))) void RunBandsPrewarpAvx512(
     const KernelInput& in, const Prepared& prep, int64_t b, int64_t e,
     std::vector<KernelOutput>* outputs) {
@@ -1232,69 +1334,62 @@ SimdLevel CostKernelSimd() {
 
 void RunCostKernel(const KernelInput& input, int num_threads, std::vector<KernelOutput>* outputs) {
   SimdLevel simd = std::min(input.max_simd, CostKernelSimd());
-  for (const auto& nb : input.neighbours) {
-    // Gather indices are computed in float (exact below 2^24).
-    if (double(nb.width) * nb.height >= double(1 << 24)) simd = SimdLevel::kNone;
-  }
   Prepared prep;
-  // The pre-warped kernel has AVX-512 (fixed point) and scalar paths; on an AVX2 CPU the
-  // exact AVX2 warp is the faster of the two. The fixed point sums hold up to
-  // kMaxQNeighbours neighbours and differences up to 255 grey levels.
-  const bool fits_fixed =
-      input.neighbours.size() <= size_t(kMaxQNeighbours) && input.outside_cost <= 255.0f * 255.0f;
-  const bool prewarp = input.prewarp && simd != SimdLevel::kAvx2 &&
-                       (simd == SimdLevel::kNone || fits_fixed) &&
-                       PreparePrewarp(input, num_threads, &prep);
-  const int lanes = simd == SimdLevel::kAvx512 ? (prewarp ? 32 : 16) : 8;
-  prep.stride = simd != SimdLevel::kNone ? (input.width + lanes - 1) / lanes * lanes : input.width;
-  if (simd != SimdLevel::kNone) {
-    prep.ref_neg.assign(size_t(prep.stride) * input.height, 0.0f);
+  // The fixed point sums of the pre-warped kernel hold up to kMaxQNeighbours neighbours
+  // and differences up to 255 grey levels; its pixel columns are 16-bit.
+  const bool fits_fixed = input.neighbours.size() <= size_t(kMaxQNeighbours) &&
+                          input.outside_cost <= 255.0f * 255.0f && input.width < (1 << 15) - 32;
+  const bool prewarp = input.prewarp && fits_fixed && PreparePrewarp(input, num_threads, &prep);
+  if (prewarp) {
+    prep.stride = (input.width + 31) / 32 * 32;
+    // The fixed point reference, in the pattern's stored order.
+    prep.ref_q.assign(size_t(prep.stride) * input.height, 0);
     for (int y = 0; y < input.height; ++y) {
-      for (int x = 0; x < input.width; ++x) {
-        prep.ref_neg[size_t(y) * prep.stride + x] = -input.reference[size_t(y) * input.width + x];
+      const float* ref = input.reference + size_t(y) * input.width;
+      int16_t* q = prep.ref_q.data() + size_t(y) * prep.stride;
+      for (int p = 0; p < prep.stride; ++p) {
+        const int x = p / 32 * 32 + StoredPixel(p % 32);
+        if (x < input.width) q[p] = int16_t(std::lround(std::clamp(ref[x], 0.0f, 255.0f) * kQ));
       }
     }
-    if (prewarp) {
-      // The fixed point reference, in the pattern's stored order.
-      prep.ref_q.assign(size_t(prep.stride) * input.height, 0);
+    prep.d_out = int16_t(std::lround(std::sqrt(double(input.outside_cost)) * kQ));
+  } else {
+    for (const auto& nb : input.neighbours) {
+      // Gather indices are computed in float (exact below 2^24).
+      if (double(nb.width) * nb.height >= double(1 << 24)) simd = SimdLevel::kNone;
+    }
+    const int lanes = simd == SimdLevel::kAvx512 ? 16 : 8;
+    prep.stride =
+        simd != SimdLevel::kNone ? (input.width + lanes - 1) / lanes * lanes : input.width;
+    if (simd != SimdLevel::kNone) {
+      prep.ref_neg.assign(size_t(prep.stride) * input.height, 0.0f);
       for (int y = 0; y < input.height; ++y) {
-        const float* ref = input.reference + size_t(y) * input.width;
-        int16_t* q = prep.ref_q.data() + size_t(y) * prep.stride;
-        for (int p = 0; p < prep.stride; ++p) {
-          const int x = p / 32 * 32 + StoredPixel(p % 32);
-          if (x < input.width) q[p] = int16_t(std::lround(std::clamp(ref[x], 0.0f, 255.0f) * kQ));
+        for (int x = 0; x < input.width; ++x) {
+          prep.ref_neg[size_t(y) * prep.stride + x] = -input.reference[size_t(y) * input.width + x];
         }
       }
-      prep.d_out = int16_t(std::lround(std::sqrt(double(input.outside_cost)) * kQ));
-    }
-    for (const auto& nb : input.neighbours) {
-      if (prewarp) break;  // J replaces the taps
-      prep.taps.push_back(PackTaps(nb));
-      const float* end = nb.image + size_t(nb.width) * nb.height;
-      prep.holes.push_back(std::any_of(nb.image, end, [](float g) { return !(g == g); }));
+      for (const auto& nb : input.neighbours) {
+        prep.taps.push_back(PackTaps(nb));
+        const float* end = nb.image + size_t(nb.width) * nb.height;
+        prep.holes.push_back(std::any_of(nb.image, end, [](float g) { return !(g == g); }));
+      }
     }
   }
   const int64_t bands = (input.height + kBandRows - 1) / kBandRows;
   core::ParallelFor(0, bands, num_threads, [&](int64_t b, int64_t e) {
-    if (prewarp) {
-      (simd == SimdLevel::kAvx512 ? RunBandsPrewarpAvx512 : RunBandsPrewarpScalar)(input, prep, b,
-                                                                                   e, outputs);
-      return;
-    }
     switch (simd) {
       case SimdLevel::kAvx512:
-        RunBandsAvx512(input, prep, b, e, outputs);
+        (prewarp ? RunBandsPrewarpAvx512 : RunBandsAvx512)(input, prep, b, e, outputs);
         break;
       case SimdLevel::kAvx2:
-        RunBandsAvx2(input, prep, b, e, outputs);
+        (prewarp ? RunBandsPrewarpAvx2 : RunBandsAvx2)(input, prep, b, e, outputs);
         break;
       case SimdLevel::kNone:
-        RunBandsScalar(input, prep, b, e, outputs);
+        (prewarp ? RunBandsPrewarpScalar : RunBandsScalar)(input, prep, b, e, outputs);
         break;
     }
   });
   for (auto& pw : prep.prewarped) {
-    FloatPool::Give(&pw.value);
     Pool<int16_t>::Give(&pw.q);
     Pool<int16_t>::Give(&pw.pair_ok);
   }

@@ -14,12 +14,13 @@
 //
 // With KernelInput::prewarp the neighbours are first resampled by the homography at
 // infinity (bicubic); each level is then a scaling of that image, which a row reads
-// with one precomputed column pattern (cost_kernel.cc, "Pre-warped neighbours"). Its
-// AVX-512 path works in 16-bit fixed point (greys x 32), 32 pixels per instruction, and
-// sums the squared differences of two neighbours per multiply-add; it agrees with its
-// scalar float path up to that rounding (tests/stereo/cost_kernel_test.cc).
+// with one precomputed column pattern (cost_kernel.cc, "Pre-warped neighbours"). It
+// works in 16-bit fixed point (greys x 32) and sums the squared differences of two
+// neighbours per multiply-add, with AVX-512 (32 pixels per instruction), AVX2 (16) or
+// scalar code: the three give the same bits (tests/stereo/cost_kernel_test.cc), so the
+// depths do not depend on the worker's CPU.
 //
-// Where the CPU has AVX-512 (F, BW) or AVX2 and FMA (checked at run time) the warp
+// Where the CPU has AVX-512 (F, BW) or AVX2 and FMA (checked at run time) the exact warp
 // runs sixteen or eight pixels at a time on a packed copy of each neighbour: one
 // 32-bit word per pixel holds its 2x2 bilinear quad as 8-bit greys (255 = no data),
 // so one gather gives a pixel's four taps and their validity. Otherwise (or with
@@ -56,9 +57,9 @@ struct KernelInput {
   // Resample each neighbour once by the homography at infinity and warp that per level
   // (cost_kernel.cc, "Pre-warped neighbours"): much faster, but a second bilinear
   // interpolation. Falls back to the exact warp where a neighbour's geometry does not
-  // suit it, with more than 32 neighbours or an outside cost above 255^2 (the fixed
-  // point sums), and on CPUs with AVX2 but not AVX-512 (the pre-warped kernel has an
-  // AVX-512 and a scalar path, and the exact AVX2 warp is faster than the latter).
+  // suit it, with more than 32 neighbours, an outside cost above 255^2 (the fixed point
+  // sums) or a width of 2^15 - 32 pixels or more (16-bit pixel columns). Runs the best of
+  // its AVX-512, AVX2 and scalar paths up to max_simd, all with the same output.
   bool prewarp = false;
 };
 

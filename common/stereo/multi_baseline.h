@@ -70,11 +70,11 @@ struct StereoOptions {
   int num_threads = 0;  // 0 = all hardware threads
   // Resample each neighbour once onto the reference grid (by the homography of the
   // plane at infinity, bicubic) so that each depth level is a scaling of that image,
-  // matched in 16-bit fixed point on AVX-512 CPUs: about 2x faster than the exact
-  // per-pixel warp (bench/stereo/stereo_bench.cc), with depths that differ slightly
-  // from it (a second, bilinear, interpolation of the neighbour; cost_kernel.h,
-  // KernelInput::prewarp). false = the exact warp (`dome stereo --exact-warp`, JSON
-  // "prewarp_neighbours": false). CPUs with AVX2 but not AVX-512 run the exact warp.
+  // matched in 16-bit fixed point (AVX-512, AVX2 or scalar, with the same depths on
+  // every CPU): 2x (AVX-512) to 4x (AVX2) faster than the exact per-pixel warp
+  // (bench/stereo/stereo_bench.cc), with depths that differ slightly from it (a second,
+  // bilinear, interpolation of the neighbour; cost_kernel.h, KernelInput::prewarp).
+  // false = the exact warp (`dome stereo --exact-warp`, JSON "prewarp_neighbours": false).
   bool prewarp_neighbours = true;
 
   // Throws core::InputError naming the first option out of range (e.g. "z_min_mm").
