@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -123,6 +124,28 @@ cv::Mat DecodeImage(std::string_view bytes, ImageMode mode, const std::string& w
 
 cv::Mat ReadImage(const std::filesystem::path& path, ImageMode mode) {
   return DecodeImage(ReadFileBytes(path), mode, path.string());
+}
+
+PngHeader ReadPngHeader(std::string_view bytes, const std::string& where) {
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  core::Require(bytes.size() >= 8 + 8 + 13 && std::memcmp(b, kSignature, 8) == 0, where,
+                "is not a PNG file (no PNG signature)");
+  const auto be32 = [&](size_t at) {
+    return uint32_t(b[at]) << 24 | uint32_t(b[at + 1]) << 16 | uint32_t(b[at + 2]) << 8 |
+           uint32_t(b[at + 3]);
+  };
+  core::Require(be32(8) == 13 && std::memcmp(b + 12, "IHDR", 4) == 0, where,
+                "is not a PNG file (no IHDR chunk first)");
+  PngHeader h;
+  const uint32_t w = be32(16), ht = be32(20);
+  core::Require(w > 0 && ht > 0 && w <= (1u << 24) && ht <= (1u << 24), where,
+                "PNG of implausible size " + std::to_string(w) + "x" + std::to_string(ht));
+  h.width = int(w);
+  h.height = int(ht);
+  h.bit_depth = b[24];
+  h.colour_type = b[25];
+  return h;
 }
 
 std::string EncodePng(const cv::Mat& image) {

@@ -43,6 +43,16 @@ cv::Mat ReadImage(const std::filesystem::path& path, ImageMode mode);
 // `where` names its source in errors.
 cv::Mat DecodeImage(std::string_view bytes, ImageMode mode, const std::string& where);
 
+// What a PNG file's header (signature and IHDR chunk) says, without decoding it: for
+// checking a PNG received from a peer cheaply. Throws core::InputError naming `where`
+// when the bytes do not start as a PNG.
+struct PngHeader {
+  int width = 0, height = 0;
+  int bit_depth = 0;
+  int colour_type = 0;  // 0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA
+};
+PngHeader ReadPngHeader(std::string_view bytes, const std::string& where);
+
 // PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
 // types are a programmer error (DOME_CHECK).
 std::string EncodePng(const cv::Mat& image);

@@ -288,10 +288,17 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
 
 io::Mesh ExtractSurface(const fusion::VolumeGrid& grid, int num_slabs,
                         const std::function<std::string(int)>& slab) {
+  return ExtractSurfaceFromSlabs(grid, num_slabs, [&](int s) {
+    return std::make_shared<const fusion::Slab>(
+        fusion::DecodeSlab(slab(s), "slab " + std::to_string(s)));
+  });
+}
+
+io::Mesh ExtractSurfaceFromSlabs(
+    const fusion::VolumeGrid& grid, int num_slabs,
+    const std::function<std::shared_ptr<const fusion::Slab>(int)>& slab) {
   mesh::StreamingMarchingCubes mc(grid);
-  for (int s = 0; s < num_slabs; ++s) {
-    mc.AddSlab(fusion::DecodeSlab(slab(s), "slab " + std::to_string(s)));
-  }
+  for (int s = 0; s < num_slabs; ++s) mc.AddSlab(*slab(s));
   core::Require(mc.next_plane() == grid.nz, "surface",
                 "slabs cover planes 0.." + std::to_string(mc.next_plane()) + ", expected " +
                     std::to_string(grid.nz));

@@ -81,6 +81,10 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
 // StreamingMarchingCubes; memory is bounded by one slab.
 io::Mesh ExtractSurface(const fusion::VolumeGrid& grid, int num_slabs,
                         const std::function<std::string(int index)>& slab);
+// The same from slabs already decoded (fusion/volume.h DecodeSlab).
+io::Mesh ExtractSurfaceFromSlabs(
+    const fusion::VolumeGrid& grid, int num_slabs,
+    const std::function<std::shared_ptr<const fusion::Slab>(int index)>& slab);
 
 // The PLY bytes dome writes for meshes (binary little-endian, "units mm").
 std::string EncodeMeshPly(const io::Mesh& mesh);

@@ -56,7 +56,8 @@ std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write
 
 // Throws core::InputError naming `where` and the file unless `files` are exactly the
 // files of `result`: the layout's paths, the depth and reliability maps decoding to the
-// result's values bit for bit, previews decoding to colour images of the map's size.
+// result's values bit for bit, previews with the PNG header of a colour image of the
+// map's size (their pixels are not checked).
 void CheckStereoFiles(const StereoResult& result, bool write_previews,
                       const std::vector<StereoFile>& files, const std::string& where);
 

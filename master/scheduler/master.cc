@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "fusion/volume.h"
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "net/security.h"
@@ -529,14 +530,15 @@ struct Master::Impl {
   }
 
   // Hands a finished slab to its instant's surface stream, started by the first slab.
-  void FeedSurface(SessionRec* s, int instant, int slab, const runtime::BlobRef& blob) {
+  void FeedSurface(SessionRec* s, int instant, int slab, const runtime::BlobRef& blob,
+                   std::shared_ptr<const fusion::Slab> decoded = nullptr) {
     auto& stream = s->surface[instant];
     if (!stream) {
       stream =
           std::make_unique<SurfaceStream>(s->options.grid, s->num_slabs, &blobs,
                                           s->out() / s->graph->instants()[instant], s->blob_dir());
     }
-    stream->Feed(slab, blob.sha256());
+    stream->Feed(slab, blob.sha256(), std::move(decoded));
   }
 
   // Completes the surface stages whose streams have ended.
@@ -580,7 +582,7 @@ struct Master::Impl {
   // A job's outputs are in their files: journal them, free what is no longer needed,
   // feed a slab to its surface stream, and move the graph on.
   void Completed(SessionRec* s, int node, const std::vector<runtime::BlobRef>& outs,
-                 double job_seconds) {
+                 double job_seconds, std::shared_ptr<const fusion::Slab> slab = nullptr) {
     const JobNode& n = s->graph->node(node);
     JournalEntry entry;
     for (const auto& o : outs) entry.outputs.emplace_back(o.name(), o.sha256());
@@ -594,7 +596,7 @@ struct Master::Impl {
                           ? job_seconds
                           : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
     st.last_done = now;
-    if (n.stage == Stage::kFusion) FeedSurface(s, n.instant, n.part, outs.at(0));
+    if (n.stage == Stage::kFusion) FeedSurface(s, n.instant, n.part, outs.at(0), std::move(slab));
     if (n.stage == Stage::kSurface) {
       // The slabs are in the mesh now; the journal's surface record stands for them
       // once it is on disk.
@@ -618,8 +620,10 @@ struct Master::Impl {
   // Checks a finished job's outputs and writes what they make in OUT and the blob
   // store; throws core::InputError on bad outputs. Runs beside the loop (Offload): it
   // reads only what a session fixes at its submit, and the thread-safe blob store.
+  // A fusion result's slab, decoded to check it, goes to `slab` for the surface stream.
   std::vector<runtime::BlobRef> StoreOutputs(const SessionRec& session, const JobNode& n,
-                                             const runtime::JobResult& r, const std::string& peer) {
+                                             const runtime::JobResult& r, const std::string& peer,
+                                             std::shared_ptr<const fusion::Slab>* slab) {
     const SessionRec* s = &session;
     const std::string& instant = s->graph->instants()[n.instant];
     const fs::path dir = s->out() / instant;
@@ -649,10 +653,12 @@ struct Master::Impl {
       }
       case Stage::kFusion: {
         const std::string& bytes = find(pipeline::kSlabOutput);
-        const fusion::Slab slab = fusion::DecodeSlab(bytes, peer + " " + r.job_id());
-        core::Require(slab.k0 == n.part * s->options.slab_planes && slab.nx == s->options.grid.nx &&
-                          slab.ny == s->options.grid.ny,
+        auto decoded = std::make_shared<const fusion::Slab>(
+            fusion::DecodeSlab(bytes, peer + " " + r.job_id()));
+        core::Require(decoded->k0 == n.part * s->options.slab_planes &&
+                          decoded->nx == s->options.grid.nx && decoded->ny == s->options.grid.ny,
                       peer, "result of " + r.job_id() + " is not the slab asked for");
+        *slab = std::move(decoded);
         outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kSlabOutput));
         break;
       }
@@ -947,10 +953,11 @@ struct Master::Impl {
     job.dependents.clear();
     offload.Post([this, s, node, id, peer, name, result, job]() -> std::function<void()> {
       try {
-        auto outs =
-            std::make_shared<std::vector<runtime::BlobRef>>(StoreOutputs(*s, job, *result, peer));
-        return [this, s, node, id, name, result, outs] {
-          Accepted(s, node, id, name, *result, *outs);
+        std::shared_ptr<const fusion::Slab> slab;
+        auto outs = std::make_shared<std::vector<runtime::BlobRef>>(
+            StoreOutputs(*s, job, *result, peer, &slab));
+        return [this, s, node, id, name, result, outs, slab] {
+          Accepted(s, node, id, name, *result, *outs, slab);
         };
       } catch (const core::InputError& e) {
         return [this, s, node, id, peer, result, what = std::string(e.what())] {
@@ -970,7 +977,8 @@ struct Master::Impl {
 
   // A result whose outputs are stored (on the loop's thread again).
   void Accepted(SessionRec* s, int node, const std::string& id, const std::string& name,
-                const runtime::JobResult& r, const std::vector<runtime::BlobRef>& outs) {
+                const runtime::JobResult& r, const std::vector<runtime::BlobRef>& outs,
+                std::shared_ptr<const fusion::Slab> slab) {
     const JobNode& n = s->graph->node(node);
     if (s->state != "running") return;
     if (n.state == JobState::kDone) {
@@ -991,7 +999,7 @@ struct Master::Impl {
       if (other != workers.end()) other->second.Forget(r.job_id());
     }
     ++s->jobs_by_worker[name];
-    Completed(s, node, outs, r.seconds());
+    Completed(s, node, outs, r.seconds(), std::move(slab));
   }
 
   // Idle workers first get the highest-priority ready jobs; then, while ready jobs are

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "core/error.h"
+#include "fusion/volume.h"
 #include "io/file_util.h"
 #include "pipeline/stages.h"
 
@@ -17,6 +18,7 @@ SurfaceStream::SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, Blob
       dir_(dir),
       blob_dir_(blob_dir),
       slabs_(size_t(std::max(num_slabs, 0))),
+      decoded_(slabs_.size()),
       thread_([this] { Run(); }) {}
 
 SurfaceStream::~SurfaceStream() {
@@ -24,10 +26,14 @@ SurfaceStream::~SurfaceStream() {
   thread_.join();
 }
 
-void SurfaceStream::Feed(int index, const std::string& sha256) {
+void SurfaceStream::Feed(int index, const std::string& sha256,
+                         std::shared_ptr<const fusion::Slab> decoded) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (index < 0 || index >= int(slabs_.size()) || !slabs_[index].empty()) return;
   slabs_[index] = sha256;
+  if (decoded && index >= next_ && index < next_ + kDecodedAhead) {
+    decoded_[index] = std::move(decoded);
+  }
   fed_cv_.notify_all();
 }
 
@@ -59,20 +65,28 @@ double SurfaceStream::busy_seconds() const {
   return busy_s_;
 }
 
-// Blocks until slab `index` is fed (its wait is not busy time), then reads it.
-std::string SurfaceStream::WaitForSlab(int index) {
+// Blocks until slab `index` is fed (waiting is not busy time).
+void SurfaceStream::WaitForSlab(int index) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  next_ = index;
+  fed_cv_.wait(lock, [&] { return abort_ || !slabs_[index].empty(); });
+  core::Require(!abort_, "slab " + std::to_string(index),
+                "not stitched: the surface stage was stopped");
+}
+
+// Slab `index`, fed: the decoded one kept for it, else read from the store and decoded.
+std::shared_ptr<const fusion::Slab> SurfaceStream::TakeSlab(int index) {
   std::string sha;
   {
-    std::unique_lock<std::mutex> lock(mutex_);
-    fed_cv_.wait(lock, [&] { return abort_ || !slabs_[index].empty(); });
-    core::Require(!abort_, "slab " + std::to_string(index),
-                  "not stitched: the surface stage was stopped");
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (decoded_[index]) return std::move(decoded_[index]);
     sha = slabs_[index];
   }
   auto bytes = store_->Read(sha);
   core::Require(bytes.has_value(), "slab " + std::to_string(index),
                 "is not in the blob store (" + sha + ")");
-  return std::move(*bytes);
+  return std::make_shared<const fusion::Slab>(
+      fusion::DecodeSlab(*bytes, "slab " + std::to_string(index)));
 }
 
 void SurfaceStream::Run() {
@@ -87,12 +101,13 @@ void SurfaceStream::Run() {
   std::optional<runtime::BlobRef> mesh;
   std::string error;
   try {
-    const io::Mesh surface = pipeline::ExtractSurface(grid_, int(slabs_.size()), [&](int index) {
-      add_busy();
-      std::string bytes = WaitForSlab(index);
-      since = Clock::now();  // the wait was not work
-      return bytes;
-    });
+    const io::Mesh surface =
+        pipeline::ExtractSurfaceFromSlabs(grid_, int(slabs_.size()), [&](int index) {
+          add_busy();
+          WaitForSlab(index);
+          since = Clock::now();  // the wait was not work
+          return TakeSlab(index);
+        });
     const std::string ply = pipeline::EncodeMeshPly(surface);
     fs::create_directories(dir_);
     io::WriteFileAtomically(dir_ / "mesh.ply", ply);

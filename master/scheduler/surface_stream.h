@@ -12,6 +12,7 @@
 
 #include <condition_variable>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -34,9 +35,15 @@ class SurfaceStream {
   SurfaceStream(const SurfaceStream&) = delete;
   SurfaceStream& operator=(const SurfaceStream&) = delete;
 
-  // Slab `index` (0 = planes from 0) is in the store under `sha256`. Feeding an index
-  // twice keeps the first.
-  void Feed(int index, const std::string& sha256);
+  // Slab `index` (0 = planes from 0) is in the store under `sha256`; `decoded`, when
+  // given, is that slab decoded (the master decodes a result to check it), kept for the
+  // stream while it is among the next kDecodedAhead slabs it needs, so that it is not
+  // read and decoded again. Feeding an index twice keeps the first.
+  void Feed(int index, const std::string& sha256,
+            std::shared_ptr<const fusion::Slab> decoded = nullptr);
+  // Decoded slabs kept ahead of the one the stream waits for (17 MB each for 24 planes
+  // of the seed's volume): slabs that finish out of order wait this way.
+  static constexpr int kDecodedAhead = 4;
   bool Fed(int index) const;
   // Stops waiting for slabs; the stream then ends with an error.
   void Abort();
@@ -50,14 +57,17 @@ class SurfaceStream {
 
  private:
   void Run();
-  std::string WaitForSlab(int index);
+  void WaitForSlab(int index);
+  std::shared_ptr<const fusion::Slab> TakeSlab(int index);
 
   const fusion::VolumeGrid grid_;
   BlobStore* store_;
   const std::filesystem::path dir_, blob_dir_;
   mutable std::mutex mutex_;
   std::condition_variable fed_cv_;
-  std::vector<std::string> slabs_;  // sha256 per index, "" until fed
+  std::vector<std::string> slabs_;                            // sha256 per index, "" until fed
+  std::vector<std::shared_ptr<const fusion::Slab>> decoded_;  // per index, when kept
+  int next_ = 0;                                              // the index waited for
   bool abort_ = false;
   bool finished_ = false;
   double busy_s_ = 0;

@@ -47,6 +47,25 @@ TEST(ReadImage, RobovisionRgbaInEveryMode) {
   EXPECT_EQ(cv::countNonZero(alpha == 255) + cv::countNonZero(alpha == 0), alpha.total());
 }
 
+TEST(PngHeader, SaysSizeAndTypeWithoutDecoding) {
+  const std::string colour = EncodePng(cv::Mat(7, 13, CV_8UC3, cv::Scalar(1, 2, 3)));
+  const PngHeader c = ReadPngHeader(colour, "preview");
+  EXPECT_EQ(c.width, 13);
+  EXPECT_EQ(c.height, 7);
+  EXPECT_EQ(c.bit_depth, 8);
+  EXPECT_EQ(c.colour_type, 2);
+  const PngHeader g = ReadPngHeader(EncodePng(cv::Mat(4, 5, CV_16UC1, cv::Scalar(9))), "depth");
+  EXPECT_EQ(g.bit_depth, 16);
+  EXPECT_EQ(g.colour_type, 0);
+  ExpectInputError([&] { ReadPngHeader("GIF89a, not a PNG at all, no", "w1 preview"); },
+                   {"w1 preview", "no PNG signature"});
+  ExpectInputError([&] { ReadPngHeader(colour.substr(0, 20), "w1 preview"); },
+                   {"w1 preview", "not a PNG"});
+  std::string odd = colour;
+  odd[12] = 'X';  // the first chunk is not IHDR
+  ExpectInputError([&] { ReadPngHeader(odd, "w1 preview"); }, {"w1 preview", "no IHDR"});
+}
+
 TEST(ReadImage, MissingFileNamesIt) {
   TempDir dir;
   const auto path = dir / "absent.png";

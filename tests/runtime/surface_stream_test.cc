@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "fusion/volume.h"
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "pipeline/stages.h"
@@ -107,6 +108,49 @@ TEST(SurfaceStream, ASlabMissingFromTheStoreFailsNamingIt) {
   stream.Feed(0, std::string(64, 'a'));
   ASSERT_TRUE(WaitFinished(stream));
   testing::ExpectInputError([&] { stream.Result(); }, {"slab 0", "not in the blob store"});
+}
+
+// Slabs handed over decoded (the master decodes results to check them) are stitched as
+// they are, not read from the store again, while they are among the next kDecodedAhead
+// the stream needs; slabs further ahead are read from the store when their turn comes.
+TEST(SurfaceStream, DecodedSlabsAreUsedWithoutReadingTheStore) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  ASSERT_GT(int(sphere.slabs.size()), SurfaceStream::kDecodedAhead);
+  const std::string expected = pipeline::EncodeMeshPly(pipeline::ExtractSurface(
+      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; }));
+  auto decoded = [&](int k) {
+    return std::make_shared<const fusion::Slab>(fusion::DecodeSlab(sphere.slabs[k], "slab"));
+  };
+  {
+    // Every slab decoded; the first kDecodedAhead under addresses the store does not
+    // hold (they can only come from the hand-over), the others stored as well.
+    BlobStore store;
+    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "a",
+                         dir.path() / "blobs");
+    for (int k = 0; k < int(sphere.slabs.size()); ++k) {
+      const std::string sha =
+          k < SurfaceStream::kDecodedAhead
+              ? std::string(64, char('a' + k))
+              : store.AddBytes(dir.path() / "blobs", sphere.slabs[k], "slab").sha256();
+      stream.Feed(k, sha, decoded(k));
+    }
+    ASSERT_TRUE(WaitFinished(stream));
+    EXPECT_TRUE(io::ReadFileBytes(dir.path() / "a" / "mesh.ply") == expected);
+  }
+  {
+    // Slab kDecodedAhead fed first, decoded but too far ahead: it is read from the
+    // store (which lacks it) when its turn comes.
+    BlobStore store;
+    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "b",
+                         dir.path() / "blobs");
+    const int far = SurfaceStream::kDecodedAhead;
+    stream.Feed(far, std::string(64, 'f'), decoded(far));
+    for (int k = 0; k < far; ++k) stream.Feed(k, std::string(64, char('a' + k)), decoded(k));
+    ASSERT_TRUE(WaitFinished(stream));
+    testing::ExpectInputError([&] { stream.Result(); },
+                              {"slab " + std::to_string(far), "not in the blob store"});
+  }
 }
 
 }  // namespace
