@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--liveness", o.heartbeat_liveness, "silent intervals before a worker is lost")
       ->capture_default_str();
+  app.add_option("--writer-threads", o.writer_threads,
+                 "threads checking and writing results (0 = half the hardware threads)")
+      ->capture_default_str();
   app.add_option("--max-message-bytes", o.socket.max_message_bytes,
                  "largest message accepted, bytes")
       ->capture_default_str();

@@ -49,6 +49,9 @@ void MasterOptions::Check() const {
   core::Require(max_job_losses > 0, "max_job_losses", "must be positive");
   core::Require(jobs_ahead >= 0 && jobs_ahead <= 16, "jobs_ahead",
                 "must be in 0..16, got " + std::to_string(jobs_ahead));
+  core::Require(
+      writer_threads >= 0 && writer_threads <= 256, "writer_threads",
+      "must be in 0..256 (0 = half the hardware threads), got " + std::to_string(writer_threads));
   socket.Check();
 }
 
@@ -133,21 +136,25 @@ struct SessionRec {
   double Now() const { return Seconds(Clock::now() - start); }
 };
 
-// Work handed off the loop (checking, hashing and writing a result's files) to one
-// thread, in the order posted. Each piece of work returns what the loop does with its
-// outcome; Collect() runs those on the loop's thread. Work still queued when the
-// master stops is dropped (its results were never journalled: they are redone).
+// Work handed off the loop (checking, hashing and writing a result's files) to a pool
+// of threads, started in the order posted. Each piece of work returns what the loop
+// does with its outcome; Collect() runs those on the loop's thread, in the order they
+// finished (results are independent; two results of one job are told apart by the
+// loop). Work still queued when the master stops is dropped (its results were never
+// journalled: they are redone).
 class Offload {
  public:
   using Work = std::function<std::function<void()>()>;
-  Offload() : thread_([this] { Loop(); }) {}
+  explicit Offload(int threads) {
+    for (int t = 0; t < threads; ++t) threads_.emplace_back([this] { Loop(); });
+  }
   ~Offload() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stop_ = true;
     }
     cv_.notify_all();
-    thread_.join();
+    for (auto& t : threads_) t.join();
   }
   void Post(Work work) {
     {
@@ -210,7 +217,7 @@ class Offload {
   std::deque<std::function<void()>> done_;
   int pending_ = 0;
   bool stop_ = false;
-  std::thread thread_;  // last: starts after the members it uses
+  std::vector<std::thread> threads_;  // last: they start after the members they use
 };
 
 // A journal is fsync'd at most this often (journal.h): one fsync costs milliseconds on
@@ -234,7 +241,7 @@ struct Master::Impl {
   Clock::time_point next_heartbeat = Clock::now();
   Clock::time_point next_journal_sync = Clock::now();
   double loop_busy_s = 0;  // the loop's time outside poll, summed over its turns
-  // Last member: destroyed first, so its thread stops before what its work touches.
+  // Last member: destroyed first, so its threads stop before what their work touches.
   Offload offload;
 
   Impl(zmq::context_t* ctx, const MasterOptions& o)
@@ -242,7 +249,8 @@ struct Master::Impl {
         options(o),
         workers_socket(*ctx, zmq::socket_type::router),
         control_socket(*ctx, zmq::socket_type::router),
-        events_socket(*ctx, zmq::socket_type::pub) {
+        events_socket(*ctx, zmq::socket_type::pub),
+        offload(WriterThreads(o)) {
     options.Check();
     Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
     Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
@@ -261,6 +269,12 @@ struct Master::Impl {
                             });
       endpoints.capture = capture_ingest->endpoint();
     }
+  }
+
+  static int WriterThreads(const MasterOptions& o) {
+    o.Check();
+    if (o.writer_threads > 0) return o.writer_threads;
+    return std::max(1, int(std::thread::hardware_concurrency()) / 2);
   }
 
   void Bind(zmq::socket_t* s, const std::string& endpoint, const std::string& flag,
@@ -987,9 +1001,10 @@ struct Master::Impl {
       spdlog::info("late or duplicate result for {} dropped", r.job_id());
       return;
     }
-    for (const auto& o : outs) {
-      s->bytes_from_workers += int64_t(o.size());
-      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.size());
+    // Every output received (a stereo result's files too, which are written, not stored).
+    for (const auto& o : r.outputs()) {
+      s->bytes_from_workers += int64_t(o.data().size());
+      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.data().size());
     }
     if (n.state == JobState::kReady) {
       // Requeued after its worker was lost, and now the result came after all.

@@ -53,6 +53,10 @@ struct MasterOptions {
   // their inputs while it computes and starts the next without a round trip; only
   // stereo and fusion jobs, and only while more are ready than idle workers take.
   int jobs_ahead = 1;
+  // Threads that check, hash and write results beside the loop (count): about 0.8 CPU
+  // seconds per instant of the paper take, so with many workers one thread bounds the
+  // rate; 0 = half the hardware threads (at least 1).
+  int writer_threads = 0;
   net::SocketOptions socket;
   // ROUTER for capture agents (capture_host.h); "" = no capture. Frames go into
   // capture_take (required with it).

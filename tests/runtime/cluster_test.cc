@@ -107,7 +107,8 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   }
 }
 
-// As deployed: CURVE on every socket, the workers' and the client's keys allowed.
+// As deployed: CURVE on every socket, the workers' and the client's keys allowed; three
+// writer threads store the results as they come (the embedded run has one).
 TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
   const fs::path keys = root_ / "keys";
   fs::create_directories(keys);
@@ -118,7 +119,7 @@ TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
                                                      io::ReadFileBytes(keys / "client.pub"));
   const std::string client_keys = " --master-key " + (keys / "master.pub").string() + " --key " +
                                   (keys / "client.key").string();
-  Master m = StartMaster("master3", {"--keys", keys.string()});
+  Master m = StartMaster("master3", {"--keys", keys.string(), "--writer-threads", "3"});
   std::vector<std::unique_ptr<ChildProcess>> workers;
   for (int w = 0; w < 3; ++w) {
     workers.push_back(StartWorker(
