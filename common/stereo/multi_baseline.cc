@@ -147,26 +147,37 @@ int CountDepthLevels(const geometry::TsaiCamera& reference,
       for (int gx = 0; gx < kGrid; ++gx) {
         const Eigen::Vector3d p((reference.width_px - 1) * gx / double(kGrid - 1),
                                 (reference.height_px - 1) * gy / double(kGrid - 1), 1.0);
-        // Length of the epipolar segment z_max..z_min inside the neighbour's image
-        // (points in front of it): sampled in inverse depth, pieces with both ends
-        // inside summed. A segment that runs off the image or towards the neighbour's
-        // focal plane would otherwise count thousands of pixels nobody can match.
-        constexpr int kSteps = 256;
-        const auto inside = [&](const Eigen::Vector3d& q) {
-          if (!(q.z() > 0.0)) return false;
-          const double u = q.x() / q.z(), v = q.y() / q.z();
-          return u >= 0 && v >= 0 && u <= nb.width_px - 1 && v <= nb.height_px - 1;
+        // Length of the epipolar segment z_max..z_min inside the neighbour's image,
+        // for points in front of it: q(w) = a p + w b is linear in the inverse depth w,
+        // so each condition (q_z > 0, and with it 0 <= q_x <= (W - 1) q_z and
+        // 0 <= q_y <= (H - 1) q_z) holds on an interval of w, and the image of the
+        // interval they share is one straight piece. (A segment that runs off the
+        // image or towards the neighbour's focal plane would otherwise count thousands
+        // of pixels nobody can match.)
+        const Eigen::Vector3d q0 = a * p, d = b;
+        double lo = 1.0 / z_max_mm, hi = 1.0 / z_min_mm;
+        // Keeps the w in [lo, hi] with c0 + w c1 >= 0 (> 0 when strict).
+        const auto keep = [&](double c0, double c1, bool strict) {
+          if (c1 == 0.0) {
+            if (strict ? !(c0 > 0.0) : !(c0 >= 0.0)) hi = lo - 1.0;  // none
+            return;
+          }
+          const double root = -c0 / c1;
+          if (c1 > 0.0) {
+            lo = std::max(lo, strict ? std::nextafter(root, HUGE_VAL) : root);
+          } else {
+            hi = std::min(hi, strict ? std::nextafter(root, -HUGE_VAL) : root);
+          }
         };
+        keep(q0.z(), d.z(), true);
+        keep(q0.x(), d.x(), false);
+        keep((nb.width_px - 1) * q0.z() - q0.x(), (nb.width_px - 1) * d.z() - d.x(), false);
+        keep(q0.y(), d.y(), false);
+        keep((nb.height_px - 1) * q0.z() - q0.y(), (nb.height_px - 1) * d.z() - d.y(), false);
         double length = 0.0;
-        Eigen::Vector3d q_prev = a * p + b / z_max_mm;
-        bool in_prev = inside(q_prev);
-        for (int k = 1; k <= kSteps; ++k) {
-          const double w = 1.0 / z_max_mm + (1.0 / z_min_mm - 1.0 / z_max_mm) * k / kSteps;
-          const Eigen::Vector3d q = a * p + w * b;
-          const bool in = inside(q);
-          if (in && in_prev) length += (q.head<2>() / q.z() - q_prev.head<2>() / q_prev.z()).norm();
-          q_prev = q;
-          in_prev = in;
+        if (lo < hi) {
+          const Eigen::Vector3d qa = q0 + lo * d, qb = q0 + hi * d;
+          length = (qa.head<2>() / qa.z() - qb.head<2>() / qb.z()).norm();
         }
         if (length > 0.0) max_px = std::max(max_px, length);
       }
@@ -176,7 +187,7 @@ int CountDepthLevels(const geometry::TsaiCamera& reference,
                 "no reference pixel between z_min and z_max projects into any neighbour "
                 "(camera '" +
                     reference.id + "')");
-  // The tolerance keeps a parallax of exactly n steps (summed from pieces) at n.
+  // The tolerance keeps a parallax of exactly n steps at n.
   return static_cast<int>(std::ceil(max_px / step_px - 1e-9)) + 1;
 }
 

@@ -25,13 +25,15 @@ StereoInput PlaneInput(double plane_mm, bool textured) {
 void ExpectPlaneRecovered(double plane_mm, double median_tolerance, double max_tolerance,
                           bool prewarp = StereoOptions().prewarp_neighbours) {
   StereoOptions opt;
-  opt.window_sizes_px = {5, 9};
+  // 5: window sums added value by value; 9 = 8 + 1, 13 = 8 + 4 + 1, 17 = 16 + 1: sums of
+  // sums (cost_kernel.cc WindowSum).
+  opt.window_sizes_px = {5, 9, 13, 17};
   opt.num_threads = 2;
   opt.prewarp_neighbours = prewarp;
   const StereoResult r = ComputeDepth(PlaneInput(plane_mm, true), opt);
   // 200 px * 120 mm * (1/750 - 1/5000) = 27.2 px -> 29 levels.
   EXPECT_EQ(r.num_levels, 29);
-  ASSERT_EQ(r.range_images.size(), 2u);
+  ASSERT_EQ(r.range_images.size(), 4u);
   for (const auto& ri : r.range_images) {
     // Interior pixels (every neighbour sees the window): exact to well under a level.
     std::vector<double> errors;
