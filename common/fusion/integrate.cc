@@ -3,6 +3,7 @@
 #include <sys/mman.h>
 
 #include <Eigen/LU>
+#include <Eigen/QR>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -201,6 +202,14 @@ struct Integrator::CameraTables {
   // lambda[e], lambda[e + 1] side by side (the last entry repeated): the hot loop
   // fetches both ends of its interval with one 8-byte load.
   Table<float> lambda_pair;
+  // With lambda_poly the kernel evaluates lambda as the polynomial lambda_c in
+  // x = rn^2 * poly_scale (FitDistortionPolynomial) instead of reading the table: no
+  // lookups in the hottest path. lambda_slack widens ClassifyBlock's lambda bounds from
+  // the table by the polynomial's error.
+  bool lambda_poly = false;
+  float lambda_c[5] = {1, 0, 0, 0, 0};
+  float poly_scale = 0;
+  double lambda_slack = 0;
   double xn_min = 0, xn_max = 0, yn_min = 0, yn_max = 0;  // frustum, normalized coords
   int width = 0, height = 0;
   Table<float> inv_depth;  // 1 / depth, 0 where invalid; width x height
@@ -403,6 +412,14 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         t.lambda_pair[2 * e] = t.lambda[e];
         t.lambda_pair[2 * e + 1] = t.lambda[std::min(e + 1, kLutSize - 1)];
       }
+      const DistortionPolynomial poly = FitDistortionPolynomial(cam, t.rn2_max);
+      if (poly.usable) {
+        t.lambda_poly = true;
+        std::copy(std::begin(poly.c), std::end(poly.c), t.lambda_c);
+        t.poly_scale = 1.0f / t.rn2_max;
+        // The table's entries are the exact factor rounded to float.
+        t.lambda_slack = poly.max_error + 1e-7;
+      }
       // Inverse depths and the tessellation (seed §3: no triangle across a jump).
       t.inv_depth = region.Take<float>(size_t(w) * h);
       for (int y = 0; y < h; ++y) {
@@ -566,6 +583,8 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
       lmax = std::max(lmax, double(t.lambda[e]));
     }
   }
+  lmin -= t.lambda_slack;
+  lmax += t.lambda_slack;
   // Pixel box: [xa, xb] * [lmin, lmax] * f + c, padded for float rounding.
   constexpr double kPad = 0.5;
   const double umin = std::min(xa * lmin, xa * lmax) * t.fx_px + t.cx_px - kPad;
@@ -736,14 +755,24 @@ __attribute__((noinline)) void ExactRowPairAvx2(const RowParams& p, const float 
     __m256i x0[R], y0[R];
 #pragma GCC unroll 2
     for (int r = 0; r < R; ++r) {
-      // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
-      const __m256 e = _mm256_min_ps(_mm256_mul_ps(rn2[r], _mm256_set1_ps(t.lut_scale)),
-                                     _mm256_set1_ps(float(kLutSize - 1) - 0.5f));
-      const __m256i ei = _mm256_cvttps_epi32(e);
-      __m256 l0, l1;
-      F::Pairs(t.lambda.data(), ei, &l0, &l1);
-      const __m256 lambda =
-          _mm256_fmadd_ps(_mm256_sub_ps(e, _mm256_cvtepi32_ps(ei)), _mm256_sub_ps(l1, l0), l0);
+      __m256 lambda;
+      if (t.lambda_poly) {
+        const __m256 x = _mm256_mul_ps(rn2[r], _mm256_set1_ps(t.poly_scale));
+        lambda = _mm256_set1_ps(t.lambda_c[4]);
+        for (int c = 3; c >= 0; --c) {
+          lambda = _mm256_fmadd_ps(lambda, x, _mm256_set1_ps(t.lambda_c[c]));
+        }
+      } else {
+        // min_ps returns its second operand for a NaN first one: NaN indices become the
+        // cap.
+        const __m256 e = _mm256_min_ps(_mm256_mul_ps(rn2[r], _mm256_set1_ps(t.lut_scale)),
+                                       _mm256_set1_ps(float(kLutSize - 1) - 0.5f));
+        const __m256i ei = _mm256_cvttps_epi32(e);
+        __m256 l0, l1;
+        F::Pairs(t.lambda.data(), ei, &l0, &l1);
+        lambda =
+            _mm256_fmadd_ps(_mm256_sub_ps(e, _mm256_cvtepi32_ps(ei)), _mm256_sub_ps(l1, l0), l0);
+      }
       u[r] = _mm256_fmadd_ps(_mm256_mul_ps(xn[r], lambda), _mm256_set1_ps(t.fx_px),
                              _mm256_set1_ps(t.cx_px));
       v[r] = _mm256_fmadd_ps(_mm256_mul_ps(yn[r], lambda), _mm256_set1_ps(t.fy_px),
@@ -955,9 +984,16 @@ __attribute__((noinline)) void ExactRow(const RowParams& p, float c0x, float c0y
     const float xn = x * inv_z, yn = y * inv_z;
     const float rn2 = xn * xn + yn * yn;
     if (!(z > p.near && rn2 <= t.rn2_max)) continue;
-    const float e = std::min(rn2 * t.lut_scale, float(kLutSize - 1) - 0.5f);
-    const int ei = static_cast<int>(e);
-    const float lambda = t.lambda[ei] + (e - float(ei)) * (t.lambda[ei + 1] - t.lambda[ei]);
+    float lambda;
+    if (t.lambda_poly) {
+      const float x = rn2 * t.poly_scale;
+      lambda = t.lambda_c[4];
+      for (int c = 3; c >= 0; --c) lambda = std::fma(lambda, x, t.lambda_c[c]);
+    } else {
+      const float e = std::min(rn2 * t.lut_scale, float(kLutSize - 1) - 0.5f);
+      const int ei = static_cast<int>(e);
+      lambda = std::fma(e - float(ei), t.lambda[ei + 1] - t.lambda[ei], t.lambda[ei]);
+    }
     const float u = xn * lambda * t.fx_px + t.cx_px, v = yn * lambda * t.fy_px + t.cy_px;
     if (!(u >= 0.0f && u < float(t.width - 1) && v >= 0.0f && v < float(t.height - 1))) continue;
     const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
@@ -1045,14 +1081,22 @@ __attribute__((noinline)) void ExactRowPair(const RowParams& p, const float c0[3
     __mmask16 ok = _mm512_cmp_ps_mask(z, _mm512_set1_ps(p.near), _CMP_GT_OQ) &
                    _mm512_cmp_ps_mask(rn2, _mm512_set1_ps(t.rn2_max), _CMP_LE_OQ) & active;
     if (ok == 0) break;
-    // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
-    const __m512 e = _mm512_min_ps(_mm512_mul_ps(rn2, _mm512_set1_ps(t.lut_scale)),
-                                   _mm512_set1_ps(float(kLutSize - 1) - 0.5f));
-    const __m512i ei = _mm512_cvttps_epi32(e);
-    __m512 l0, l1;
-    GatherPairs(ei, 0xffff, t.lambda_pair.data(), &l0, &l1);
-    const __m512 lambda =
-        _mm512_fmadd_ps(_mm512_sub_ps(e, _mm512_cvtepi32_ps(ei)), _mm512_sub_ps(l1, l0), l0);
+    __m512 lambda;
+    if (t.lambda_poly) {
+      const __m512 x = _mm512_mul_ps(rn2, _mm512_set1_ps(t.poly_scale));
+      lambda = _mm512_set1_ps(t.lambda_c[4]);
+      for (int c = 3; c >= 0; --c) {
+        lambda = _mm512_fmadd_ps(lambda, x, _mm512_set1_ps(t.lambda_c[c]));
+      }
+    } else {
+      // min_ps returns its second operand for a NaN first one: NaN indices become the cap.
+      const __m512 e = _mm512_min_ps(_mm512_mul_ps(rn2, _mm512_set1_ps(t.lut_scale)),
+                                     _mm512_set1_ps(float(kLutSize - 1) - 0.5f));
+      const __m512i ei = _mm512_cvttps_epi32(e);
+      __m512 l0, l1;
+      GatherPairs(ei, 0xffff, t.lambda_pair.data(), &l0, &l1);
+      lambda = _mm512_fmadd_ps(_mm512_sub_ps(e, _mm512_cvtepi32_ps(ei)), _mm512_sub_ps(l1, l0), l0);
+    }
     const __m512 u = _mm512_fmadd_ps(_mm512_mul_ps(xn, lambda), _mm512_set1_ps(t.fx_px),
                                      _mm512_set1_ps(t.cx_px));
     const __m512 v = _mm512_fmadd_ps(_mm512_mul_ps(yn, lambda), _mm512_set1_ps(t.fy_px),
@@ -1359,6 +1403,44 @@ void Integrator::IntegrateSlab(int k0, int k1, Slab* slab) const {
       IntegrateSuperBlock(rest % sin, rest / sin, sk, k0, k1, slab, scratch.get());
     }
   });
+}
+
+DistortionPolynomial FitDistortionPolynomial(const geometry::TsaiCamera& camera, double rn2_max) {
+  DistortionPolynomial p;
+  const auto exact = [&](double x) {
+    const double ru = camera.focal_mm * std::sqrt(x * rn2_max);
+    double rd = ru;
+    if (!geometry::DistortedRadiusMm(ru, camera.kappa1_per_mm2, &rd)) return std::nan("");
+    return ru > 0.0 ? rd / ru : 1.0;
+  };
+  if (!(rn2_max > 0.0)) return p;
+  if (camera.kappa1_per_mm2 == 0.0) {  // lambda = 1
+    p.usable = true;
+    return p;
+  }
+  // Least squares on 1024 points of [0, 1], in double.
+  constexpr int kPoints = 1024, kTerms = 5;
+  Eigen::Matrix<double, kPoints, kTerms> a;
+  Eigen::Matrix<double, kPoints, 1> b;
+  for (int i = 0; i < kPoints; ++i) {
+    const double x = double(i) / (kPoints - 1);
+    b(i) = exact(x);
+    if (!std::isfinite(b(i))) return p;  // beyond the distortion's root: keep the table
+    double xk = 1.0;
+    for (int k = 0; k < kTerms; ++k, xk *= x) a(i, k) = xk;
+  }
+  const Eigen::Matrix<double, kTerms, 1> c = a.colPivHouseholderQr().solve(b);
+  for (int k = 0; k < kTerms; ++k) p.c[k] = static_cast<float>(c(k));
+  // The error of what the kernel computes (float Horner with fused multiply-adds),
+  // between and at the fitting points.
+  for (int i = 0; i <= 4 * kPoints; ++i) {
+    const float x = float(double(i) / (4 * kPoints));
+    float v = p.c[4];
+    for (int k = 3; k >= 0; --k) v = std::fma(v, x, p.c[k]);
+    p.max_error = std::max(p.max_error, std::abs(double(v) - exact(double(x))));
+  }
+  p.usable = p.max_error < 3e-7;
+  return p;
 }
 
 void SetTableLookups(TableLookups lookups) { g_table_lookups.store(lookups); }

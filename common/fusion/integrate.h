@@ -128,6 +128,19 @@ class Integrator {
   std::vector<CameraTables> cameras_;
 };
 
+// The distortion factor lambda(rn^2) = distorted / undistorted radius of a camera, over
+// rn^2 in [0, rn2_max] (normalized undistorted coordinates), as the polynomial of degree
+// 4 in x = rn^2 / rn2_max the fusion kernel evaluates in float (Horner, fused
+// multiply-adds): coefficients c[0] + c[1] x + ..., and its largest error against the
+// exact factor over the range. `usable` when that error is below 3e-7 (a thousandth of
+// a pixel at 3000 px): the kernel then evaluates it instead of reading a table.
+struct DistortionPolynomial {
+  float c[5] = {1, 0, 0, 0, 0};
+  double max_error = 0;
+  bool usable = false;
+};
+DistortionPolynomial FitDistortionPolynomial(const geometry::TsaiCamera& camera, double rn2_max);
+
 // How the 8-lane (AVX2) kernel reads its per-camera tables: with the CPU's gathers, or
 // with scalar loads put together, which some CPUs run much faster. Both read the same
 // values, so every result is the same bits. kAuto (the default) times both once per
