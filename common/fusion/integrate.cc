@@ -204,8 +204,8 @@ struct Integrator::CameraTables {
   Table<float> lambda_pair;
   // With lambda_poly the kernel evaluates lambda as the polynomial lambda_c in
   // x = rn^2 * poly_scale (FitDistortionPolynomial) instead of reading the table: no
-  // lookups in the hottest path. lambda_slack widens ClassifyBlock's lambda bounds from
-  // the table by the polynomial's error.
+  // lookups in the hottest path. ClassifyBlock bounds lambda by the polynomial at a
+  // block's ends, widened by lambda_slack.
   bool lambda_poly = false;
   float lambda_c[5] = {1, 0, 0, 0, 0};
   float poly_scale = 0;
@@ -417,8 +417,9 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
         t.lambda_poly = true;
         std::copy(std::begin(poly.c), std::end(poly.c), t.lambda_c);
         t.poly_scale = 1.0f / t.rn2_max;
-        // The table's entries are the exact factor rounded to float.
-        t.lambda_slack = poly.max_error + 1e-7;
+        // Twice the polynomial's error (once for the voxels' factor, once for the bound
+        // at the block's ends), and the rounding of evaluating it in double there.
+        t.lambda_slack = 2 * poly.max_error + 1e-6;
       }
       // Inverse depths and the tessellation (seed §3: no triangle across a jump).
       t.inv_depth = region.Take<float>(size_t(w) * h);
@@ -572,7 +573,20 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
   const int e0 = std::max(0, static_cast<int>(rlo * t.lut_scale) - 1);
   const int e1 = std::min(kLutSize - 1, static_cast<int>(rhi * t.lut_scale) + 2);
   double lmin, lmax;
-  if (t.lambda_monotonic) {
+  if (t.lambda_poly && t.lambda_monotonic) {
+    // The polynomial at both ends (no table read: the tables of 51 cameras miss the
+    // cache): the exact factor lies between its values there, the polynomial within
+    // lambda_slack of it.
+    const auto poly = [&](double rn2) {
+      const double x = rn2 * t.poly_scale;
+      double v = t.lambda_c[4];
+      for (int c = 3; c >= 0; --c) v = v * x + t.lambda_c[c];
+      return v;
+    };
+    const double a = poly(rlo), b = poly(rhi);
+    lmin = std::min(a, b) - t.lambda_slack;
+    lmax = std::max(a, b) + t.lambda_slack;
+  } else if (t.lambda_monotonic) {
     lmin = std::min(t.lambda[e0], t.lambda[e1]);
     lmax = std::max(t.lambda[e0], t.lambda[e1]);
   } else {
@@ -583,8 +597,6 @@ Integrator::BlockClass Integrator::ClassifyBlock(const CameraTables& t, int i0, 
       lmax = std::max(lmax, double(t.lambda[e]));
     }
   }
-  lmin -= t.lambda_slack;
-  lmax += t.lambda_slack;
   // Pixel box: [xa, xb] * [lmin, lmax] * f + c, padded for float rounding.
   constexpr double kPad = 0.5;
   const double umin = std::min(xa * lmin, xa * lmax) * t.fx_px + t.cx_px - kPad;
@@ -1337,23 +1349,40 @@ void Integrator::IntegrateSuperBlock(int si, int sj, int sk, int k0, int k1, Sla
       }
 #pragma GCC diagnostic pop
 #elif defined(__AVX2__) && defined(__FMA__)
-      // The scalar loop below, 8 voxels (one block) at a time, the same operations.
+      // The scalar loop below, 8 voxels (one block) at a time, the same operations. A
+      // block cut by the volume's edge goes through a padded copy: masked stores are
+      // microcode on some CPUs, slower than the rest of the loop together.
       for (int m = 0; m < ie - ib; m += 8) {
         const int lanes = std::min(8, ie - ib - m);
-        const __m256i store =
-            _mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-        const __m256i cnt = _mm256_add_epi32(_mm256_set1_epi32(s->super_count + bc[m / kBlock]),
-                                             _mm256_maskload_epi32(s->count + o + m, store));
+        alignas(32) int32_t count[8] = {};
+        alignas(32) float sum_w[8] = {}, sum_wd[8] = {}, weight[8], distance[8];
+        const bool whole = lanes == 8;
+        if (!whole) {
+          std::memcpy(count, s->count + o + m, sizeof(int32_t) * lanes);
+          std::memcpy(sum_w, s->sum_w + o + m, sizeof(float) * lanes);
+          std::memcpy(sum_wd, s->sum_wd + o + m, sizeof(float) * lanes);
+        }
+        const int32_t* c_in = whole ? s->count + o + m : count;
+        const float* w_in = whole ? s->sum_w + o + m : sum_w;
+        const float* wd_in = whole ? s->sum_wd + o + m : sum_wd;
+        float* w_out = whole ? slab->weight.data() + out + m : weight;
+        float* d_out = whole ? slab->distance_mm.data() + out + m : distance;
+        const __m256i cnt =
+            _mm256_add_epi32(_mm256_set1_epi32(s->super_count + bc[m / kBlock]),
+                             _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c_in)));
         const __m256 n = _mm256_cvtepi32_ps(cnt);
-        const __m256 w = _mm256_add_ps(_mm256_maskload_ps(s->sum_w + o + m, store), n);
+        const __m256 w = _mm256_add_ps(_mm256_loadu_ps(w_in), n);
         const __m256 kept = _mm256_and_ps(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_GT_OQ),
                                           _mm256_cmp_ps(w, _mm256_set1_ps(min_weight), _CMP_GE_OQ));
-        const __m256 num = _mm256_add_ps(_mm256_maskload_ps(s->sum_wd + o + m, store),
-                                         _mm256_mul_ps(n, _mm256_set1_ps(clamp)));
+        const __m256 num =
+            _mm256_add_ps(_mm256_loadu_ps(wd_in), _mm256_mul_ps(n, _mm256_set1_ps(clamp)));
         // Lanes not kept may divide by zero; their results are masked to 0.
-        _mm256_maskstore_ps(slab->weight.data() + out + m, store, _mm256_and_ps(kept, w));
-        _mm256_maskstore_ps(slab->distance_mm.data() + out + m, store,
-                            _mm256_and_ps(kept, _mm256_div_ps(num, w)));
+        _mm256_storeu_ps(w_out, _mm256_and_ps(kept, w));
+        _mm256_storeu_ps(d_out, _mm256_and_ps(kept, _mm256_div_ps(num, w)));
+        if (!whole) {
+          std::memcpy(slab->weight.data() + out + m, weight, sizeof(float) * lanes);
+          std::memcpy(slab->distance_mm.data() + out + m, distance, sizeof(float) * lanes);
+        }
       }
 #else
       for (int m = 0; m < ie - ib; ++m) {
