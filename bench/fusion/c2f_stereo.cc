@@ -5,6 +5,7 @@
 //              [--neighbours 2] [--factor 4] [--coarse-window 7] [--tile 64]
 //              [--margin-levels 2] [--trim 0.02] [--min-coarse 1]
 //              [--coarse-uniqueness 0] [--exact-warp] [--threads 0]
+//              [--speckle-area 0 --speckle-step MM]
 // The depth range of each camera is the nearest and farthest corner of the box (world
 // mm) along its axis, +-2 mm. Contrast is normalised (the Robovision frames are dark).
 // Writes OUT/<instant>/depth/<camera>.tiff (stereo/take_stereo.h layout) and prints one
@@ -59,6 +60,11 @@ int main(int argc, char** argv) {
                  "min_uniqueness of the coarse pass (0: --uniqueness)")
       ->capture_default_str();
   app.add_option("--threads", threads, "threads (0: all)")->capture_default_str();
+  stereo::SpeckleOptions speckle;
+  app.add_option("--speckle-area", speckle.min_area_px, "drop depth pieces of fewer px (0: none)")
+      ->capture_default_str();
+  app.add_option("--speckle-step", speckle.max_step_mm, "largest step within a piece, mm")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   const take::Take take = take::OpenTake(take_dir);
@@ -68,6 +74,7 @@ int main(int argc, char** argv) {
   options.stereo.normalize_contrast = true;
   options.stereo.min_uniqueness = uniqueness;
   options.stereo.num_threads = threads;
+  options.stereo.speckle = speckle;
   if (exact_warp) options.stereo.prewarp_neighbours = false;
   options.cluster.max_neighbours = neighbours;
   const double cpu0 = CpuSeconds();

@@ -12,7 +12,10 @@
 #      0.15 mm) over the box; stereo depth range = the nearest and farthest box corner
 #      over all cameras (+-2 mm), level step STEP_PX (default 1 px), contrast
 #      normalisation (the images are dark), NEIGHBOURS (default 2) nearest cameras, i.e.
-#      the two ring neighbours 30 degrees away, uniqueness margin UNIQ (default 0.07),
+#      the two ring neighbours 30 degrees away, uniqueness margin UNIQ (default 0.03),
+#      depth pieces of fewer than SPECKLE_AREA px (default 8000, about 1 % of a cropped
+#      frame) dropped, a piece's 4-neighbours within SPECKLE_STEP_MM (default 0.3 mm,
+#      two voxels) of each other (stereo/speckle.h),
 #      window(s) WINDOWS (default 17); fusion truncation and free-space clamp
 #      TRUNC_VOXELS voxels (default 1.5), optionally CONSISTENT other cameras must agree
 #      with a depth sample to CONSISTENCY_MM (default one voxel; fusion/consistency.h)
@@ -45,7 +48,9 @@ DATA=${DATA:-$ROOT/../shared/data/robovision}
 EVAL=$ROOT/../shared/tools/eval_cloud.py
 VOXEL_MM=${VOXEL_MM:-0.15}
 MARGIN=${MARGIN:-0.05}
-UNIQ=${UNIQ:-0.07}
+UNIQ=${UNIQ:-0.03}
+SPECKLE_AREA=${SPECKLE_AREA:-8000}
+SPECKLE_STEP_MM=${SPECKLE_STEP_MM:-0.3}
 WINDOWS=${WINDOWS:-17}
 NEIGHBOURS=${NEIGHBOURS:-2}
 CONSISTENT=${CONSISTENT:-0}
@@ -118,7 +123,9 @@ s = {"take": take, "out": "",
                 "window_sizes_px": [int(w) for w in "$WINDOWS".split()],
                 "level_step_px": float("$STEP_PX"),
                 "normalize_contrast": True, "min_uniqueness": float("$UNIQ"),
-                "max_neighbours": int("$NEIGHBOURS")},
+                "max_neighbours": int("$NEIGHBOURS"),
+                "speckle_area_px": int("$SPECKLE_AREA"),
+                "speckle_step_mm": float("$SPECKLE_STEP_MM")},
      "volume": {"origin_mm": [float(v) for v in lo], "voxel_size_mm": vox,
                 "dims": [int(d) for d in dims]},
      "fusion": {"truncation_mm": float("$TRUNC_VOXELS") * vox,
@@ -160,7 +167,7 @@ print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for
         --uniqueness "$UNIQ" --neighbours "$NEIGHBOURS" --factor "$C2F_FACTOR" \
         --coarse-window "$C2F_WINDOW" --tile "$C2F_TILE" --margin-levels "$C2F_MARGIN" \
         --min-coarse "$C2F_MIN_COARSE" --trim "$C2F_TRIM" --coarse-uniqueness "$C2F_UNIQ" \
-        ${EXACT_WARP:+--exact-warp} \
+        --speckle-area "$SPECKLE_AREA" --speckle-step "$SPECKLE_STEP_MM" ${EXACT_WARP:+--exact-warp} \
         > "$dst/stereo.log" 2>&1 ||
       ! /usr/bin/time -f "%U %S" -o "$dst/cpu_fuse.txt" "$DOME" fuse "$dst/take" \
         --depth-dir "$dst/depth" --out "$dst/run" --threads "$THREADS" "${fuse_args[@]}" \

@@ -134,6 +134,7 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   stereo::StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;
   coarse_options.window_sizes_px = {c2f.coarse_window_px};
+  coarse_options.speckle = {};  // stray coarse depths are trimmed per tile instead
   if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
   if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
   const stereo::StereoResult coarse_result = stereo::ComputeDepth(coarse, coarse_options);
@@ -230,6 +231,7 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
         stereo::StereoOptions o = options;
         o.normalize_contrast = false;
         o.num_threads = 1;
+        o.speckle = {};  // over the whole image below: a piece may span tiles
         o.z_min_mm = job.z_lo;
         o.z_max_mm = job.z_hi;
         if (options.num_levels > 0) {
@@ -272,6 +274,7 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
   if (stats) *stats = st;
   for (auto& ri : result.range_images) {
+    stereo::RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
     ri.density = double(cv::countNonZero(ri.depth_mm)) / (double(width) * height);
   }
   return result;

@@ -115,6 +115,7 @@ void StereoOptions::Check() const {
   core::Require(std::isfinite(min_texture_grey) && min_texture_grey >= 0.0, "min_texture_grey",
                 "must be >= 0");
   core::Require(num_threads >= 0, "num_threads", "must be >= 0 (0 = all)");
+  speckle.Check();
 }
 
 StereoOptions RealImageOptions() {
@@ -314,6 +315,7 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
         ++n_valid;
       }
     }
+    n_valid -= RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
     ri.density = double(n_valid) / (double(width) * height);
     result.range_images.push_back(std::move(ri));
   }

@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "geometry/tsai_camera.h"
+#include "stereo/speckle.h"
 
 namespace dome::stereo {
 
@@ -76,6 +77,9 @@ struct StereoOptions {
   // bilinear, interpolation of the neighbour; cost_kernel.h, KernelInput::prewarp).
   // false = the exact warp (`dome stereo --exact-warp`, JSON "prewarp_neighbours": false).
   bool prewarp_neighbours = true;
+  // Small pieces of each range image removed after matching (stereo/speckle.h); off by
+  // default. Coarse-to-fine stereo removes them from the whole image, not per tile.
+  SpeckleOptions speckle;
 
   // Throws core::InputError naming the first option out of range (e.g. "z_min_mm").
   void Check() const;

@@ -25,6 +25,8 @@ runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
   s.set_max_neighbours(o.cluster.max_neighbours);
   s.set_max_axis_angle_deg(o.cluster.max_axis_angle_deg);
   s.set_prewarp_neighbours(o.stereo.prewarp_neighbours);
+  s.set_speckle_area_px(o.stereo.speckle.min_area_px);
+  s.set_speckle_step_mm(o.stereo.speckle.max_step_mm);
   if (o.coarse_to_fine) *s.mutable_coarse_to_fine() = *o.coarse_to_fine;
   return s;
 }
@@ -48,6 +50,8 @@ TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std
   if (s.has_max_neighbours()) o.cluster.max_neighbours = s.max_neighbours();
   if (s.has_max_axis_angle_deg()) o.cluster.max_axis_angle_deg = s.max_axis_angle_deg();
   if (s.has_prewarp_neighbours()) st.prewarp_neighbours = s.prewarp_neighbours();
+  if (s.has_speckle_area_px()) st.speckle.min_area_px = s.speckle_area_px();
+  if (s.has_speckle_step_mm()) st.speckle.max_step_mm = s.speckle_step_mm();
   if (s.has_coarse_to_fine()) o.coarse_to_fine = s.coarse_to_fine();
   try {
     o.Check();

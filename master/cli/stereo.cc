@@ -54,6 +54,12 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--min-texture", s.min_texture_grey, "reference window grey std-dev")
       ->capture_default_str();
+  cmd->add_option("--speckle-area", s.speckle.min_area_px,
+                  "drop depth pieces of fewer pixels (0 = keep all; stereo/speckle.h)")
+      ->capture_default_str();
+  cmd->add_option("--speckle-step", s.speckle.max_step_mm,
+                  "largest depth step within one piece, mm")
+      ->capture_default_str();
   cmd->add_option("--max-neighbours", a->options.cluster.max_neighbours,
                   "cluster size without the reference, when rig.json names none")
       ->capture_default_str();
@@ -81,6 +87,8 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       if (given("--min-curvature")) options.stereo.min_curvature = f.stereo.min_curvature;
       if (given("--min-uniqueness")) options.stereo.min_uniqueness = f.stereo.min_uniqueness;
       if (given("--min-texture")) options.stereo.min_texture_grey = f.stereo.min_texture_grey;
+      if (given("--speckle-area")) options.stereo.speckle.min_area_px = f.stereo.speckle.min_area_px;
+      if (given("--speckle-step")) options.stereo.speckle.max_step_mm = f.stereo.speckle.max_step_mm;
       if (given("--max-neighbours")) options.cluster.max_neighbours = f.cluster.max_neighbours;
       if (given("--threads")) options.stereo.num_threads = f.stereo.num_threads;
     }

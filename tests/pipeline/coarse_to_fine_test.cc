@@ -113,6 +113,28 @@ TEST(CoarseToFine, ThreadCountDoesNotChangeTheResult) {
   EXPECT_EQ(cv::norm(a.reliability, b.reliability, cv::NORM_INF), 0.0);
 }
 
+TEST(CoarseToFine, SpecklesAreRemovedFromTheWholeImageNotPerTile) {
+  const auto in = PlaneInput(2000.0, true);
+  CoarseToFineOptions c2f;
+  c2f.coarse_factor = 2;
+  c2f.coarse_window_px = 5;
+  c2f.tile_px = 40;
+  stereo::StereoOptions o = Options();
+  const auto plain = ComputeDepthCoarseToFine(in, o, c2f).range_images[0];
+  // Pieces of fewer than 2000 px go: more than a tile (1600 px) holds, so a filter run
+  // per tile would leave nothing; the plane spans tiles and stays.
+  o.speckle.min_area_px = 2000;
+  o.speckle.max_step_mm = 20.0;
+  const auto filtered = ComputeDepthCoarseToFine(in, o, c2f).range_images[0];
+  stereo::RangeImage expected = plain;
+  stereo::RemoveSpeckles(o.speckle, &expected.depth_mm, &expected.reliability);
+  EXPECT_EQ(cv::norm(filtered.depth_mm, expected.depth_mm, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(filtered.reliability, expected.reliability, cv::NORM_INF), 0.0);
+  EXPECT_GT(filtered.density, 0.5);
+  EXPECT_DOUBLE_EQ(filtered.density,
+                   double(cv::countNonZero(expected.depth_mm)) / (kWidth * kHeight));
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});

@@ -47,6 +47,8 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   o.cluster.max_neighbours = 2;
   o.cluster.max_axis_angle_deg = 45;
   o.stereo.prewarp_neighbours = !StereoOptions().prewarp_neighbours;
+  o.stereo.speckle.min_area_px = 500;
+  o.stereo.speckle.max_step_mm = 0.25;
   const TakeStereoOptions r = ParseStereoOptionsJson(StereoOptionsToJson(o), "test");
   EXPECT_EQ(r.stereo.z_min_mm, 600);
   EXPECT_EQ(r.stereo.z_max_mm, 4200);
@@ -61,6 +63,8 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   EXPECT_EQ(r.cluster.max_neighbours, 2);
   EXPECT_EQ(r.cluster.max_axis_angle_deg, 45);
   EXPECT_EQ(r.stereo.prewarp_neighbours, !StereoOptions().prewarp_neighbours);
+  EXPECT_EQ(r.stereo.speckle.min_area_px, 500);
+  EXPECT_EQ(r.stereo.speckle.max_step_mm, 0.25);
 }
 
 TEST(StereoOptionsJsonTest, MissingFieldsKeepTheBase) {
@@ -91,6 +95,8 @@ TEST(StereoOptionsJsonTest, BadInputNamesTheField) {
                    {"o.json: window_sizes_px", "odd"});
   ExpectInputError([] { ParseStereoOptionsJson(R"({"max_neighbours": 0})", "o.json"); },
                    {"o.json: max_neighbours"});
+  ExpectInputError([] { ParseStereoOptionsJson(R"({"speckle_area_px": 100})", "o.json"); },
+                   {"o.json: speckle_step_mm", "positive"});
   dome::testing::TempDir dir;
   ExpectInputError([&] { ReadStereoOptionsJson(dir / "missing.json"); }, {"missing.json"});
 }
