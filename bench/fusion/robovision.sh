@@ -77,6 +77,8 @@ THREADS=${THREADS:-2}
 SLAB_PLANES=${SLAB_PLANES:-24}
 # The evaluated mesh is mesh.ply; 1 leaves it undecimated (the baselines do not decimate).
 DECIMATE=${DECIMATE:-1}
+# Taubin smoothing of mesh.ply (mesh/smooth.h), lambda|mu pairs; 0: none.
+SMOOTH=${SMOOTH:-10}
 # Heartbeat intervals before an in-process worker is presumed lost (dome run
 # --heartbeat-liveness; empty: dome's default). On a loaded machine the master can be
 # busy for seconds writing a result, and a stereo job is then lost and redone.
@@ -131,6 +133,7 @@ s = {"take": take, "out": "",
      "fusion": {"truncation_mm": float("$TRUNC_VOXELS") * vox,
                 "front_clamp_mm": float("$TRUNC_VOXELS") * vox},
      "slab_planes": int("$SLAB_PLANES"), "decimate_ratio": float("$DECIMATE"), "texture": False,
+     "smooth_iterations": int("$SMOOTH"),
      "write_previews": False}
 # Only what is asked for: the fields stay readable by builds without them.
 if int("$CONSISTENT") > 0: s["fusion"]["min_consistent_views"] = int("$CONSISTENT")
@@ -158,7 +161,8 @@ import json; s = json.load(open('$dst/session.json')); v = s['volume']; f = s['f
 print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for x in v['origin_mm']]
                + ['--dims'] + [str(x) for x in v['dims']] + ['--slab-planes', str(s['slab_planes']),
                '--truncation-mm', str(f['truncation_mm']), '--clamp-mm', str(f['front_clamp_mm']),
-               '--decimate-ratio', str(s['decimate_ratio'])]
+               '--decimate-ratio', str(s['decimate_ratio']),
+               '--smooth-iterations', str(s['smooth_iterations'])]
                + ['--consistent-views', str(f.get('min_consistent_views', 0)),
                   '--consistency-mm', str(f.get('consistency_tolerance_mm', v['voxel_size_mm'])),
                   '--min-weight', str(f.get('min_weight', 0))]))"))

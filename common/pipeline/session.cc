@@ -19,6 +19,11 @@ void SessionOptions::Check() const {
                 "must be positive, got " + std::to_string(slab_planes));
   core::Require(decimate_ratio > 0 && decimate_ratio <= 1, "session: decimate_ratio",
                 "must be in (0, 1], got " + std::to_string(decimate_ratio));
+  try {
+    smooth.Check();
+  } catch (const core::InputError& e) {
+    throw e.Under("session");
+  }
 }
 
 runtime::Session ReadSessionJson(const std::filesystem::path& path) {
@@ -106,6 +111,14 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   if (s.has_slab_planes()) o.slab_planes = s.slab_planes();
   if (s.has_decimate_ratio()) o.decimate_ratio = s.decimate_ratio();
   if (s.has_texture()) o.texture = s.texture();
+  if (s.has_smooth_iterations()) o.smooth.iterations = s.smooth_iterations();
+  if (s.has_smooth_lambda()) o.smooth.lambda = s.smooth_lambda();
+  if (s.has_smooth_mu()) o.smooth.mu = s.smooth_mu();
+  try {
+    o.smooth.Check();
+  } catch (const core::InputError& e) {
+    throw e.Under(where);
+  }
   core::Require(o.slab_planes > 0, where + ": slab_planes",
                 "must be positive, got " + std::to_string(o.slab_planes));
   core::Require(o.decimate_ratio > 0 && o.decimate_ratio <= 1, where + ": decimate_ratio",

@@ -14,6 +14,7 @@
 
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
+#include "mesh/smooth.h"
 #include "pipeline/coarse_to_fine.h"
 #include "runtime.pb.h"
 #include "stereo/options_json.h"
@@ -29,6 +30,7 @@ struct SessionOptions {
   int slab_planes = 16;              // voxel planes per fusion job (count)
   double decimate_ratio = 0.1;       // fraction of triangles kept, (0, 1]; 1: not decimated
   bool texture = true;               // also write textured.obj/.mtl/.png
+  mesh::SmoothOptions smooth;        // of the marching-cubes surface (mesh.ply); off
 
   // Throws core::InputError naming "session: <field>" for the first bad option.
   void Check() const;

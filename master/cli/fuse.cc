@@ -3,7 +3,8 @@
 // mesh/marching_cubes.h, mesh/decimate.h, mesh/texture.h). Until stereo depth exists the
 // input is the take's truth depth with optional noise (--noise-mm); --depth-dir takes
 // stereo output (DIR/<instant>/<camera>.tiff).
-//   OUT/<instant>/mesh.ply             marching cubes, binary PLY, world mm
+//   OUT/<instant>/mesh.ply             marching cubes (Taubin-smoothed with
+//                                      --smooth-iterations), binary PLY, world mm
 //   OUT/<instant>/mesh_decimated.ply   quadric decimation, per-vertex colour
 //   OUT/<instant>/textured.obj/.mtl/.png  with --texture
 //   OUT/<instant>/textured.glb         with --texture --glb (else mesh_decimated.glb,
@@ -40,6 +41,7 @@
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
 #include "mesh/preview.h"
+#include "mesh/smooth.h"
 #include "mesh/texture.h"
 #include "synth/batter.h"
 #include "synth/synth.h"
@@ -136,6 +138,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
     bool texture = false, evaluate = false, glb = false;
     std::string preview;
     fusion::FusionOptions fusion;
+    mesh::SmoothOptions smooth;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("TAKE", a->take, "take folder")->required();
@@ -172,6 +175,9 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
                   "largest depth difference that agrees, mm (default 1 voxel)");
   cmd->add_option("--min-weight", a->fusion.min_weight,
                   "voxels of less summed weight (images) are left unobserved (0: keep all)")
+      ->capture_default_str();
+  cmd->add_option("--smooth-iterations", a->smooth.iterations,
+                  "Taubin smoothing of mesh.ply, lambda|mu pairs (0: none; mesh/smooth.h)")
       ->capture_default_str();
   cmd->add_option("--decimate-ratio", a->decimate_ratio, "decimation target, fraction of triangles")
       ->capture_default_str();
@@ -243,6 +249,9 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
         t_mc += w.ElapsedSeconds();
       }
       io::Mesh surface = mc.Finish();
+      w.Restart();
+      mesh::SmoothTaubin(a->smooth, &surface);
+      t_mc += w.ElapsedSeconds();
       io::WritePly(dir / "mesh.ply", surface, {io::PlyFormat::kBinaryLittleEndian, {"units mm"}});
       w.Restart();
       mesh::DecimationOptions dec;

@@ -354,6 +354,9 @@ struct Master::Impl {
     canon.set_slab_planes(s.options.slab_planes);
     canon.set_decimate_ratio(s.options.decimate_ratio);
     canon.set_texture(s.options.texture);
+    canon.set_smooth_iterations(s.options.smooth.iterations);
+    canon.set_smooth_lambda(s.options.smooth.lambda);
+    canon.set_smooth_mu(s.options.smooth.mu);
     canon.set_write_previews(s.options.stereo.write_previews);
     canon.set_noop_jobs(s.spec.noop_jobs());
     std::string bytes;
@@ -550,7 +553,8 @@ struct Master::Impl {
     if (!stream) {
       stream =
           std::make_unique<SurfaceStream>(s->options.grid, s->num_slabs, &blobs,
-                                          s->out() / s->graph->instants()[instant], s->blob_dir());
+                                          s->out() / s->graph->instants()[instant], s->blob_dir(),
+                                          s->options.smooth);
     }
     stream->Feed(slab, blob.sha256(), std::move(decoded));
   }

@@ -12,8 +12,10 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 SurfaceStream::SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobStore* store,
-                             const fs::path& dir, const fs::path& blob_dir)
+                             const fs::path& dir, const fs::path& blob_dir,
+                             const mesh::SmoothOptions& smooth)
     : grid_(grid),
+      smooth_(smooth),
       store_(store),
       dir_(dir),
       blob_dir_(blob_dir),
@@ -101,13 +103,14 @@ void SurfaceStream::Run() {
   std::optional<runtime::BlobRef> mesh;
   std::string error;
   try {
-    const io::Mesh surface =
+    io::Mesh surface =
         pipeline::ExtractSurfaceFromSlabs(grid_, int(slabs_.size()), [&](int index) {
           add_busy();
           WaitForSlab(index);
           since = Clock::now();  // the wait was not work
           return TakeSlab(index);
         });
+    mesh::SmoothTaubin(smooth_, &surface);
     const std::string ply = pipeline::EncodeMeshPly(surface);
     fs::create_directories(dir_);
     io::WriteFileAtomically(dir_ / "mesh.ply", ply);

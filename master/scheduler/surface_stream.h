@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "fusion/volume.h"
+#include "mesh/smooth.h"
 #include "runtime.pb.h"
 #include "scheduler/blob_store.h"
 
@@ -28,8 +29,10 @@ namespace dome::scheduler {
 class SurfaceStream {
  public:
   // `dir`: OUT/<instant>; `blob_dir`: where the mesh blob goes (OUT/.blobs).
+  // `smooth`: applied to the whole surface before it is written (mesh/smooth.h).
   SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobStore* store,
-                const std::filesystem::path& dir, const std::filesystem::path& blob_dir);
+                const std::filesystem::path& dir, const std::filesystem::path& blob_dir,
+                const mesh::SmoothOptions& smooth = {});
   // Aborts a stream still waiting for slabs and joins its thread.
   ~SurfaceStream();
   SurfaceStream(const SurfaceStream&) = delete;
@@ -61,6 +64,7 @@ class SurfaceStream {
   std::shared_ptr<const fusion::Slab> TakeSlab(int index);
 
   const fusion::VolumeGrid grid_;
+  const mesh::SmoothOptions smooth_;
   BlobStore* store_;
   const std::filesystem::path dir_, blob_dir_;
   mutable std::mutex mutex_;

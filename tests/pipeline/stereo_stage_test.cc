@@ -169,6 +169,31 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   EXPECT_EQ(read.stereo().coarse_to_fine().clip_max_mm(2), 3.0);
 }
 
+TEST(SessionOptions, SmoothingAndSpeckleFieldsReadAndAreChecked) {
+  TempDir dir;
+  io::WriteFileAtomically(dir / "session.json",
+                          R"({"take": "t", "smooth_iterations": 6, "smooth_mu": -0.6,)"
+                          R"( "stereo": {"speckle_area_px": 400, "speckle_step_mm": 0.5}})");
+  const SessionOptions o = ResolveSessionOptions(ReadSessionJson(dir / "session.json"), "s.json");
+  EXPECT_EQ(o.smooth.iterations, 6);
+  EXPECT_EQ(o.smooth.lambda, mesh::SmoothOptions{}.lambda);
+  EXPECT_EQ(o.smooth.mu, -0.6);
+  EXPECT_EQ(o.stereo.stereo.speckle.min_area_px, 400);
+  EXPECT_EQ(o.stereo.stereo.speckle.max_step_mm, 0.5);
+  EXPECT_EQ(SessionOptions{}.smooth.iterations, 0);  // off unless asked for
+  runtime::Session session;
+  session.set_smooth_iterations(-1);
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
+                   {"s.json: smooth_iterations", ">= 0"});
+  session.set_smooth_iterations(3);
+  session.set_smooth_mu(-0.2);
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); }, {"s.json: smooth_mu"});
+  session.clear_smooth_mu();
+  session.mutable_stereo()->set_speckle_area_px(100);
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
+                   {"s.json: speckle_step_mm", "positive"});
+}
+
 // The files a worker returns with a stereo result are checked against the result before
 // the master writes them: every file there, at its path, decoding to the result's maps.
 TEST(StereoFiles, AreCheckedAgainstTheResult) {

@@ -10,6 +10,7 @@
 #include "fusion/volume.h"
 #include "io/file_util.h"
 #include "io/ply.h"
+#include "mesh/smooth.h"
 #include "pipeline/stages.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
@@ -83,6 +84,28 @@ TEST(SurfaceStream, SlabsFedOutOfOrderGiveTheMeshOfTheWholeVolume) {
   for (const auto& v : parsed.vertices) EXPECT_NEAR(v.cast<double>().norm(), 70.0, 5.0);
   EXPECT_GE(stream.busy_seconds(), 0.0);
   EXPECT_LT(stream.busy_seconds(), 30.0);
+}
+
+TEST(SurfaceStream, SmoothsTheWholeSurfaceBeforeWritingIt) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  BlobStore store;
+  mesh::SmoothOptions smooth;
+  smooth.iterations = 4;
+  io::Mesh expected = pipeline::ExtractSurface(
+      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; });
+  const std::string unsmoothed = pipeline::EncodeMeshPly(expected);
+  mesh::SmoothTaubin(smooth, &expected);
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
+                       dir.path() / "blobs", smooth);
+  for (int k = 0; k < int(sphere.slabs.size()); ++k) {
+    stream.Feed(k, store.AddBytes(dir.path() / "blobs", sphere.slabs[k], "slab").sha256());
+  }
+  ASSERT_TRUE(WaitFinished(stream));
+  stream.Result();
+  const std::string written = io::ReadFileBytes(dir.path() / "t0" / "mesh.ply");
+  EXPECT_TRUE(written == pipeline::EncodeMeshPly(expected));
+  EXPECT_FALSE(written == unsmoothed);
 }
 
 TEST(SurfaceStream, AbortEndsAStreamWaitingForSlabsWithAnError) {
