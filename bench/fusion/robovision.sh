@@ -16,15 +16,16 @@
 #      depth pieces of fewer than SPECKLE_AREA px (default 8000, about 1 % of a cropped
 #      frame) dropped, a piece's 4-neighbours within SPECKLE_STEP_MM (default 0.3 mm,
 #      two voxels) of each other (stereo/speckle.h),
-#      window(s) WINDOWS (default 17); fusion truncation and free-space clamp
-#      TRUNC_VOXELS voxels (default 1.5), optionally CONSISTENT other cameras must agree
+#      window(s) WINDOWS (default 13); fusion truncation and free-space clamp
+#      TRUNC_VOXELS voxels (default 1.0), optionally CONSISTENT other cameras must agree
 #      with a depth sample to CONSISTENCY_MM (default one voxel; fusion/consistency.h)
 #      and voxels need MIN_WEIGHT images;
 #   4. the reconstruction, timed (wall and CPU seconds, user + system; the import is
 #      not timed):
 #      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS
 #        (default 1) --threads THREADS (default 2), SLAB_PLANES (24) planes per fusion
-#        job, decimation ratio DECIMATE (default 1: none, mesh.ply is what is evaluated);
+#        job, SMOOTH (default 10) Taubin lambda|mu pairs on mesh.ply (mesh/smooth.h),
+#        decimation ratio DECIMATE (default 1: none, mesh.ply is what is evaluated);
 #        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
 #        values below and the volume box as clip box (each camera's depth range: its
 #        nearest and farthest box corner +-2 mm); C2F=0: the full-range search;
@@ -51,10 +52,10 @@ MARGIN=${MARGIN:-0.05}
 UNIQ=${UNIQ:-0.03}
 SPECKLE_AREA=${SPECKLE_AREA:-8000}
 SPECKLE_STEP_MM=${SPECKLE_STEP_MM:-0.3}
-WINDOWS=${WINDOWS:-17}
+WINDOWS=${WINDOWS:-13}
 NEIGHBOURS=${NEIGHBOURS:-2}
 CONSISTENT=${CONSISTENT:-0}
-TRUNC_VOXELS=${TRUNC_VOXELS:-1.5}
+TRUNC_VOXELS=${TRUNC_VOXELS:-1.0}
 MIN_WEIGHT=${MIN_WEIGHT:-0}
 CONSISTENCY_MM=${CONSISTENCY_MM:-0}
 STEP_PX=${STEP_PX:-1}
