@@ -47,6 +47,15 @@ std::vector<double> InteriorErrors(const cv::Mat& depth, double plane_mm, int* i
   return errors;
 }
 
+// Coarse pass at half resolution with 5 px windows, fine tiles of `tile_px`.
+CoarseToFineOptions HalfScaleTiles(int tile_px) {
+  CoarseToFineOptions c2f;
+  c2f.coarse_factor = 2;
+  c2f.coarse_window_px = 5;
+  c2f.tile_px = tile_px;
+  return c2f;
+}
+
 TEST(CoarseToFine, ReducedCameraProjectsToBlockCentres) {
   const auto cam = PlaneCamera("c", 10, -20, kWidth, kHeight, kFocalPx);
   for (int f : {2, 4}) {
@@ -99,10 +108,7 @@ TEST(CoarseToFine, RecoversThePlaneAsTheFullSearchDoes) {
 
 TEST(CoarseToFine, ThreadCountDoesNotChangeTheResult) {
   const auto in = PlaneInput(2000.0, true);
-  CoarseToFineOptions c2f;
-  c2f.coarse_factor = 2;
-  c2f.coarse_window_px = 5;
-  c2f.tile_px = 40;
+  const CoarseToFineOptions c2f = HalfScaleTiles(40);
   stereo::StereoOptions one = Options(), three = Options();
   one.num_threads = 1;
   three.num_threads = 3;
@@ -115,10 +121,7 @@ TEST(CoarseToFine, ThreadCountDoesNotChangeTheResult) {
 
 TEST(CoarseToFine, SpecklesAreRemovedFromTheWholeImageNotPerTile) {
   const auto in = PlaneInput(2000.0, true);
-  CoarseToFineOptions c2f;
-  c2f.coarse_factor = 2;
-  c2f.coarse_window_px = 5;
-  c2f.tile_px = 40;
+  const CoarseToFineOptions c2f = HalfScaleTiles(40);
   stereo::StereoOptions o = Options();
   const auto plain = ComputeDepthCoarseToFine(in, o, c2f).range_images[0];
   // Pieces of fewer than 2000 px go: more than a tile (1600 px) holds, so a filter run
