@@ -189,6 +189,11 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
   auto* truncation = cmd->get_option("--truncation-mm");
   auto* clamp = cmd->get_option("--clamp-mm");
   cmd->callback([=] {
+    try {
+      a->smooth.Check();
+    } catch (const core::InputError& e) {
+      throw e.Under("--smooth-iterations");
+    }
     const take::Take take = take::OpenTake(a->take);
     fusion::VolumeGrid grid;
     grid.voxel_size_mm = a->voxel_mm;

@@ -33,7 +33,8 @@ struct SessionArgs {
   std::string source, out;
   std::vector<std::string> instants;
   double voxel_mm = 0, decimate_ratio = 0;
-  int slab_planes = 0, levels = -1, smooth_iterations = -1;
+  int slab_planes = 0, levels = -1, smooth_iterations = 0;
+  bool smooth_given = false;  // any value, a bad one included, goes to the session
   std::vector<int> windows;
   bool no_texture = false, no_preview = false;
 };
@@ -52,7 +53,8 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
   cmd->add_option("--decimate-ratio", a->decimate_ratio,
                   "fraction of triangles kept (default 0.1)");
   cmd->add_option("--smooth-iterations", a->smooth_iterations,
-                  "Taubin smoothing of mesh.ply, lambda|mu pairs (default 0: none)");
+                  "Taubin smoothing of mesh.ply, lambda|mu pairs (default 0: none)")
+      ->each([a](const std::string&) { a->smooth_given = true; });
   cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
   cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
 }
@@ -83,7 +85,7 @@ runtime::Session MakeSession(const SessionArgs& a) {
     for (int w : a.windows) s.mutable_stereo()->add_window_sizes_px(w);
   }
   if (a.decimate_ratio > 0) s.set_decimate_ratio(a.decimate_ratio);
-  if (a.smooth_iterations >= 0) s.set_smooth_iterations(a.smooth_iterations);
+  if (a.smooth_given) s.set_smooth_iterations(a.smooth_iterations);
   if (a.no_texture) s.set_texture(false);
   if (a.no_preview) s.set_write_previews(false);
   pipeline::ResolveSessionOptions(s, "session");  // bad options fail here, not remotely

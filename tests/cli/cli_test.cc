@@ -105,6 +105,29 @@ TEST(Cli, SynthBadOptionsNameTheFlag) {
   EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
 }
 
+// Smoothing and speckle flags are checked before any take is opened or any work runs.
+TEST(Cli, SmoothingAndSpeckleFlagsNameTheField) {
+  const struct {
+    const char* args;
+    const char* message;
+  } cases[] = {
+      {"fuse /nonexistent --out /tmp/dome_never_written --smooth-iterations -2",
+       "--smooth-iterations: smooth_iterations: must be >= 0"},
+      {"run /nonexistent --out /tmp/dome_never_written --smooth-iterations -1",
+       "session: smooth_iterations: must be >= 0"},
+      {"stereo /nonexistent --out /tmp/dome_never_written --speckle-area 100",
+       "speckle_step_mm: must be positive when speckle_area_px is set"},
+      {"stereo /nonexistent --out /tmp/dome_never_written --speckle-area -3",
+       "speckle_area_px: must be >= 0"},
+  };
+  for (const auto& c : cases) {
+    const Result r = RunDomeBinary(c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.args << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
+}
+
 TEST(Cli, SynthSmallTakePassesInfo) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take";
