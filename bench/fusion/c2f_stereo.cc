@@ -59,7 +59,12 @@ int main(int argc, char** argv) {
   app.add_option("--coarse-uniqueness", c2f.coarse_min_uniqueness,
                  "min_uniqueness of the coarse pass (0: --uniqueness)")
       ->capture_default_str();
+  app.add_option("--fill", c2f.fill_min_neighbours,
+                 "searched neighbour tiles that fill a tile without coarse depths (0: none)")
+      ->capture_default_str();
   app.add_option("--threads", threads, "threads (0: all)")->capture_default_str();
+  bool sqrt_greys = false;
+  app.add_flag("--sqrt-greys", sqrt_greys, "match the square roots of the greys");
   stereo::SpeckleOptions speckle;
   app.add_option("--speckle-area", speckle.min_area_px, "drop depth pieces of fewer px (0: none)")
       ->capture_default_str();
@@ -72,6 +77,7 @@ int main(int argc, char** argv) {
   stereo::TakeStereoOptions options;
   options.stereo.window_sizes_px = {window};
   options.stereo.normalize_contrast = true;
+  options.stereo.sqrt_greys = sqrt_greys;
   options.stereo.min_uniqueness = uniqueness;
   options.stereo.num_threads = threads;
   options.stereo.speckle = speckle;
@@ -101,10 +107,10 @@ int main(int argc, char** argv) {
     std::printf(
         "{\"camera\": \"%s\", \"z_mm\": [%.1f, %.1f], \"levels\": %d, \"density\": %.4f, "
         "\"seconds\": %.2f, \"cpu_seconds\": %.2f, \"coarse_levels\": %d, \"tiles\": %d, "
-        "\"tiles_matched\": %d, \"mean_tile_levels\": %.1f, \"coarse_seconds\": %.2f, "
+        "\"tiles_matched\": %d, \"tiles_filled\": %d, \"mean_tile_levels\": %.1f, \"coarse_seconds\": %.2f, "
         "\"fine_seconds\": %.2f}\n",
         cam.id.c_str(), o.z_min_mm, o.z_max_mm, r.num_levels, r.range_images[0].density,
-        watch.ElapsedSeconds(), CpuSeconds() - cpu, st.coarse_levels, st.tiles, st.tiles_matched,
+        watch.ElapsedSeconds(), CpuSeconds() - cpu, st.coarse_levels, st.tiles, st.tiles_matched, st.tiles_filled,
         st.mean_tile_levels, st.coarse_seconds, st.fine_seconds);
     std::fflush(stdout);
     stereo::WriteStereoResult(r, instant, out, false);

@@ -11,9 +11,11 @@
 #   3. OUT/SCENE/session.json (proto/runtime.proto Session): voxels of VOXEL_MM (default
 #      0.15 mm) over the box; stereo depth range = the nearest and farthest box corner
 #      over all cameras (+-2 mm), level step STEP_PX (default 1 px), contrast
-#      normalisation (the images are dark), NEIGHBOURS (default 2) nearest cameras, i.e.
-#      the two ring neighbours 30 degrees away, uniqueness margin UNIQ (default 0.03),
-#      depth pieces of fewer than SPECKLE_AREA px (default 8000, about 1 % of a cropped
+#      normalisation (the images are dark), with SQRT_GREYS=1 (default) the square roots
+#      of the greys matched (multi_baseline.h sqrt_greys: shot noise levelled),
+#      NEIGHBOURS (default 2) nearest cameras, i.e. the two ring neighbours 30 degrees
+#      away, uniqueness margin UNIQ (default 0.02),
+#      depth pieces of fewer than SPECKLE_AREA px (default 20000, about 3 % of a cropped
 #      frame) dropped, a piece's 4-neighbours within SPECKLE_STEP_MM (default 0.3 mm,
 #      two voxels) of each other (stereo/speckle.h),
 #      window(s) WINDOWS (default 13); fusion truncation and free-space clamp
@@ -24,7 +26,7 @@
 #      not timed):
 #      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS
 #        (default 1) --threads THREADS (default 2), SLAB_PLANES (24) planes per fusion
-#        job, SMOOTH (default 10) Taubin lambda|mu pairs on mesh.ply (mesh/smooth.h),
+#        job, SMOOTH (default 15) Taubin lambda|mu pairs on mesh.ply (mesh/smooth.h),
 #        decimation ratio DECIMATE (default 1: none, mesh.ply is what is evaluated);
 #        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
 #        values below and the volume box as clip box (each camera's depth range: its
@@ -35,7 +37,9 @@
 #        matched with window C2F_WINDOW (7) and uniqueness C2F_UNIQ (0.5); tiles of
 #        C2F_TILE (64) px with at least C2F_MIN_COARSE (8) coarse depths around them
 #        search those depths (C2F_TRIM (0.2) of them dropped at each end) +- C2F_MARGIN
-#        (2) coarse levels with the first window of WINDOWS; EXACT_WARP=1: no pre-warped
+#        (2) coarse levels with the first window of WINDOWS, tiles with fewer but at
+#        least C2F_FILL (1) searched tiles around them the union of those tiles' depths
+#        (0: none); EXACT_WARP=1: no pre-warped
 #        neighbours. Then `dome fuse --depth-dir` with the session's volume and fusion
 #        options;
 #   5. ../shared/tools/eval_cloud.py --recon-unit 1 of OUT/SCENE/run/<instant>/mesh.ply
@@ -49,13 +53,15 @@ DATA=${DATA:-$ROOT/../shared/data/robovision}
 EVAL=$ROOT/../shared/tools/eval_cloud.py
 VOXEL_MM=${VOXEL_MM:-0.15}
 MARGIN=${MARGIN:-0.05}
-UNIQ=${UNIQ:-0.03}
-SPECKLE_AREA=${SPECKLE_AREA:-8000}
+UNIQ=${UNIQ:-0.02}
+SQRT_GREYS=${SQRT_GREYS:-1}
+SPECKLE_AREA=${SPECKLE_AREA:-20000}
 SPECKLE_STEP_MM=${SPECKLE_STEP_MM:-0.3}
 WINDOWS=${WINDOWS:-13}
 NEIGHBOURS=${NEIGHBOURS:-2}
 CONSISTENT=${CONSISTENT:-0}
 TRUNC_VOXELS=${TRUNC_VOXELS:-1.0}
+CLAMP_VOXELS=${CLAMP_VOXELS:-$TRUNC_VOXELS}
 MIN_WEIGHT=${MIN_WEIGHT:-0}
 CONSISTENCY_MM=${CONSISTENCY_MM:-0}
 STEP_PX=${STEP_PX:-1}
@@ -69,6 +75,7 @@ C2F_MARGIN=${C2F_MARGIN:-2}
 C2F_MIN_COARSE=${C2F_MIN_COARSE:-8}
 C2F_TRIM=${C2F_TRIM:-0.2}
 C2F_UNIQ=${C2F_UNIQ:-0.5}
+C2F_FILL=${C2F_FILL:-1}
 CROP=${CROP:-1}
 CROP_MARGIN_PX=${CROP_MARGIN_PX:-16}
 # One take instant: one in-process worker with both threads keeps every stage parallel
@@ -79,7 +86,7 @@ SLAB_PLANES=${SLAB_PLANES:-24}
 # The evaluated mesh is mesh.ply; 1 leaves it undecimated (the baselines do not decimate).
 DECIMATE=${DECIMATE:-1}
 # Taubin smoothing of mesh.ply (mesh/smooth.h), lambda|mu pairs; 0: none.
-SMOOTH=${SMOOTH:-10}
+SMOOTH=${SMOOTH:-15}
 # Heartbeat intervals before an in-process worker is presumed lost (dome run
 # --heartbeat-liveness; empty: dome's default). On a loaded machine the master can be
 # busy for seconds writing a result, and a stereo job is then lost and redone.
@@ -125,14 +132,15 @@ s = {"take": take, "out": "",
      "stereo": {"z_min_mm": max(1.0, min(zs) - 2), "z_max_mm": max(zs) + 2,
                 "window_sizes_px": [int(w) for w in "$WINDOWS".split()],
                 "level_step_px": float("$STEP_PX"),
-                "normalize_contrast": True, "min_uniqueness": float("$UNIQ"),
+                "normalize_contrast": True, "sqrt_greys": "$SQRT_GREYS" == "1",
+                "min_uniqueness": float("$UNIQ"),
                 "max_neighbours": int("$NEIGHBOURS"),
                 "speckle_area_px": int("$SPECKLE_AREA"),
                 "speckle_step_mm": float("$SPECKLE_STEP_MM")},
      "volume": {"origin_mm": [float(v) for v in lo], "voxel_size_mm": vox,
                 "dims": [int(d) for d in dims]},
      "fusion": {"truncation_mm": float("$TRUNC_VOXELS") * vox,
-                "front_clamp_mm": float("$TRUNC_VOXELS") * vox},
+                "front_clamp_mm": float("$CLAMP_VOXELS") * vox},
      "slab_planes": int("$SLAB_PLANES"), "decimate_ratio": float("$DECIMATE"), "texture": False,
      "smooth_iterations": int("$SMOOTH"),
      "write_previews": False}
@@ -148,6 +156,7 @@ if "$STEREO" == "run" and "$C2F" == "1":
         "tile_px": int("$C2F_TILE"), "margin_levels": float("$C2F_MARGIN"),
         "trim_fraction": float("$C2F_TRIM"), "min_coarse_depths": int("$C2F_MIN_COARSE"),
         "coarse_min_uniqueness": float("$C2F_UNIQ"),
+        "fill_min_neighbours": int("$C2F_FILL"),
         "clip_min_mm": [float(v) for v in lo], "clip_max_mm": [float(v) for v in hi],
         "clip_pad_mm": 2.0}
 if "$EXACT_WARP" != "": s["stereo"]["prewarp_neighbours"] = False  # EXACT_WARP=1
@@ -172,7 +181,9 @@ print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for
         --uniqueness "$UNIQ" --neighbours "$NEIGHBOURS" --factor "$C2F_FACTOR" \
         --coarse-window "$C2F_WINDOW" --tile "$C2F_TILE" --margin-levels "$C2F_MARGIN" \
         --min-coarse "$C2F_MIN_COARSE" --trim "$C2F_TRIM" --coarse-uniqueness "$C2F_UNIQ" \
+        --fill "$C2F_FILL" \
         --speckle-area "$SPECKLE_AREA" --speckle-step "$SPECKLE_STEP_MM" ${EXACT_WARP:+--exact-warp} \
+        $( [ "$SQRT_GREYS" = 1 ] && echo --sqrt-greys ) \
         > "$dst/stereo.log" 2>&1 ||
       ! /usr/bin/time -f "%U %S" -o "$dst/cpu_fuse.txt" "$DOME" fuse "$dst/take" \
         --depth-dir "$dst/depth" --out "$dst/run" --threads "$THREADS" "${fuse_args[@]}" \

@@ -83,6 +83,9 @@ void CoarseToFineOptions::Check() const {
                 "must be >= 0, got " + std::to_string(coarse_min_uniqueness));
   core::Require(min_coarse_depths >= 1, "coarse_to_fine.min_coarse_depths",
                 "must be at least 1, got " + std::to_string(min_coarse_depths));
+  core::Require(fill_min_neighbours >= 0 && fill_min_neighbours <= 8,
+                "coarse_to_fine.fill_min_neighbours",
+                "must be in 0..8 (0: no filling), got " + std::to_string(fill_min_neighbours));
 }
 
 geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor) {
@@ -121,7 +124,7 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
     greys.push_back(
-        stereo::GreyImage(*views[i], options.normalize_contrast, /*undistort=*/false,
+        stereo::GreyImage(*views[i], options, /*undistort=*/false,
                           (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
   }
 
@@ -132,7 +135,8 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
     coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), Reduce(greys[i], f)});
   }
   stereo::StereoOptions coarse_options = options;
-  coarse_options.normalize_contrast = false;
+  coarse_options.normalize_contrast = false;  // the greys above are mapped already
+  coarse_options.sqrt_greys = false;
   coarse_options.window_sizes_px = {c2f.coarse_window_px};
   coarse_options.speckle = {};  // stray coarse depths are trimmed per tile instead
   if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
@@ -169,9 +173,13 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   };
   std::vector<TileJob> jobs;
   std::vector<float> depths;
+  const int tiles_x = (width + c2f.tile_px - 1) / c2f.tile_px;
+  const int tiles_y = (height + c2f.tile_px - 1) / c2f.tile_px;
+  std::vector<int> job_of(size_t(tiles_x) * tiles_y, -1);  // tile -> jobs index, -1: none
   for (int ty = 0; ty < height; ty += c2f.tile_px) {
     for (int tx = 0; tx < width; tx += c2f.tile_px) {
       const cv::Rect tile = cv::Rect(tx, ty, c2f.tile_px, c2f.tile_px) & image;
+      const size_t tile_index = size_t(ty / c2f.tile_px) * tiles_x + tx / c2f.tile_px;
       // Coarse depths over the tile, its windows and one coarse pixel more.
       const int g = half + f;
       const cv::Rect around =
@@ -196,7 +204,35 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
       const double z_lo = std::max(options.z_min_mm, 1.0 / (1.0 / near_z + margin_w));
       const double far_w = 1.0 / far_z - margin_w;
       const double z_hi = far_w > 0 ? std::min(options.z_max_mm, 1.0 / far_w) : options.z_max_mm;
-      if (z_hi > z_lo) jobs.push_back({tile, z_lo, z_hi});
+      if (z_hi > z_lo) {
+        job_of[tile_index] = int(jobs.size());
+        jobs.push_back({tile, z_lo, z_hi});
+      }
+    }
+  }
+  // Tiles without coarse depths, beside searched ones, search the union of their bounds.
+  if (c2f.fill_min_neighbours > 0) {
+    const size_t searched = jobs.size();  // filled tiles do not fill others
+    for (int by = 0; by < tiles_y; ++by) {
+      for (int bx = 0; bx < tiles_x; ++bx) {
+        if (job_of[size_t(by) * tiles_x + bx] >= 0) continue;
+        int count = 0;
+        double z_lo = options.z_max_mm, z_hi = options.z_min_mm;
+        for (int ny = std::max(0, by - 1); ny <= std::min(tiles_y - 1, by + 1); ++ny) {
+          for (int nx = std::max(0, bx - 1); nx <= std::min(tiles_x - 1, bx + 1); ++nx) {
+            const int j = job_of[size_t(ny) * tiles_x + nx];
+            if (j < 0 || size_t(j) >= searched) continue;
+            ++count;
+            z_lo = std::min(z_lo, jobs[j].z_lo);
+            z_hi = std::max(z_hi, jobs[j].z_hi);
+          }
+        }
+        if (count < c2f.fill_min_neighbours) continue;
+        const cv::Rect tile =
+            cv::Rect(bx * c2f.tile_px, by * c2f.tile_px, c2f.tile_px, c2f.tile_px) & image;
+        jobs.push_back({tile, z_lo, z_hi});
+        ++st.tiles_filled;
+      }
     }
   }
 
@@ -230,6 +266,7 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
         }
         stereo::StereoOptions o = options;
         o.normalize_contrast = false;
+        o.sqrt_greys = false;
         o.num_threads = 1;
         o.speckle = {};  // over the whole image below: a piece may span tiles
         o.z_min_mm = job.z_lo;

@@ -11,15 +11,17 @@
 //      of them dropped on each side: stray coarse matches), widened on both sides by
 //      `margin_levels` coarse levels (the coarse depths are good to a fraction of one);
 //      tiles with fewer than `min_coarse_depths` coarse depths around them (coarse
-//      matches pass `coarse_min_uniqueness`) are left without depth. Every
+//      matches pass `coarse_min_uniqueness`) are left without depth, unless
+//      `fill_min_neighbours` of the 8 tiles around them are searched: then they search
+//      the union of those tiles' bounds. Every
 //      image is cut to what the tile can see (the reference: the tile and its window
 //      margin; a neighbour: the projections of that rectangle between the tile's depth
 //      bounds), so the cost of a tile is its pixels x its own levels. Tiles run in
 //      parallel (options.num_threads, one thread per tile); the result does not depend
 //      on the thread count.
-// Contrast normalisation, when asked for, is applied once to each whole image before
-// cutting, with the same percentile stretch as ComputeDepth, so that every tile sees
-// the greys a single full-image run would.
+// The grey mapping (contrast normalisation, square roots; stereo::GreyImage) is applied
+// once to each whole image before cutting, with the same percentile stretch as
+// ComputeDepth, so that every tile sees the greys a single full-image run would.
 //
 // Depths are z along the reference optical axis, mm, as ComputeDepth's. A pixel the
 // full-range search would give a depth can be lost when its coarse neighbourhood has
@@ -41,6 +43,12 @@ struct CoarseToFineOptions {
   // Uniqueness margin of the coarse pass (StereoOptions::min_uniqueness); 0: the fine
   // pass's. A stricter one keeps fewer, surer coarse depths, so tiles search less.
   double coarse_min_uniqueness = 0.0;
+  // A tile left without a search (too few coarse depths around it) that has at least
+  // this many searched tiles among its 8 neighbours searches the union of their depth
+  // bounds (the surface usually goes on across a tile's edge, and the coarse pass, at a
+  // quarter of the resolution and a strict uniqueness, leaves dim or slanted parts of an
+  // object without coarse depths). Filled tiles do not fill others. 0..8; 0: no filling.
+  int fill_min_neighbours = 0;
 
   // Throws core::InputError naming the field ("coarse_to_fine.tile_px") when out of range.
   void Check() const;
@@ -56,6 +64,7 @@ struct CoarseToFineStats {
   int coarse_levels = 0;        // levels of the coarse pass
   int tiles = 0;                // tiles of the reference image
   int tiles_matched = 0;        // tiles given a fine search
+  int tiles_filled = 0;         // of those, searched over their neighbours' bounds
   double mean_tile_levels = 0;  // levels per matched tile, mean
   double coarse_seconds = 0;    // greys, reduction and the coarse pass, wall
   double fine_seconds = 0;      // every tile, wall

@@ -136,6 +136,7 @@ CoarseToFineOptions FromCoarseToFineSettings(const runtime::CoarseToFineSettings
   if (s.has_trim_fraction()) o.trim_fraction = s.trim_fraction();
   if (s.has_min_coarse_depths()) o.min_coarse_depths = s.min_coarse_depths();
   if (s.has_coarse_min_uniqueness()) o.coarse_min_uniqueness = s.coarse_min_uniqueness();
+  if (s.has_fill_min_neighbours()) o.fill_min_neighbours = s.fill_min_neighbours();
   try {
     o.Check();
   } catch (const core::InputError& e) {

@@ -32,7 +32,7 @@ void HomographyPieces(const geometry::TsaiCamera& ref, const geometry::TsaiCamer
 
 }  // namespace
 
-cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistort,
+cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool undistort,
                   const std::string& where) {
   const auto& cam = view.camera;
   cam.Check(where + ": camera");
@@ -68,7 +68,7 @@ cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistor
     valid = geometry::Remap(valid, *tables);
   }
   const cv::Mat invalid = valid < 255;
-  if (normalize_contrast) {
+  if (options.normalize_contrast) {
     std::vector<float> values;
     values.reserve(grey.total());
     for (int y = 0; y < grey.rows; ++y) {
@@ -85,6 +85,10 @@ cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistor
       const float hi = values[i99];
       if (hi > lo) grey = (grey - lo) * (255.0 / (hi - lo));
     }
+  }
+  if (options.sqrt_greys) {
+    grey = cv::min(cv::max(grey, 0.0f), 255.0f);
+    cv::sqrt(grey * 255.0f, grey);
   }
   grey.setTo(std::numeric_limits<float>::quiet_NaN(), invalid);
   return grey;
@@ -212,13 +216,13 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   result.camera = input.reference.camera.id;
 
   // Distortion removed once per image.
-  const cv::Mat ref_nan = GreyImage(input.reference, options.normalize_contrast, true,
+  const cv::Mat ref_nan = GreyImage(input.reference, options, true,
                                     "reference '" + input.reference.camera.id + "'");
   std::vector<cv::Mat> nb_images;
   std::vector<geometry::TsaiCamera> nb_cams;
   for (const auto& v : input.neighbours) {
     nb_images.push_back(
-        GreyImage(v, options.normalize_contrast, true, "neighbour '" + v.camera.id + "'"));
+        GreyImage(v, options, true, "neighbour '" + v.camera.id + "'"));
     nb_cams.push_back(v.camera);
   }
   const auto& ref_cam = input.reference.camera;

@@ -59,6 +59,15 @@ struct StereoOptions {
   // valid pixels) spans 0..255 before matching: for dark real images (Robovision) and
   // cameras with different gains.
   bool normalize_contrast = false;
+  // Match the square roots of the greys (after the stretch above, when asked for; greys
+  // below 0 count as 0), scaled so that 0..255 stays 0..255: 255 sqrt(g / 255). A
+  // sensor's shot noise has a variance that grows with the signal; after the square root
+  // it is about the same at every grey (the variance-stabilising transform of Poisson
+  // counts, as Anscombe's), so that dark and bright parts of a window weigh by what
+  // they can tell apart rather than by their brightness. On dim real images (Robovision,
+  // README) it gives depth on the shaded parts of the object the linear greys leave
+  // without. The black level is taken as grey 0 (or the 1st percentile when stretched).
+  bool sqrt_greys = false;
   // Squared-difference cost of a neighbour sample that falls outside the neighbour's
   // image or on its invalid pixels, as a grey difference (cost = value^2), in grey levels.
   double outside_difference_grey = 20.0;
@@ -145,9 +154,11 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
 
 // A view's grey as CV_32FC1, NaN where the pixel has no data (alpha below 255, NaN, or
 // no source after undistortion); in the ideal camera when `undistort`, else in the
-// image's own pixels. With `normalize_contrast` the 1st..99th percentile of the valid
-// greys is stretched to 0..255 (dark images). `where` names the view in errors.
-cv::Mat GreyImage(const StereoView& view, bool normalize_contrast, bool undistort,
+// image's own pixels. Of `options`, only the grey mapping is used: with
+// normalize_contrast the 1st..99th percentile of the valid greys is stretched to 0..255
+// (dark images), then with sqrt_greys each grey g becomes 255 sqrt(max(g, 0) / 255).
+// `where` names the view in errors.
+cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool undistort,
                   const std::string& where);
 
 }  // namespace dome::stereo

@@ -18,6 +18,7 @@ runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
   s.set_level_step_px(o.stereo.level_step_px);
   for (int w : o.stereo.window_sizes_px) s.add_window_sizes_px(w);
   s.set_normalize_contrast(o.stereo.normalize_contrast);
+  s.set_sqrt_greys(o.stereo.sqrt_greys);
   s.set_outside_difference_grey(o.stereo.outside_difference_grey);
   s.set_min_curvature(o.stereo.min_curvature);
   s.set_min_uniqueness(o.stereo.min_uniqueness);
@@ -43,6 +44,7 @@ TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std
     st.window_sizes_px.assign(s.window_sizes_px().begin(), s.window_sizes_px().end());
   }
   if (s.has_normalize_contrast()) st.normalize_contrast = s.normalize_contrast();
+  if (s.has_sqrt_greys()) st.sqrt_greys = s.sqrt_greys();
   if (s.has_outside_difference_grey()) st.outside_difference_grey = s.outside_difference_grey();
   if (s.has_min_curvature()) st.min_curvature = s.min_curvature();
   if (s.has_min_uniqueness()) st.min_uniqueness = s.min_uniqueness();

@@ -48,6 +48,8 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       ->capture_default_str();
   cmd->add_flag("--normalize-contrast", s.normalize_contrast,
                 "stretch each image's 1st..99th grey percentile to 0..255 (dark images)");
+  cmd->add_flag("--sqrt-greys", s.sqrt_greys,
+                "match the square roots of the greys (shot noise levelled; dim images)");
   cmd->add_option("--min-curvature", s.min_curvature, "grey^2 per level^2 per sample")
       ->capture_default_str();
   cmd->add_option("--min-uniqueness", s.min_uniqueness, "second-best margin over the best")
@@ -84,6 +86,7 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       if (given("--level-step")) options.stereo.level_step_px = f.stereo.level_step_px;
       if (given("--windows")) options.stereo.window_sizes_px = f.stereo.window_sizes_px;
       if (given("--normalize-contrast")) options.stereo.normalize_contrast = true;
+      if (given("--sqrt-greys")) options.stereo.sqrt_greys = true;
       if (given("--min-curvature")) options.stereo.min_curvature = f.stereo.min_curvature;
       if (given("--min-uniqueness")) options.stereo.min_uniqueness = f.stereo.min_uniqueness;
       if (given("--min-texture")) options.stereo.min_texture_grey = f.stereo.min_texture_grey;

@@ -138,6 +138,60 @@ TEST(CoarseToFine, SpecklesAreRemovedFromTheWholeImageNotPerTile) {
                    double(cv::countNonZero(expected.depth_mm)) / (kWidth * kHeight));
 }
 
+// Square roots of the greys are taken once, on each whole image: the depths are those of
+// images mapped beforehand (coarse_to_fine.h), not of tiles or coarse images mapped again.
+TEST(CoarseToFine, SqrtGreysMapEachWholeImageOnce) {
+  stereo::StereoInput in = PlaneInput(2000.0, true);
+  const CoarseToFineOptions c2f = HalfScaleTiles(40);
+  stereo::StereoOptions o = Options();
+  o.sqrt_greys = true;
+  const auto here = ComputeDepthCoarseToFine(in, o, c2f).range_images[0];
+  in.reference.image = stereo::GreyImage(in.reference, o, false, "ref");
+  for (auto& v : in.neighbours) v.image = stereo::GreyImage(v, o, false, v.camera.id);
+  stereo::StereoOptions plain = o;
+  plain.normalize_contrast = false;
+  plain.sqrt_greys = false;
+  const auto before = ComputeDepthCoarseToFine(in, plain, c2f).range_images[0];
+  EXPECT_GT(here.density, 0.5);
+  EXPECT_EQ(cv::norm(here.depth_mm, before.depth_mm, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(here.reliability, before.reliability, cv::NORM_INF), 0.0);
+}
+
+// Tiles the coarse pass leaves without enough depths are searched over the bounds of
+// the searched tiles around them when fill_min_neighbours allows: on the plane every
+// filled tile then gets its depth right, and the result holds what the unfilled one
+// did, unchanged.
+TEST(CoarseToFine, TilesWithoutCoarseDepthsAreFilledFromTheirNeighbours) {
+  const double plane_mm = 2000.0;
+  const auto in = PlaneInput(plane_mm, true);
+  CoarseToFineOptions c2f = HalfScaleTiles(40);
+  // A strict coarse pass and many coarse depths per tile: some tiles go unsearched.
+  c2f.coarse_min_uniqueness = 3.0;
+  c2f.min_coarse_depths = 500;
+  CoarseToFineStats plain_stats, filled_stats;
+  const auto plain = ComputeDepthCoarseToFine(in, Options(), c2f, &plain_stats).range_images[0];
+  c2f.fill_min_neighbours = 1;
+  const auto filled = ComputeDepthCoarseToFine(in, Options(), c2f, &filled_stats).range_images[0];
+  EXPECT_EQ(plain_stats.tiles_filled, 0);
+  ASSERT_GT(plain_stats.tiles_matched, 0);
+  ASSERT_LT(plain_stats.tiles_matched, plain_stats.tiles - 8);
+  EXPECT_GT(filled_stats.tiles_filled, 0);
+  EXPECT_EQ(filled_stats.tiles_matched, plain_stats.tiles_matched + filled_stats.tiles_filled);
+  EXPECT_GT(filled.density, plain.density + 0.05);
+  int interior = 0;
+  std::vector<double> errors = InteriorErrors(filled.depth_mm, plane_mm, &interior);
+  ASSERT_GT(errors.size(), 0.95 * interior);
+  EXPECT_LT(*std::max_element(errors.begin(), errors.end()), 0.02);
+  // Searched tiles are searched as before.
+  const cv::Mat had_depth = plain.depth_mm > 0;
+  EXPECT_EQ(cv::norm(plain.depth_mm, filled.depth_mm, cv::NORM_INF, had_depth), 0.0);
+  // Eight searched neighbours are more than any tile has when some are unsearched.
+  c2f.fill_min_neighbours = 8;
+  CoarseToFineStats all8;
+  ComputeDepthCoarseToFine(in, Options(), c2f, &all8);
+  EXPECT_LT(all8.tiles_filled, filled_stats.tiles_filled);
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});
@@ -167,6 +221,10 @@ TEST(CoarseToFine, BadOptionsAreNamed) {
   c2f.min_coarse_depths = 0;
   dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
                                   {"coarse_to_fine.min_coarse_depths"});
+  c2f = {};
+  c2f.fill_min_neighbours = 9;
+  dome::testing::ExpectInputError([&] { ComputeDepthCoarseToFine(in, Options(), c2f); },
+                                  {"coarse_to_fine.fill_min_neighbours", "0..8"});
 }
 
 }  // namespace

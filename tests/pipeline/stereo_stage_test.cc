@@ -150,6 +150,10 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
                    {"session.json: coarse_to_fine.tile_px", "at least 8"});
   session.mutable_stereo()->mutable_coarse_to_fine()->clear_tile_px();
+  session.mutable_stereo()->mutable_coarse_to_fine()->set_fill_min_neighbours(-1);
+  ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
+                   {"session.json: coarse_to_fine.fill_min_neighbours", "0..8"});
+  session.mutable_stereo()->mutable_coarse_to_fine()->clear_fill_min_neighbours();
   session.mutable_stereo()->mutable_coarse_to_fine()->add_clip_min_mm(0);
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
                    {"session.json: coarse_to_fine.clip_min_mm", "3 numbers"});
@@ -163,9 +167,12 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   TempDir dir;
   io::WriteFileAtomically(dir / "session.json",
                           R"({"take": "t", "stereo": {"coarse_to_fine": {"tile_px": 48,)"
+                          R"( "fill_min_neighbours": 2,)"
                           R"( "clip_min_mm": [0, 0, 0], "clip_max_mm": [1, 2, 3]}}})");
   const runtime::Session read = ReadSessionJson(dir / "session.json");
   EXPECT_EQ(read.stereo().coarse_to_fine().tile_px(), 48);
+  EXPECT_EQ(FromCoarseToFineSettings(read.stereo().coarse_to_fine(), "s").fill_min_neighbours, 2);
+  EXPECT_EQ(CoarseToFineOptions{}.fill_min_neighbours, 0);  // off unless asked for
   EXPECT_EQ(read.stereo().coarse_to_fine().clip_max_mm(2), 3.0);
 }
 
@@ -173,13 +180,16 @@ TEST(SessionOptions, SmoothingAndSpeckleFieldsReadAndAreChecked) {
   TempDir dir;
   io::WriteFileAtomically(dir / "session.json",
                           R"({"take": "t", "smooth_iterations": 6, "smooth_mu": -0.6,)"
-                          R"( "stereo": {"speckle_area_px": 400, "speckle_step_mm": 0.5}})");
+                          R"( "stereo": {"speckle_area_px": 400, "speckle_step_mm": 0.5,)"
+                          R"( "sqrt_greys": true}})");
   const SessionOptions o = ResolveSessionOptions(ReadSessionJson(dir / "session.json"), "s.json");
   EXPECT_EQ(o.smooth.iterations, 6);
   EXPECT_EQ(o.smooth.lambda, mesh::SmoothOptions{}.lambda);
   EXPECT_EQ(o.smooth.mu, -0.6);
   EXPECT_EQ(o.stereo.stereo.speckle.min_area_px, 400);
   EXPECT_EQ(o.stereo.stereo.speckle.max_step_mm, 0.5);
+  EXPECT_TRUE(o.stereo.stereo.sqrt_greys);
+  EXPECT_FALSE(stereo::StereoOptions{}.sqrt_greys);  // off unless asked for
   EXPECT_EQ(SessionOptions{}.smooth.iterations, 0);  // off unless asked for
   runtime::Session session;
   session.set_smooth_iterations(-1);

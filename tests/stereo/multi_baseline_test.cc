@@ -89,6 +89,72 @@ TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {
   }
 }
 
+// The grey mapping: 255 sqrt(g / 255) of the greys, after the percentile stretch when
+// asked for (greys below its 1st percentile count as 0, above its 99th as 255).
+TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
+  StereoView view;
+  view.camera = PlaneCamera("c", 0, 0, 200, 1);
+  view.image = cv::Mat(1, 200, CV_8UC1);
+  for (int x = 0; x < 200; ++x) view.image.at<uint8_t>(0, x) = uint8_t(x + 20);
+  StereoOptions o;
+  o.sqrt_greys = true;
+  cv::Mat g = GreyImage(view, o, false, "view");
+  for (int x : {0, 1, 50, 199}) {
+    EXPECT_NEAR(g.at<float>(0, x), 255.0 * std::sqrt((x + 20) / 255.0), 1e-3) << x;
+  }
+  // 200 greys 20..219: the 1st percentile is 22, the 99th 218.
+  o.normalize_contrast = true;
+  g = GreyImage(view, o, false, "view");
+  for (int x : {0, 2, 3, 100, 198, 199}) {
+    const double stretched = std::clamp((x + 20 - 22) * 255.0 / (218 - 22), 0.0, 255.0);
+    EXPECT_NEAR(g.at<float>(0, x), 255.0 * std::sqrt(stretched / 255.0), 1e-3) << x;
+  }
+  EXPECT_EQ(g.at<float>(0, 0), 0.0f);
+  EXPECT_EQ(g.at<float>(0, 199), 255.0f);
+}
+
+// sqrt_greys maps each image once, before matching: the depths are those of images
+// mapped beforehand and matched as they are (which would differ if the mapping were
+// applied twice or not at all); and the plane is still recovered.
+TEST(MultiBaselineTest, SqrtGreysMatchesImagesMappedBeforehand) {
+  StereoInput in = PlaneInput(2000.0, true);
+  StereoOptions o;
+  o.num_threads = 2;
+  o.window_sizes_px = {9};
+  o.normalize_contrast = true;
+  o.sqrt_greys = true;
+  const StereoResult mapped_here = ComputeDepth(in, o);
+  for (StereoView* v : {&in.reference, &in.neighbours[0], &in.neighbours[1], &in.neighbours[2],
+                        &in.neighbours[3]}) {
+    v->image = GreyImage(*v, o, false, v->camera.id);
+  }
+  StereoOptions plain = o;
+  plain.normalize_contrast = false;
+  plain.sqrt_greys = false;
+  const StereoResult mapped_before = ComputeDepth(in, plain);
+  const RangeImage& a = mapped_here.range_images[0];
+  const RangeImage& b = mapped_before.range_images[0];
+  EXPECT_EQ(cv::norm(a.depth_mm, b.depth_mm, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.reliability, b.reliability, cv::NORM_INF), 0.0);
+  EXPECT_GT(a.density, 0.5);
+  // Matching the linear greys gives other values: the option is not ignored.
+  StereoOptions linear = o;
+  linear.sqrt_greys = false;
+  EXPECT_GT(cv::norm(ComputeDepth(PlaneInput(2000.0, true), linear).range_images[0].reliability,
+                     a.reliability, cv::NORM_INF),
+            0.0);
+  std::vector<double> errors;
+  for (int y = 25; y < 95; ++y) {
+    for (int x = 30; x < 130; ++x) {
+      const float d = a.depth_mm.at<float>(y, x);
+      if (d > 0) errors.push_back(std::abs(d - 2000.0) / 2000.0);
+    }
+  }
+  ASSERT_GT(errors.size(), 0.95 * 70 * 100);
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.006);
+}
+
 TEST(MultiBaselineTest, LevelCountFromGeometry) {
   // Rectified pair: parallax f B (1/z_min - 1/z_max) = 200 * 300 * (1/750 - 1/5000)
   // = 68 px exactly -> 69 levels at 1 px, 35 at 2 px; a 0.7 px step: ceil(97.14) + 1.

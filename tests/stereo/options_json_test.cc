@@ -40,6 +40,7 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   o.stereo.level_step_px = 0.75;
   o.stereo.window_sizes_px = {5, 9, 13};
   o.stereo.normalize_contrast = true;
+  o.stereo.sqrt_greys = true;
   o.stereo.outside_difference_grey = 33;
   o.stereo.min_curvature = 1.5;
   o.stereo.min_uniqueness = 0.4;
@@ -56,6 +57,7 @@ TEST(StereoOptionsJsonTest, RoundTripKeepsEveryField) {
   EXPECT_EQ(r.stereo.level_step_px, 0.75);
   EXPECT_EQ(r.stereo.window_sizes_px, (std::vector<int>{5, 9, 13}));
   EXPECT_TRUE(r.stereo.normalize_contrast);
+  EXPECT_TRUE(r.stereo.sqrt_greys);
   EXPECT_EQ(r.stereo.outside_difference_grey, 33);
   EXPECT_EQ(r.stereo.min_curvature, 1.5);
   EXPECT_EQ(r.stereo.min_uniqueness, 0.4);
@@ -167,6 +169,20 @@ TEST(StereoOptionsJsonTest, CommandReadsOptionsFile) {
   ASSERT_GT(rel.size(), 1000u);
   std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
   EXPECT_LT(rel[rel.size() / 2], 0.01);  // half the depths within 1% of each other
+
+  // Square roots of the greys, by flag or by "sqrt_greys": true in the file: the same
+  // depths, which are not those of the linear greys.
+  WriteText(dir / "sqrt.json", R"({"sqrt_greys": true})");
+  const auto sqrt_flag =
+      dome::testing::RunDomeBinary(common + " --sqrt-greys --out " + dir.File("s1"));
+  const auto sqrt_file = dome::testing::RunDomeBinary(
+      common + " --options " + dir.File("sqrt.json") + " --out " + dir.File("s2"));
+  ASSERT_EQ(sqrt_flag.exit_code, 0) << sqrt_flag.output;
+  ASSERT_EQ(sqrt_file.exit_code, 0) << sqrt_file.output;
+  const cv::Mat rooted = ReadC00Depth(dir.File("s1"));
+  ASSERT_FALSE(rooted.empty());
+  EXPECT_EQ(cv::norm(rooted, ReadC00Depth(dir.File("s2")), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(rooted, prewarped, cv::NORM_INF), 0.0);
 }
 
 }  // namespace
