@@ -18,7 +18,7 @@
 #      depth pieces of fewer than SPECKLE_AREA px (default 20000, about 3 % of a cropped
 #      frame) dropped, a piece's 4-neighbours within SPECKLE_STEP_MM (default 0.3 mm,
 #      two voxels) of each other (stereo/speckle.h),
-#      window(s) WINDOWS (default 13); fusion truncation and free-space clamp
+#      window(s) WINDOWS (default 11); fusion truncation and free-space clamp
 #      TRUNC_VOXELS voxels (default 1.0), optionally CONSISTENT other cameras must agree
 #      with a depth sample to CONSISTENCY_MM (default one voxel; fusion/consistency.h)
 #      and voxels need MIN_WEIGHT images;
@@ -26,7 +26,7 @@
 #      not timed):
 #      * STEREO=run (default): dome run session.json --out OUT/SCENE/run --workers WORKERS
 #        (default 1) --threads THREADS (default 2), SLAB_PLANES (24) planes per fusion
-#        job, SMOOTH (default 15) Taubin lambda|mu pairs on mesh.ply (mesh/smooth.h),
+#        job, SMOOTH (default 10) Taubin lambda|mu pairs on mesh.ply (mesh/smooth.h),
 #        decimation ratio DECIMATE (default 1: none, mesh.ply is what is evaluated);
 #        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
 #        values below and the volume box as clip box (each camera's depth range: its
@@ -57,7 +57,7 @@ UNIQ=${UNIQ:-0.02}
 SQRT_GREYS=${SQRT_GREYS:-1}
 SPECKLE_AREA=${SPECKLE_AREA:-20000}
 SPECKLE_STEP_MM=${SPECKLE_STEP_MM:-0.3}
-WINDOWS=${WINDOWS:-13}
+WINDOWS=${WINDOWS:-11}
 NEIGHBOURS=${NEIGHBOURS:-2}
 CONSISTENT=${CONSISTENT:-0}
 TRUNC_VOXELS=${TRUNC_VOXELS:-1.0}
@@ -86,7 +86,7 @@ SLAB_PLANES=${SLAB_PLANES:-24}
 # The evaluated mesh is mesh.ply; 1 leaves it undecimated (the baselines do not decimate).
 DECIMATE=${DECIMATE:-1}
 # Taubin smoothing of mesh.ply (mesh/smooth.h), lambda|mu pairs; 0: none.
-SMOOTH=${SMOOTH:-15}
+SMOOTH=${SMOOTH:-10}
 # Heartbeat intervals before an in-process worker is presumed lost (dome run
 # --heartbeat-liveness; empty: dome's default). On a loaded machine the master can be
 # busy for seconds writing a result, and a stereo job is then lost and redone.

@@ -11,6 +11,10 @@
 namespace dome::mesh {
 namespace {
 
+// Least distance of a vertex from either end of its edge, in edges (1e-3 of a voxel:
+// far below the 0.01 voxel the surface is tested to, and hundreds of float steps).
+constexpr double kEdgeMargin = 1e-3;
+
 // Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1).
 constexpr std::array<std::array<int, 2>, 12> kEdgeCorners = {{{0, 1},
                                                               {2, 3},
@@ -202,7 +206,11 @@ int StreamingMarchingCubes::VertexOnEdge(int slot, int axis, int i, int j) {
   const size_t ib = axis == 0 ? idx + 1 : axis == 1 ? idx + nx : idx;
   const float va = axis == 2 ? distance_[0][ia] : distance_[slot][ia];
   const float vb = axis == 2 ? distance_[1][ib] : distance_[slot][ib];
-  const double t = double(va) / (double(va) - double(vb));
+  // Kept kEdgeMargin of the edge away from its ends: a corner at distance 0 (or a
+  // crossing rounding onto it) would otherwise put the vertices of all its edges on one
+  // point, and their triangles would have no area -- which mesh tools that divide by a
+  // triangle's area (normals, closest-point queries) cannot take.
+  const double t = std::clamp(double(va) / (double(va) - double(vb)), kEdgeMargin, 1.0 - kEdgeMargin);
   const int k = next_plane_ - 2 + (axis == 2 ? 0 : slot);
   Eigen::Vector3d p = grid_.VoxelCentreMm(i, j, k);
   p[axis] += t * grid_.voxel_size_mm;

@@ -4,7 +4,8 @@
 // Slabs arrive in plane order; only two planes of values and their edge-vertex index
 // maps are held, so memory is bounded by a plane, not the volume. A vertex lies on a
 // voxel edge whose two ends have opposite signs (inside = distance < 0), at the linear
-// zero crossing between the two voxel centres (world frame, mm); it is created once
+// zero crossing between the two voxel centres (world frame, mm), kept a thousandth of
+// the edge away from either end so that no triangle is degenerate; it is created once
 // and shared by every cell around that edge, so the mesh is watertight wherever the
 // surface is closed and observed -- across slab seams too: the output (vertex order
 // included) does not depend on how the planes were cut into slabs.

@@ -9,6 +9,12 @@
 #include "core/error.h"
 
 namespace dome::mesh {
+namespace {
+
+// Edges shorter than this fraction of the mean edge length are welded after smoothing.
+constexpr double kWeldFraction = 1e-3;
+
+}  // namespace
 
 void SmoothOptions::Check() const {
   core::Require(iterations >= 0, "smooth_iterations",
@@ -70,6 +76,80 @@ void SmoothTaubin(const SmoothOptions& options, io::Mesh* mesh) {
     step(options.mu);
   }
   for (size_t v = 0; v < n; ++v) mesh->vertices[v] = p[v].cast<float>();
+  // Mean edge length over the faces' edges (an edge of two faces counts twice).
+  double sum = 0;
+  size_t count = 0;
+  for (const Eigen::Vector3i& f : mesh->faces) {
+    for (int k = 0; k < 3; ++k) {
+      sum += (mesh->vertices[size_t(f[k])] - mesh->vertices[size_t(f[(k + 1) % 3])])
+                 .cast<double>()
+                 .norm();
+      ++count;
+    }
+  }
+  if (count > 0) WeldShortEdges(kWeldFraction * sum / double(count), mesh);
+}
+
+int WeldShortEdges(double min_length, io::Mesh* mesh) {
+  const size_t n = mesh->vertices.size();
+  // Union-find; a set's root is its least vertex index (the order stays deterministic).
+  std::vector<int32_t> root(n);
+  for (size_t v = 0; v < n; ++v) root[v] = int32_t(v);
+  auto find = [&](int32_t v) {
+    while (root[size_t(v)] != v) v = root[size_t(v)] = root[size_t(root[size_t(v)])];
+    return v;
+  };
+  bool any = false;
+  for (const Eigen::Vector3i& f : mesh->faces) {
+    for (int k = 0; k < 3; ++k) {
+      const int32_t a = f[k], b = f[(k + 1) % 3];
+      DOME_CHECK(a >= 0 && size_t(a) < n && b >= 0 && size_t(b) < n,
+                 "face indices are valid vertices");
+      if (!((mesh->vertices[size_t(a)] - mesh->vertices[size_t(b)]).cast<double>().norm() <
+            min_length)) {
+        continue;
+      }
+      const int32_t ra = find(a), rb = find(b);
+      if (ra != rb) root[size_t(std::max(ra, rb))] = std::min(ra, rb);
+      any = true;
+    }
+  }
+  if (!any) return 0;
+  // Faces on the roots; those left with a repeated vertex go.
+  const size_t faces_before = mesh->faces.size();
+  std::vector<uint8_t> used_before(n, 0), used_after(n, 0);
+  size_t out = 0;
+  for (const Eigen::Vector3i& f : mesh->faces) {
+    Eigen::Vector3i g;
+    for (int k = 0; k < 3; ++k) {
+      g[k] = find(f[k]);
+      used_before[size_t(g[k])] = 1;
+    }
+    if (g[0] == g[1] || g[1] == g[2] || g[0] == g[2]) continue;
+    for (int k = 0; k < 3; ++k) used_after[size_t(g[k])] = 1;
+    mesh->faces[out++] = g;
+  }
+  mesh->faces.resize(out);
+  // Roots keep their attributes, in order, unless the welding left them without a face.
+  std::vector<int32_t> index(n, -1);
+  size_t kept = 0;
+  for (size_t v = 0; v < n; ++v) {
+    if (find(int32_t(v)) != int32_t(v) || (used_before[v] && !used_after[v])) continue;
+    index[v] = int32_t(kept);
+    mesh->vertices[kept] = mesh->vertices[v];
+    if (mesh->HasNormals()) mesh->normals[kept] = mesh->normals[v];
+    if (mesh->HasColors()) mesh->colors[kept] = mesh->colors[v];
+    if (mesh->HasAlphas()) mesh->alphas[kept] = mesh->alphas[v];
+    ++kept;
+  }
+  mesh->vertices.resize(kept);
+  if (mesh->HasNormals()) mesh->normals.resize(kept);
+  if (mesh->HasColors()) mesh->colors.resize(kept);
+  if (mesh->HasAlphas()) mesh->alphas.resize(kept);
+  for (Eigen::Vector3i& f : mesh->faces) {
+    for (int k = 0; k < 3; ++k) f[k] = index[size_t(f[k])];
+  }
+  return int(faces_before - out);
 }
 
 }  // namespace dome::mesh

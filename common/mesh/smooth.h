@@ -6,12 +6,19 @@
 // k_PB = 1/lambda + 1/mu (0.113 with the defaults): high-frequency noise goes, a
 // closed surface keeps its size (repeated Laplacian smoothing would shrink it).
 //
+// Smoothing also draws the corners of a tiny triangle together (its size shrinks about
+// 0.77 times an iteration with the defaults), until in float they meet and the triangle
+// has no area, which mesh tools that divide by a triangle's area (normals,
+// closest-point queries) cannot take. So edges shorter than a thousandth of the mean
+// edge length are welded afterwards (WeldShortEdges).
+//
 // Every vertex moves, open-border ones included. A border vertex's neighbours are all on
 // one side, so borders are pulled in along the surface: on fused real surfaces (holes,
 // small fragments) most of the accuracy gained is this pull on the ragged borders, where
-// the depth is worst, at a small cost in completeness (README, Robovision). Faces,
-// normals and colours are left as they are (normals, if any, are not recomputed). The
-// result is a deterministic function of the mesh (vertex order fixes the sums).
+// the depth is worst, at a small cost in completeness (README, Robovision). Normals and
+// colours are left as they are (normals, if any, are not recomputed); faces and vertices
+// change only by the welding. The result is a deterministic function of the mesh
+// (vertex order fixes the sums).
 //
 // Units: the mesh's (mm for dome's meshes); lambda and mu are dimensionless.
 #pragma once
@@ -29,7 +36,14 @@ struct SmoothOptions {
   void Check() const;
 };
 
-// Smooths `mesh` in place. Face indices must be valid (io::CheckMesh's rule).
+// Smooths `mesh` in place, then welds its short edges (above). Face indices must be
+// valid (io::CheckMesh's rule).
 void SmoothTaubin(const SmoothOptions& options, io::Mesh* mesh);
+
+// Merges the two ends of every edge shorter than `min_length` (mesh units) into one
+// vertex: the least index of each merged set keeps its position and attributes. Faces
+// left with a repeated vertex are dropped, then the vertices the welding left without a
+// face, and the rest are renumbered in order. Returns the number of faces dropped.
+int WeldShortEdges(double min_length, io::Mesh* mesh);
 
 }  // namespace dome::mesh

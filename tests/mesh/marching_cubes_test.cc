@@ -55,6 +55,39 @@ TEST(MarchingCubes, EveryCaseIsWatertight) {
   }
 }
 
+// Corners at distance exactly 0 (a diagonal plane through voxel centres, and a random
+// volume with a fifth of its values 0): the vertices of the edges around such a corner
+// are kept apart, so no triangle loses its area (tools that divide by it, such as
+// closest-point queries, fail on such triangles), while the surface stays put and
+// closed.
+TEST(MarchingCubes, ZeroCornersGiveNoDegenerateTriangles) {
+  testing::Volume plane;
+  plane.grid.voxel_size_mm = 1.0;
+  plane.grid.nx = plane.grid.ny = plane.grid.nz = 12;
+  plane.grid.origin_mm = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 12; ++k)
+    for (int j = 0; j < 12; ++j)
+      for (int i = 0; i < 12; ++i) {
+        plane.distance.push_back(float(i + j + k - 15));  // 0 on the plane i + j + k = 15
+        plane.weight.push_back(1.0f);
+      }
+  auto random = testing::RandomVolume(16, 4);
+  for (size_t n = 0; n < random.distance.size(); n += 5) {
+    if (random.distance[n] < 0) random.distance[n] = 0.0f;
+  }
+  for (const auto* v : {&plane, &random}) {
+    const io::Mesh m = MarchingCubes(v->grid, v->distance, v->weight);
+    ASSERT_GT(m.faces.size(), 100u);
+    EXPECT_GT(testing::LeastFaceArea(m), 1e-7);  // voxel^2; a corner's three vertices 1e-3 voxel from it: 5e-7
+    if (v == &random) EXPECT_EQ(AnalyzeTopology(m).boundary_edges, 0);
+  }
+  // On the plane (distance along the axes, not the normal: |n| = sqrt 3) every vertex is
+  // within 1e-3 voxel of its true crossing.
+  for (const auto& p : MarchingCubes(plane.grid, plane.distance, plane.weight).vertices) {
+    EXPECT_NEAR((p.x() - 0.5) + (p.y() - 0.5) + (p.z() - 0.5), 15.0, 1.001e-3);
+  }
+}
+
 TEST(MarchingCubes, UnobservedCellsAreSkipped) {
   auto v = testing::SphereVolume(30, 8.0);
   const size_t full = MarchingCubes(v.grid, v.distance, v.weight).faces.size();

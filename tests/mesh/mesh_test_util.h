@@ -1,11 +1,15 @@
-// Analytic signed-distance volumes for marching-cubes tests.
+// Analytic signed-distance volumes for marching-cubes tests, and mesh measures.
 #pragma once
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
 #include "fusion/volume.h"
+#include "io/mesh.h"
 
 namespace dome::testing {
 
@@ -52,6 +56,17 @@ inline Volume RandomVolume(int n, uint32_t seed) {
         v.weight.push_back(1.0f);
       }
   return v;
+}
+
+// The least area of any face of `m` (mesh units squared; infinity without faces).
+inline double LeastFaceArea(const io::Mesh& m) {
+  double least = std::numeric_limits<double>::infinity();
+  for (const auto& f : m.faces) {
+    const Eigen::Vector3d a = m.vertices[f[0]].cast<double>(), b = m.vertices[f[1]].cast<double>(),
+                          c = m.vertices[f[2]].cast<double>();
+    least = std::min(least, (b - a).cross(c - a).norm() / 2);
+  }
+  return least;
 }
 
 }  // namespace dome::testing

@@ -106,5 +106,56 @@ TEST(Smooth, BadOptionsAreNamed) {
   dome::testing::ExpectInputError([&] { SmoothTaubin(o, &m); }, {"smooth_mu"});
 }
 
+// Edges shorter than the limit are welded: their ends become one vertex (the least index
+// keeps its position and colour), the faces that lose their area go, and the vertices are
+// renumbered in order.
+TEST(WeldShortEdges, MergesTheEndsOfShortEdgesAndDropsTheFacesThatCollapse) {
+  io::Mesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {1, 1 + 1e-5f, 0},
+                {5, 5, 5}, {5 + 1e-5f, 5, 5}, {5, 5 + 1e-5f, 5}};
+  for (size_t v = 0; v < m.vertices.size(); ++v) m.colors.push_back(io::Color3u8(uint8_t(v), 0, 0));
+  // A square, a needle beside it (vertex 4 on top of 2) and a speck (5, 6, 7).
+  m.faces = {{0, 1, 2}, {0, 2, 3}, {2, 4, 3}, {5, 6, 7}};
+  // A vertex without faces from the start stays.
+  m.vertices.push_back({9, 9, 9});
+  m.colors.push_back(io::Color3u8(8, 0, 0));
+  EXPECT_EQ(WeldShortEdges(1e-3, &m), 2);
+  EXPECT_EQ(m.Inconsistency(), "");
+  ASSERT_EQ(m.vertices.size(), 5u);  // the square's 4 and the lone vertex; the speck is gone
+  EXPECT_EQ(m.faces.size(), 2u);
+  EXPECT_EQ(m.faces[0], Eigen::Vector3i(0, 1, 2));
+  EXPECT_EQ(m.faces[1], Eigen::Vector3i(0, 2, 3));
+  EXPECT_EQ(m.vertices[2], Eigen::Vector3f(1, 1, 0));
+  EXPECT_EQ(m.vertices[4], Eigen::Vector3f(9, 9, 9));
+  EXPECT_EQ(m.colors[3], io::Color3u8(3, 0, 0));
+  EXPECT_EQ(m.colors[4], io::Color3u8(8, 0, 0));
+  // Nothing shorter than the limit: nothing changes.
+  const io::Mesh before = m;
+  EXPECT_EQ(WeldShortEdges(1e-3, &m), 0);
+  EXPECT_EQ(m.vertices, before.vertices);
+  EXPECT_EQ(m.faces, before.faces);
+}
+
+// A small separate piece has all its vertices on its border, so smoothing draws it to a
+// point; its faces must not stay behind without area. The sphere beside it keeps every
+// face.
+TEST(Smooth, LeavesNoFaceWithoutArea) {
+  io::Mesh m = NoisySphere(0.0);
+  const size_t sphere_faces = m.faces.size();
+  const int n = int(m.vertices.size());
+  // A 0.2 mm triangle (a tenth of a voxel) far from the sphere.
+  m.vertices.push_back({200.0f, 0, 0});
+  m.vertices.push_back({200.2f, 0, 0});
+  m.vertices.push_back({200.1f, 0.17f, 0});
+  m.faces.push_back({n, n + 1, n + 2});
+  SmoothOptions o;
+  o.iterations = 15;
+  SmoothTaubin(o, &m);
+  EXPECT_EQ(m.faces.size(), sphere_faces);
+  EXPECT_EQ(m.Inconsistency(), "");
+  EXPECT_GT(testing::LeastFaceArea(m), 1e-3);  // mm^2; the sphere's faces are about 1 mm^2
+  EXPECT_EQ(m.vertices.size(), size_t(n));     // the speck's vertices went with it
+}
+
 }  // namespace
 }  // namespace dome::mesh
