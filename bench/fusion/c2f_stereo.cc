@@ -107,11 +107,12 @@ int main(int argc, char** argv) {
     std::printf(
         "{\"camera\": \"%s\", \"z_mm\": [%.1f, %.1f], \"levels\": %d, \"density\": %.4f, "
         "\"seconds\": %.2f, \"cpu_seconds\": %.2f, \"coarse_levels\": %d, \"tiles\": %d, "
-        "\"tiles_matched\": %d, \"tiles_filled\": %d, \"mean_tile_levels\": %.1f, \"coarse_seconds\": %.2f, "
+        "\"tiles_matched\": %d, \"tiles_filled\": %d, \"mean_tile_levels\": %.1f, "
+        "\"coarse_seconds\": %.2f, "
         "\"fine_seconds\": %.2f}\n",
         cam.id.c_str(), o.z_min_mm, o.z_max_mm, r.num_levels, r.range_images[0].density,
-        watch.ElapsedSeconds(), CpuSeconds() - cpu, st.coarse_levels, st.tiles, st.tiles_matched, st.tiles_filled,
-        st.mean_tile_levels, st.coarse_seconds, st.fine_seconds);
+        watch.ElapsedSeconds(), CpuSeconds() - cpu, st.coarse_levels, st.tiles, st.tiles_matched,
+        st.tiles_filled, st.mean_tile_levels, st.coarse_seconds, st.fine_seconds);
     std::fflush(stdout);
     stereo::WriteStereoResult(r, instant, out, false);
   }

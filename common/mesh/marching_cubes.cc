@@ -210,7 +210,8 @@ int StreamingMarchingCubes::VertexOnEdge(int slot, int axis, int i, int j) {
   // crossing rounding onto it) would otherwise put the vertices of all its edges on one
   // point, and their triangles would have no area -- which mesh tools that divide by a
   // triangle's area (normals, closest-point queries) cannot take.
-  const double t = std::clamp(double(va) / (double(va) - double(vb)), kEdgeMargin, 1.0 - kEdgeMargin);
+  const double t =
+      std::clamp(double(va) / (double(va) - double(vb)), kEdgeMargin, 1.0 - kEdgeMargin);
   const int k = next_plane_ - 2 + (axis == 2 ? 0 : slot);
   Eigen::Vector3d p = grid_.VoxelCentreMm(i, j, k);
   p[axis] += t * grid_.voxel_size_mm;

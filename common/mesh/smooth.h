@@ -28,9 +28,9 @@
 namespace dome::mesh {
 
 struct SmoothOptions {
-  int iterations = 0;     // lambda|mu pairs; 0: the mesh is left unchanged
-  double lambda = 0.5;    // shrinking step, (0, 1]
-  double mu = -0.53;      // inflating step, < -lambda and >= -1
+  int iterations = 0;   // lambda|mu pairs; 0: the mesh is left unchanged
+  double lambda = 0.5;  // shrinking step, (0, 1]
+  double mu = -0.53;    // inflating step, < -lambda and >= -1
 
   // Throws core::InputError naming "smooth_iterations", "smooth_lambda" or "smooth_mu".
   void Check() const;

@@ -216,13 +216,12 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   result.camera = input.reference.camera.id;
 
   // Distortion removed once per image.
-  const cv::Mat ref_nan = GreyImage(input.reference, options, true,
-                                    "reference '" + input.reference.camera.id + "'");
+  const cv::Mat ref_nan =
+      GreyImage(input.reference, options, true, "reference '" + input.reference.camera.id + "'");
   std::vector<cv::Mat> nb_images;
   std::vector<geometry::TsaiCamera> nb_cams;
   for (const auto& v : input.neighbours) {
-    nb_images.push_back(
-        GreyImage(v, options, true, "neighbour '" + v.camera.id + "'"));
+    nb_images.push_back(GreyImage(v, options, true, "neighbour '" + v.camera.id + "'"));
     nb_cams.push_back(v.camera);
   }
   const auto& ref_cam = input.reference.camera;

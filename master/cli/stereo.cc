@@ -90,8 +90,10 @@ void AddStereoCommand(CLI::App* app, int* exit_code) {
       if (given("--min-curvature")) options.stereo.min_curvature = f.stereo.min_curvature;
       if (given("--min-uniqueness")) options.stereo.min_uniqueness = f.stereo.min_uniqueness;
       if (given("--min-texture")) options.stereo.min_texture_grey = f.stereo.min_texture_grey;
-      if (given("--speckle-area")) options.stereo.speckle.min_area_px = f.stereo.speckle.min_area_px;
-      if (given("--speckle-step")) options.stereo.speckle.max_step_mm = f.stereo.speckle.max_step_mm;
+      if (given("--speckle-area"))
+        options.stereo.speckle.min_area_px = f.stereo.speckle.min_area_px;
+      if (given("--speckle-step"))
+        options.stereo.speckle.max_step_mm = f.stereo.speckle.max_step_mm;
       if (given("--max-neighbours")) options.cluster.max_neighbours = f.cluster.max_neighbours;
       if (given("--threads")) options.stereo.num_threads = f.stereo.num_threads;
     }

@@ -78,8 +78,11 @@ TEST(MarchingCubes, ZeroCornersGiveNoDegenerateTriangles) {
   for (const auto* v : {&plane, &random}) {
     const io::Mesh m = MarchingCubes(v->grid, v->distance, v->weight);
     ASSERT_GT(m.faces.size(), 100u);
-    EXPECT_GT(testing::LeastFaceArea(m), 1e-7);  // voxel^2; a corner's three vertices 1e-3 voxel from it: 5e-7
-    if (v == &random) EXPECT_EQ(AnalyzeTopology(m).boundary_edges, 0);
+    // voxel^2; three vertices 1e-3 voxel from their corner make 5e-7.
+    EXPECT_GT(testing::LeastFaceArea(m), 1e-7);
+    if (v == &random) {
+      EXPECT_EQ(AnalyzeTopology(m).boundary_edges, 0);
+    }
   }
   // On the plane (distance along the axes, not the normal: |n| = sqrt 3) every vertex is
   // within 1e-3 voxel of its true crossing.

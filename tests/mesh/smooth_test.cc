@@ -15,7 +15,7 @@ namespace dome::mesh {
 namespace {
 
 const Eigen::Vector3d kCentre(0.173, -0.291, 0.117);  // SphereVolume's centre, mm
-constexpr double kRadiusMm = 50.0;                     // 25 voxels of 2 mm
+constexpr double kRadiusMm = 50.0;                    // 25 voxels of 2 mm
 
 struct RadialStats {
   double mean = 0, rms = 0;  // of (|v - centre| - radius), mm
@@ -111,8 +111,8 @@ TEST(Smooth, BadOptionsAreNamed) {
 // renumbered in order.
 TEST(WeldShortEdges, MergesTheEndsOfShortEdgesAndDropsTheFacesThatCollapse) {
   io::Mesh m;
-  m.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {1, 1 + 1e-5f, 0},
-                {5, 5, 5}, {5 + 1e-5f, 5, 5}, {5, 5 + 1e-5f, 5}};
+  m.vertices = {{0, 0, 0},         {1, 0, 0}, {1, 1, 0},         {0, 1, 0},
+                {1, 1 + 1e-5f, 0}, {5, 5, 5}, {5 + 1e-5f, 5, 5}, {5, 5 + 1e-5f, 5}};
   for (size_t v = 0; v < m.vertices.size(); ++v) m.colors.push_back(io::Color3u8(uint8_t(v), 0, 0));
   // A square, a needle beside it (vertex 4 on top of 2) and a speck (5, 6, 7).
   m.faces = {{0, 1, 2}, {0, 2, 3}, {2, 4, 3}, {5, 6, 7}};

@@ -107,7 +107,9 @@ TEST(Speckle, ComputeDepthRemovesThemFromEachRangeImage) {
     EXPECT_EQ(cv::norm(got.reliability, expected.reliability, cv::NORM_INF), 0) << k;
     EXPECT_DOUBLE_EQ(got.density, double(cv::countNonZero(expected.depth_mm)) / (320 * 240));
     EXPECT_GT(got.density, 0.5) << k;
-    if (k == 0) EXPECT_GT(removed, 0);
+    if (k == 0) {
+      EXPECT_GT(removed, 0);
+    }
   }
 }
 
