@@ -7,10 +7,10 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <string>
 #include <vector>
 
+#include "core/disjoint_sets.h"
 #include "core/error.h"
 #include "core/timer.h"
 
@@ -124,18 +124,10 @@ std::vector<Eigen::Vector3f> RelocatedPositions(const io::Mesh& mesh,
 std::vector<Eigen::Vector3i> KeptComponentFaces(const io::Mesh& mesh, int64_t min_triangles,
                                                 double min_diagonal, int64_t* removed) {
   const int nv = int(mesh.vertices.size());
-  std::vector<int> parent(nv);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
+  core::DisjointSets sets(mesh.vertices.size());
+  auto find = [&](int v) { return sets.Find(v); };
   for (const auto& f : mesh.faces) {
-    const int a = find(f[0]);
-    for (int m = 1; m < 3; ++m) {
-      const int b = find(f[m]);
-      if (a != b) parent[b] = a;
-    }
+    for (int m = 1; m < 3; ++m) sets.Union(f[0], f[m]);
   }
   std::vector<int64_t> count(nv, 0);
   std::vector<Eigen::Vector3f> lo(nv, Eigen::Vector3f::Constant(HUGE_VALF)),
@@ -500,18 +492,10 @@ class EdgeCollapser {
   // them): their vertices, live triangles, area and bounding-box diagonal.
   void LabelComponents() {
     const int nv = int(pos_.size());
-    std::vector<int> parent(nv);
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&](int v) {
-      while (parent[v] != v) v = parent[v] = parent[parent[v]];
-      return v;
-    };
+    core::DisjointSets sets(pos_.size());
+    auto find = [&](int v) { return sets.Find(v); };
     for (const auto& f : faces_) {
-      const int a = find(f[0]);
-      for (int m = 1; m < 3; ++m) {
-        const int b = find(f[m]);
-        if (a != b) parent[b] = a;
-      }
+      for (int m = 1; m < 3; ++m) sets.Union(f[0], f[m]);
     }
     std::vector<int> label(nv, -1);
     comp_of_.assign(nv, -1);

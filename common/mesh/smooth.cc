@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/disjoint_sets.h"
 #include "core/error.h"
 
 namespace dome::mesh {
@@ -92,13 +93,9 @@ void SmoothTaubin(const SmoothOptions& options, io::Mesh* mesh) {
 
 int WeldShortEdges(double min_length, io::Mesh* mesh) {
   const size_t n = mesh->vertices.size();
-  // Union-find; a set's root is its least vertex index (the order stays deterministic).
-  std::vector<int32_t> root(n);
-  for (size_t v = 0; v < n; ++v) root[v] = int32_t(v);
-  auto find = [&](int32_t v) {
-    while (root[size_t(v)] != v) v = root[size_t(v)] = root[size_t(root[size_t(v)])];
-    return v;
-  };
+  // A set's root is its least vertex index: the order stays deterministic.
+  core::DisjointSets sets(n);
+  auto find = [&](int32_t v) { return sets.Find(v); };
   bool any = false;
   for (const Eigen::Vector3i& f : mesh->faces) {
     for (int k = 0; k < 3; ++k) {
@@ -109,8 +106,7 @@ int WeldShortEdges(double min_length, io::Mesh* mesh) {
             min_length)) {
         continue;
       }
-      const int32_t ra = find(a), rb = find(b);
-      if (ra != rb) root[size_t(std::max(ra, rb))] = std::min(ra, rb);
+      sets.Union(a, b);
       any = true;
     }
   }

@@ -1,0 +1,32 @@
+// Disjoint sets of the integers 0..n-1 (union-find with path halving), for grouping mesh
+// vertices: connected components, welded vertices. A set's root is its least member, so
+// what is built from the roots does not depend on the order of the unions.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
+#include <vector>
+
+namespace dome::core {
+
+class DisjointSets {
+ public:
+  explicit DisjointSets(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+
+  // The root (least member) of v's set.
+  int32_t Find(int32_t v) {
+    while (parent_[size_t(v)] != v) v = parent_[size_t(v)] = parent_[size_t(parent_[size_t(v)])];
+    return v;
+  }
+  // Joins the sets of a and b.
+  void Union(int32_t a, int32_t b) {
+    const int32_t ra = Find(a), rb = Find(b);
+    if (ra != rb) parent_[size_t(std::max(ra, rb))] = std::min(ra, rb);
+  }
+
+ private:
+  std::vector<int32_t> parent_;
+};
+
+}  // namespace dome::core
