@@ -1,5 +1,5 @@
 // dome-capture: drives one VCR + digitizer through rewind-play passes and publishes the
-// VITC-tagged frames (capture/agent.h) to a dome-master (--capture-bind) or the
+// VITC-tagged frames (capture-agent/agent.h) to a dome-master (--capture-bind) or the
 // stand-alone frame ingest; also that ingest and a Sony 9-pin deck emulator on a
 // pseudo-terminal. Like every dome client it talks CURVE (--master-key, --key) unless
 // --insecure; the stand-alone ingest is plaintext.
@@ -9,13 +9,12 @@
 #include <csignal>
 #include <cstdio>
 
-#include "capture/agent.h"
-#include "capture/publish.h"
+#include "capture-agent/agent.h"
 #include "capture/sim_deck.h"
 #include "capture/sony9pin.h"
 #include "core/error.h"
+#include "ingest/publish.h"
 #include "net/security.h"
-#include "net/wire.h"
 
 namespace {
 
@@ -26,6 +25,9 @@ void OnSignal(int) { g_stop = 1; }
 
 int main(int argc, char** argv) {
   using namespace dome::capture;
+  using dome::capture_agent::AgentOptions;
+  using dome::ingest::FrameIngest;
+  using dome::ingest::IngestOptions;
   CLI::App app{"dome-capture: digitizes VITC-tagged frames from a tape and publishes them"};
   AgentOptions agent;
   app.add_option("--camera", agent.camera_id, "camera id recorded on this tape");
@@ -122,19 +124,9 @@ int main(int argc, char** argv) {
       while (!g_stop) ::usleep(100000);
       return 0;
     }
-    for (const auto& [flag, value] :
-         {std::pair<const char*, const std::string*>{"--camera", &agent.camera_id},
-          {"--deck", &agent.deck},
-          {"--range", &agent.range},
-          {"--master", &agent.master}}) {
-      if (value->empty()) throw dome::core::InputError(flag, "required for a capture");
-    }
     // A secure master admits only CURVE clients on its allow-list (net/security.h).
-    dome::net::SocketOptions socket;
-    dome::net::ApplyClientKeys(master_key, key, insecure, &socket);
-    socket.Check();
-    agent.configure_socket = [socket](zmq::socket_t* s) { dome::net::ConfigureSocket(s, socket); };
-    const AgentResult result = RunCaptureAgent(agent, stderr);
+    dome::net::ApplyClientKeys(master_key, key, insecure, &agent.socket);
+    const auto result = dome::capture_agent::RunCaptureAgent(agent, stderr);
     std::printf("%s\n", result.summary.BriefReport().c_str());
     std::printf("delivered: %lld acknowledged by %s%s (%lld resent, %d reconnects)\n",
                 static_cast<long long>(result.acknowledged), agent.master.c_str(),

@@ -1,4 +1,4 @@
-// dome-master: the scheduler daemon (scheduler/master.h). Its sockets are CURVE
+// dome-master: the scheduler daemon (master/master.h). Its sockets are CURVE
 // servers with a ZAP allow-list (net/security.h) unless started with --insecure.
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -10,7 +10,7 @@
 #include "core/memory.h"
 #include "io/file_util.h"
 #include "net/security.h"
-#include "scheduler/master.h"
+#include "master/master.h"
 
 namespace {
 std::atomic<bool> g_stop{false};

@@ -14,7 +14,7 @@
 #include "core/parallel_for.h"
 #include "core/timer.h"
 #include "net/blob_cache.h"
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 #include "pipeline/stages.h"
 
 namespace dome::worker {
@@ -145,7 +145,7 @@ struct Worker::Impl {
             queue.swap(keep);
             continue;
           }
-          if (pipeline::Sha256Hex(b.data()) != b.sha256()) {
+          if (net::Sha256Hex(b.data()) != b.sha256()) {
             spdlog::warn("master: blob {} does not hash to its address; asking again", b.sha256());
             continue;
           }
@@ -187,30 +187,19 @@ struct Worker::Impl {
   void Run(const std::atomic<bool>* stop) {
     Connect();
     while (!stop->load()) {
-      zmq::pollitem_t items[] = {{socket->handle(), 0, ZMQ_POLLIN, 0}};
-      try {
-        zmq::poll(items, 1, std::chrono::milliseconds(10));
-      } catch (const zmq::error_t& e) {
-        if (e.num() != EINTR) throw;
-        continue;  // a signal; *stop says whether to go on
-      }
-      if (items[0].revents & ZMQ_POLLIN) {
+      // A signal cuts the wait short; *stop then says whether to go on.
+      if (net::WaitForInput(socket.get(), 10)) {
         for (int budget = 0; budget < 1000; ++budget) {
-          zmq::message_t m;
-          if (!socket->recv(m, zmq::recv_flags::dontwait)) break;
-          const bool more = m.more();
-          if (more) {
-            // Drain the rest of a multipart message: the master sends single frames.
-            zmq::message_t rest;
-            while (socket->recv(rest, zmq::recv_flags::dontwait) && rest.more()) {
-            }
-            spdlog::warn("master: multipart message ignored");
+          const std::vector<zmq::message_t> frames = net::ReceiveFrames(socket.get());
+          if (frames.empty()) break;
+          if (frames.size() != 1) {
+            spdlog::warn("master: multipart message ignored");  // the master sends one frame
             continue;
           }
           master_expiry = Clock::now() + Liveness();
           backoff_ms = options.heartbeat_interval_ms;
           try {
-            OnMessage(net::DecodeEnvelope(m.to_string_view(), "master " + options.master,
+            OnMessage(net::DecodeEnvelope(frames[0].to_string_view(), "master " + options.master,
                                           options.socket.max_message_bytes));
           } catch (const core::InputError& e) {
             spdlog::warn("refused: {}", e.what());

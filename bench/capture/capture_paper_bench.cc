@@ -23,8 +23,8 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "capture/agent.h"
-#include "capture/publish.h"
+#include "capture-agent/agent.h"
+#include "ingest/publish.h"
 #include "core/error.h"
 #include "core/timer.h"
 #include "io/file_util.h"
@@ -133,7 +133,7 @@ int main(int argc, char** argv) {
   CLI::App app{"capture a synthetic take's tapes with simulated agents"};
   fs::path take, work = fs::temp_directory_path() / "dome_capture_paper_bench";
   bool generate = false, through_master = false;
-  capture::AgentOptions base;
+  capture_agent::AgentOptions base;
   base.every = 5;
   base.preroll_frames = 5;
   app.add_option("--take", take, "synthetic take with tape/<camera>.avi")->required();
@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
       throw core::InputError(take.string(), "no tape/<camera>.avi");
 
     fs::create_directories(work);
-    std::optional<capture::FrameIngest> ingest;
+    std::optional<ingest::FrameIngest> ingest;
     std::optional<MasterIngest> master;
     std::string endpoint;
     if (through_master) {
@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
       endpoint = master->capture_endpoint();
     } else {
       ingest.emplace(
-          capture::IngestOptions{.bind = "tcp://127.0.0.1:*", .take_dir = work / "take"});
+          ingest::IngestOptions{.bind = "tcp://127.0.0.1:*", .take_dir = work / "take"});
       endpoint = ingest->endpoint();
     }
     std::atomic<bool> stop{false};
@@ -184,13 +184,13 @@ int main(int argc, char** argv) {
     });
 
     const core::Stopwatch clock;
-    std::vector<capture::AgentResult> results(cameras.size());
+    std::vector<capture_agent::AgentResult> results(cameras.size());
     std::atomic<size_t> next{0};
     std::vector<std::thread> agents;
     for (int t = 0; t < 2; ++t) {
       agents.emplace_back([&] {
         for (size_t i = next++; i < cameras.size(); i = next++) {
-          capture::AgentOptions options = base;
+          capture_agent::AgentOptions options = base;
           options.camera_id = cameras[i];
           options.deck = "sim:" + (take / "tape" / (cameras[i] + ".avi")).string();
           options.digitizer = "sim";
@@ -202,7 +202,7 @@ int main(int argc, char** argv) {
           options.master = endpoint;
           options.spool_dir = work / "spool";
           options.seed = base.seed + i;
-          results[i] = capture::RunCaptureAgent(options, nullptr);
+          results[i] = capture_agent::RunCaptureAgent(options, nullptr);
         }
       });
     }

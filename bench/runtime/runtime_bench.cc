@@ -40,11 +40,11 @@
 #include <thread>
 #include <vector>
 
-#include "client/client.h"
+#include "cli/client.h"
 #include "core/memory.h"
 #include "io/file_util.h"
-#include "scheduler/graph.h"
-#include "scheduler/master.h"
+#include "master/graph.h"
+#include "master/master.h"
 #include "take/take.h"
 
 using namespace dome;

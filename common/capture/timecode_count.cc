@@ -111,4 +111,11 @@ TimecodeRange ParseRange(const std::string& text, VideoStandard standard,
   return {*first, *last};
 }
 
+VideoStandard ParseStandard(const std::string& name, const std::string& where) {
+  if (name == "525-ndf") return VideoStandard::k525NonDrop;
+  if (name == "525-df") return VideoStandard::k525DropFrame;
+  if (name == "625") return VideoStandard::k625;
+  throw core::InputError(where, "got '" + name + "'; expected 525-ndf, 525-df or 625");
+}
+
 }  // namespace dome::capture

@@ -52,4 +52,7 @@ struct TimecodeRange {
 // when malformed, invalid on `standard` or reversed.
 TimecodeRange ParseRange(const std::string& text, VideoStandard standard, const std::string& where);
 
+// "525-ndf", "525-df" or "625". Throws core::InputError naming `where` otherwise.
+VideoStandard ParseStandard(const std::string& name, const std::string& where);
+
 }  // namespace dome::capture

@@ -12,7 +12,7 @@
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
 #include "io/ply.h"
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 #include "pipeline/session.h"
 #include "pipeline/small_take_suite.h"
 #include "pipeline/stages.h"
@@ -60,7 +60,7 @@ class FusionStage : public SmallTakeSuite {
     fj->set_k1(k1);
     *fj->mutable_volume() = ToVolume(grid);
     *fj->mutable_fusion() = ToFusionSettings(options);
-    for (const auto& b : blobs) job.add_blobs()->set_sha256(Sha256Hex(*b));
+    for (const auto& b : blobs) job.add_blobs()->set_sha256(net::Sha256Hex(*b));
     return job;
   }
 
@@ -118,7 +118,7 @@ TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
   const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(grid))};
   runtime::Job job;
   job.set_id("s/i/decimate");
-  job.add_blobs()->set_sha256(Sha256Hex(*blobs[0]));
+  job.add_blobs()->set_sha256(net::Sha256Hex(*blobs[0]));
   job.mutable_decimate()->set_ratio(1.0);
   const auto kept = RunJob(job, blobs);
   ASSERT_EQ(kept.size(), 1u);

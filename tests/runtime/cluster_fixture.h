@@ -18,7 +18,7 @@
 #include <vector>
 #include <zmq.hpp>
 
-#include "client/client.h"
+#include "cli/client.h"
 #include "io/file_util.h"
 #include "runtime/process.h"
 #include "testing/run_command.h"

@@ -12,7 +12,7 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "client/client.h"
+#include "cli/client.h"
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "net/security.h"

@@ -1,4 +1,4 @@
-#include "scheduler/graph.h"
+#include "master/graph.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "scheduler/master.h"
+#include "master/master.h"
 #include "testing/expect_error.h"
 
 namespace dome::scheduler {

@@ -14,7 +14,7 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "client/client.h"
+#include "cli/client.h"
 #include "io/file_util.h"
 #include "net/wire.h"
 #include "runtime/process.h"

@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "net/blob_cache.h"
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 #include "testing/expect_error.h"
 
 namespace dome::net {
@@ -33,6 +33,30 @@ TEST(Wire, RoundTripAndRefusals) {
   testing::ExpectInputError([&] { DecodeEnvelope(EncodeEnvelope(empty), "p", 1 << 20); },
                             {"without a message body"});
   EXPECT_EQ(PeerName(std::string("\x00\x80\x01", 3)), "peer 0x008001");
+  // Capture agents name their sockets by camera: shown as text.
+  EXPECT_EQ(PeerName("c07"), "peer c07");
+  EXPECT_EQ(PeerName(""), "peer 0x");
+}
+
+// One receive for every socket: all parts of a message, nothing when none waits.
+TEST(Wire, ReceiveFramesTakesEveryPartOfOneMessage) {
+  zmq::context_t context;
+  zmq::socket_t a(context, zmq::socket_type::pair), b(context, zmq::socket_type::pair);
+  a.bind("inproc://wire-test");
+  b.connect("inproc://wire-test");
+  EXPECT_TRUE(ReceiveFrames(&b).empty());
+  EXPECT_FALSE(WaitForInput(&b, 1));
+  ASSERT_TRUE(SendFrames(&a, {"one", "", "three"}));
+  ASSERT_TRUE(SendFrames(&a, {"next"}));
+  ASSERT_TRUE(WaitForInput(&b, 1000));
+  const auto first = ReceiveFrames(&b);
+  ASSERT_EQ(first.size(), 3u);
+  EXPECT_EQ(first[0].to_string(), "one");
+  EXPECT_EQ(first[1].size(), 0u);
+  EXPECT_EQ(first[2].to_string(), "three");
+  const auto second = ReceiveFrames(&b);
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_EQ(second[0].to_string(), "next");
 }
 
 TEST(BlobCache, EvictsLeastRecentlyUsedWithinTheBound) {
@@ -53,12 +77,12 @@ TEST(BlobCache, EvictsLeastRecentlyUsedWithinTheBound) {
 
 TEST(ContentHash, Sha256OfKnownVectors) {
   // FIPS 180-4 examples.
-  EXPECT_EQ(pipeline::Sha256Hex("abc"),
+  EXPECT_EQ(net::Sha256Hex("abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  EXPECT_EQ(pipeline::Sha256Hex(""),
+  EXPECT_EQ(net::Sha256Hex(""),
             "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  EXPECT_TRUE(pipeline::IsSha256Hex(pipeline::Sha256Hex("x")));
-  EXPECT_FALSE(pipeline::IsSha256Hex("../etc/passwd"));
+  EXPECT_TRUE(net::IsSha256Hex(net::Sha256Hex("x")));
+  EXPECT_FALSE(net::IsSha256Hex("../etc/passwd"));
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "scheduler/capture_host.h"
+#include "master/capture_host.h"
 
 #include <spdlog/spdlog.h>
 
@@ -6,8 +6,8 @@
 
 namespace dome::scheduler {
 
-runtime::StatusEvent CaptureStatusEvent(const capture::IngestProgress& progress) {
-  const capture::AgentProgress& a = progress.agent;
+runtime::StatusEvent CaptureStatusEvent(const ingest::IngestProgress& progress) {
+  const ingest::AgentProgress& a = progress.agent;
   runtime::StatusEvent ev;
   runtime::CaptureStatus* c = ev.mutable_capture();
   c->set_camera_id(progress.camera_id);
@@ -29,21 +29,18 @@ runtime::StatusEvent CaptureStatusEvent(const capture::IngestProgress& progress)
   return ev;
 }
 
-std::unique_ptr<capture::FrameIngest> HostCaptureIngest(
+std::unique_ptr<ingest::FrameIngest> HostCaptureIngest(
     zmq::context_t* context, const std::string& bind, const std::filesystem::path& take_dir,
     const net::SocketOptions& socket_options,
     std::function<void(const runtime::StatusEvent&)> publish) {
   core::Require(!take_dir.empty(), "--take",
                 "required with --capture-bind: the take the captured frames go into");
-  capture::IngestOptions o;
+  ingest::IngestOptions o;
   o.bind = bind;
   o.take_dir = take_dir;
-  o.flag = "--capture-bind";
   o.context = context;
-  o.configure_socket = [socket_options](zmq::socket_t* s) {
-    net::ConfigureSocket(s, socket_options);
-  };
-  o.on_progress = [publish = std::move(publish)](const capture::IngestProgress& p) {
+  o.socket = socket_options;
+  o.on_progress = [publish = std::move(publish)](const ingest::IngestProgress& p) {
     if (p.agent.done) {
       spdlog::info("capture: {} finished: {}/{} frames in {} passes, {} stored here{}", p.camera_id,
                    p.agent.captured, p.agent.wanted, p.agent.pass, p.stored,
@@ -51,7 +48,12 @@ std::unique_ptr<capture::FrameIngest> HostCaptureIngest(
     }
     publish(CaptureStatusEvent(p));
   };
-  auto ingest = std::make_unique<capture::FrameIngest>(o);
+  std::unique_ptr<ingest::FrameIngest> ingest;
+  try {
+    ingest = std::make_unique<ingest::FrameIngest>(o);
+  } catch (const core::InputError& e) {
+    throw e.Under("--capture-bind");
+  }
   spdlog::info("capture: frames from agents on {} go into {}", ingest->endpoint(),
                take_dir.string());
   return ingest;

@@ -12,7 +12,7 @@
 
 #include "net/wire.h"
 #include "runtime.pb.h"
-#include "scheduler/master.h"
+#include "master/master.h"
 
 namespace dome::client {
 

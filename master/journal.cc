@@ -1,4 +1,4 @@
-#include "scheduler/journal.h"
+#include "master/journal.h"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -1,6 +1,9 @@
-// The runtime's wire layer (proto/runtime.proto over ZeroMQ): one place that sets
-// socket options (CURVE keys and the ZAP domain included, net/security.h), envelope
-// framing with the protocol version and the message size cap, and peer names for logs.
+// The wire layer of every dome socket (proto/runtime.proto and proto/capture.proto over
+// ZeroMQ): one place that sets socket options (CURVE keys and the ZAP domain included,
+// net/security.h), receives and sends multipart messages, frames runtime envelopes with
+// the protocol version and the message size cap, and names peers for logs. dome-master,
+// dome-worker, the dome client and the capture publisher and ingest (ingest/publish.h)
+// all go through it.
 //
 // Framing: every message's payload is one frame holding a serialized Envelope. A
 // ROUTER sees [routing id, payload] from DEALER peers and [routing id, empty,
@@ -11,6 +14,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 #include <zmq.hpp>
 
 #include "runtime.pb.h"
@@ -56,10 +60,19 @@ std::string EncodeEnvelope(runtime::Envelope envelope);
 runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer,
                                  int64_t max_bytes);
 
-// A printable name for a ROUTER routing id ("peer 0x0080000001").
+// A printable name for a ROUTER routing id, for logs and errors: "peer c07" when the id
+// is printable text (capture agents name themselves by camera), else
+// "peer 0x0080000001" (the ids ZeroMQ makes up for anonymous peers).
 std::string PeerName(std::string_view routing_id);
 
 // Sends a multipart message; false when the socket would block (peer gone, HWM).
 bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> frames);
+
+// Every part of the next message, received without blocking; empty when none waits.
+std::vector<zmq::message_t> ReceiveFrames(zmq::socket_t* socket);
+
+// Waits up to timeout_ms for a message on `socket`; false when none came in time or a
+// signal cut the wait short (the caller's loop decides whether to go on).
+bool WaitForInput(zmq::socket_t* socket, int timeout_ms);
 
 }  // namespace dome::net

@@ -1,4 +1,4 @@
-#include "capture/publish.h"
+#include "ingest/publish.h"
 
 #include <spdlog/spdlog.h>
 
@@ -16,7 +16,7 @@
 #include "io/image_io.h"
 #include "take/timecode.h"
 
-namespace dome::capture {
+namespace dome::ingest {
 namespace {
 
 namespace fs = std::filesystem;
@@ -27,35 +27,6 @@ bool ValidCameraId(const std::string& id) {
   return std::all_of(id.begin(), id.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
   });
-}
-
-// A ZeroMQ routing id for logs: as text when printable (agents use their camera id),
-// else in hex (the ids ZeroMQ makes up for anonymous peers).
-std::string PeerName(const zmq::message_t& id) {
-  const std::string raw = id.to_string();
-  if (!raw.empty() && std::all_of(raw.begin(), raw.end(), [](char c) {
-        return std::isprint(static_cast<unsigned char>(c));
-      })) {
-    return raw;
-  }
-  static const char* kHex = "0123456789abcdef";
-  std::string hex = "0x";
-  for (unsigned char c : raw) {
-    hex += kHex[c >> 4];
-    hex += kHex[c & 15];
-  }
-  return hex;
-}
-
-// Waits for input on `socket` up to timeout_ms; a signal cuts the wait short (the
-// caller's loop decides whether to go on).
-void WaitForInput(zmq::socket_t& socket, int timeout_ms) {
-  zmq::pollitem_t items[] = {{socket.handle(), 0, ZMQ_POLLIN, 0}};
-  try {
-    zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
-  } catch (const zmq::error_t& e) {
-    if (e.num() != EINTR) throw;
-  }
 }
 
 // "HH:MM:SS:FF" -> the instant folder name, or nullopt.
@@ -70,6 +41,24 @@ std::optional<take::Timecode> ParseWireTimecode(const std::string& text) {
 }
 
 }  // namespace
+
+void PublisherOptions::Check() const {
+  core::Require(!endpoint.empty(), "endpoint", "expected the ingest's address, e.g. tcp://host:5570");
+  core::Require(!spool_dir.empty(), "spool_dir", "expected a folder for unacknowledged frames");
+  core::Require(ack_timeout_ms > 0, "ack_timeout_ms",
+                "must be positive, got " + std::to_string(ack_timeout_ms));
+  core::Require(max_in_flight >= 1, "max_in_flight",
+                "must be at least 1, got " + std::to_string(max_in_flight));
+  socket.Check();
+}
+
+void IngestOptions::Check() const {
+  core::Require(!bind.empty(), "bind", "expected an address to bind, e.g. tcp://*:5570");
+  core::Require(!take_dir.empty(), "take_dir", "expected the take folder frames go into");
+  core::Require(max_message_bytes >= 1024, "max_message_bytes",
+                "must be at least 1024 bytes, got " + std::to_string(max_message_bytes));
+  socket.Check();
+}
 
 // --- publisher -----------------------------------------------------------------------
 
@@ -88,10 +77,9 @@ FramePublisher::FramePublisher(const std::string& camera_id, const PublisherOpti
     socket_->own_context = std::make_unique<zmq::context_t>(1);
     socket_->context = socket_->own_context.get();
   }
-  core::Require(ValidCameraId(camera_id), "--camera",
+  core::Require(ValidCameraId(camera_id), "camera_id",
                 "expected letters, digits, '_' or '-', got '" + camera_id + "'");
-  core::Require(!options.endpoint.empty(), "--master",
-                "expected the ingest's address, e.g. tcp://host:5570");
+  options.Check();
   std::error_code ec;
   fs::create_directories(options.spool_dir, ec);
   core::Require(fs::is_directory(options.spool_dir), options.spool_dir.string(),
@@ -125,21 +113,21 @@ FramePublisher::~FramePublisher() = default;
 
 void FramePublisher::Connect() {
   socket_->socket = std::make_unique<zmq::socket_t>(*socket_->context, zmq::socket_type::dealer);
-  if (options_.configure_socket) options_.configure_socket(socket_->socket.get());
+  net::ConfigureSocket(socket_->socket.get(), options_.socket);
   socket_->socket->set(zmq::sockopt::linger, 0);
   socket_->socket->set(zmq::sockopt::reconnect_ivl, 100);
   socket_->socket->set(zmq::sockopt::routing_id, camera_id_);
   try {
     socket_->socket->connect(options_.endpoint);
   } catch (const zmq::error_t& e) {
-    throw core::InputError("--master " + options_.endpoint,
+    throw core::InputError("endpoint " + options_.endpoint,
                            std::string("cannot connect: ") + e.what());
   }
   last_heard_ = Clock::now();
   for (auto& [tc, p] : pending_) p.sent = false;  // resend everything on the new socket
   // The latest progress, so a restarted ingest shows this agent at once.
   if (!last_progress_.empty()) {
-    socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
+    net::SendFrames(socket_->socket.get(), {last_progress_});
     progress_sent_at_ = Clock::now();
   }
 }
@@ -148,7 +136,7 @@ bool FramePublisher::AllAcknowledged() const {
   return pending_.empty() && !final_progress_pending_;
 }
 
-void FramePublisher::Publish(const CapturedFrame& frame) {
+void FramePublisher::Publish(const capture::CapturedFrame& frame) {
   proto::CaptureMessage message;
   message.set_protocol(kCaptureProtocol);
   proto::CaptureFrame* f = message.mutable_frame();
@@ -187,7 +175,7 @@ void FramePublisher::SendProgress(AgentProgress progress) {
   last_progress_ = message.SerializeAsString();
   final_progress_pending_ = progress.done;
   progress_sent_at_ = Clock::now();
-  socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
+  net::SendFrames(socket_->socket.get(), {last_progress_});
 }
 
 void FramePublisher::SendDue() {
@@ -199,24 +187,25 @@ void FramePublisher::SendDue() {
     if (in_flight >= options_.max_in_flight) break;
     if (p.sent && now - p.sent_at < timeout) continue;
     if (p.sent) ++resent_;
-    if (!socket_->socket->send(zmq::buffer(p.message), zmq::send_flags::dontwait)) break;
+    if (!net::SendFrames(socket_->socket.get(), {p.message})) break;
     p.sent = true;
     p.sent_at = now;
     ++in_flight;
   }
   if (final_progress_pending_ && now - progress_sent_at_ >= timeout) {
-    socket_->socket->send(zmq::buffer(last_progress_), zmq::send_flags::dontwait);
+    net::SendFrames(socket_->socket.get(), {last_progress_});
     progress_sent_at_ = now;
   }
 }
 
 void FramePublisher::Receive(int timeout_ms) {
-  WaitForInput(*socket_->socket, timeout_ms);
-  zmq::message_t reply;
-  while (socket_->socket->recv(reply, zmq::recv_flags::dontwait)) {
+  net::WaitForInput(socket_->socket.get(), timeout_ms);
+  for (auto frames = net::ReceiveFrames(socket_->socket.get()); !frames.empty();
+       frames = net::ReceiveFrames(socket_->socket.get())) {
     last_heard_ = Clock::now();
     proto::CaptureAck ack;
-    if (!ack.ParseFromArray(reply.data(), static_cast<int>(reply.size())) ||
+    if (frames.size() != 1 ||
+        !ack.ParseFromArray(frames[0].data(), static_cast<int>(frames[0].size())) ||
         ack.protocol() != kCaptureProtocol) {
       spdlog::warn("capture: peer {}: a reply that is not a {} acknowledgement; ignored",
                    options_.endpoint, kCaptureProtocol);
@@ -277,6 +266,7 @@ struct FrameIngest::Socket {
 
 FrameIngest::FrameIngest(const IngestOptions& options)
     : options_(options), socket_(std::make_unique<Socket>()) {
+  options.Check();
   std::error_code ec;
   fs::create_directories(options.take_dir / "frames", ec);
   core::Require(fs::is_directory(options.take_dir / "frames"), options.take_dir.string(),
@@ -287,7 +277,7 @@ FrameIngest::FrameIngest(const IngestOptions& options)
     context = socket_->own_context.get();
   }
   socket_->socket_ptr = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::router);
-  if (options.configure_socket) options.configure_socket(socket_->socket_ptr.get());
+  net::ConfigureSocket(socket_->socket_ptr.get(), options.socket);
   socket_->socket().set(zmq::sockopt::linger, 0);
   socket_->socket().set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.max_message_bytes));
   // An agent that rebuilt its socket comes back under the same identity (its camera).
@@ -295,8 +285,7 @@ FrameIngest::FrameIngest(const IngestOptions& options)
   try {
     socket_->socket().bind(options.bind);
   } catch (const zmq::error_t& e) {
-    throw core::InputError(options.flag + " " + options.bind,
-                           std::string("cannot bind: ") + e.what());
+    throw core::InputError("bind " + options.bind, std::string("cannot bind: ") + e.what());
   }
 }
 
@@ -309,45 +298,32 @@ std::string FrameIngest::endpoint() const {
 zmq::socket_t& FrameIngest::socket() { return socket_->socket(); }
 
 void FrameIngest::Poll(int timeout_ms) {
-  WaitForInput(socket_->socket(), timeout_ms);
-  while (true) {
-    zmq::message_t identity, body;
-    if (!socket_->socket().recv(identity, zmq::recv_flags::dontwait)) return;
-    std::string bytes;
-    bool extra = false;
-    if (identity.more() && socket_->socket().recv(body, zmq::recv_flags::none))
-      bytes = body.to_string();
-    while (body.more()) {  // a well-behaved agent sends one part; drain the rest
-      zmq::message_t part;
-      if (!socket_->socket().recv(part, zmq::recv_flags::none)) break;
-      extra = true;
-      body = std::move(part);
-    }
-    const std::string peer = PeerName(identity);
-    std::string reply;
-    if (extra) {
+  net::WaitForInput(&socket_->socket(), timeout_ms);
+  for (auto frames = net::ReceiveFrames(&socket_->socket()); !frames.empty();
+       frames = net::ReceiveFrames(&socket_->socket())) {
+    const std::string identity = frames[0].to_string();
+    const std::string peer = net::PeerName(identity);
+    // A well-behaved agent sends one part after its routing id.
+    auto reject = [&](const std::string& why) {
       ++rejected_;
       proto::CaptureAck ack;
       ack.set_protocol(kCaptureProtocol);
       ack.set_status(proto::CaptureAck::REJECTED);
-      ack.set_error("expected one message part per frame");
-      reply = ack.SerializeAsString();
+      ack.set_error(why);
+      return ack.SerializeAsString();
+    };
+    std::string reply;
+    if (frames.size() != 2) {
+      reply = reject("expected one message part per frame");
     } else {
       try {
-        reply = Handle(peer, bytes);
+        reply = Handle(peer, frames[1].to_string());
       } catch (const std::exception& e) {  // e.g. the take folder became unwritable
-        ++rejected_;
-        proto::CaptureAck ack;
-        ack.set_protocol(kCaptureProtocol);
-        ack.set_status(proto::CaptureAck::REJECTED);
-        ack.set_error(std::string("cannot store the frame: ") + e.what());
-        spdlog::error("ingest: peer {}: {}", peer, ack.error());
-        reply = ack.SerializeAsString();
+        reply = reject(std::string("cannot store the frame: ") + e.what());
+        spdlog::error("ingest: {}: cannot store the frame: {}", peer, e.what());
       }
     }
-    if (reply.empty()) continue;
-    socket_->socket().send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
-    socket_->socket().send(zmq::buffer(reply), zmq::send_flags::dontwait);
+    if (!reply.empty()) net::SendFrames(&socket_->socket(), {identity, reply});
   }
 }
 
@@ -358,7 +334,7 @@ std::string FrameIngest::Handle(const std::string& peer, const std::string& byte
     ++rejected_;
     ack.set_status(proto::CaptureAck::REJECTED);
     ack.set_error(why);
-    spdlog::warn("ingest: peer {}: {}", peer, why);
+    spdlog::warn("ingest: {}: {}", peer, why);
     return ack.SerializeAsString();
   };
   proto::CaptureMessage message;
@@ -432,4 +408,4 @@ std::string FrameIngest::Handle(const std::string& peer, const std::string& byte
   return ack.SerializeAsString();
 }
 
-}  // namespace dome::capture
+}  // namespace dome::ingest

@@ -5,11 +5,11 @@
 #include <string>
 #include <string_view>
 
-namespace dome::pipeline {
+namespace dome::net {
 
 std::string Sha256Hex(std::string_view bytes);
 
 // True for 64 lowercase hex digits (a well-formed address; says nothing of content).
 bool IsSha256Hex(std::string_view text);
 
-}  // namespace dome::pipeline
+}  // namespace dome::net

@@ -1,6 +1,6 @@
-// One capture agent (`dome-capture`): a deck, a digitizer, the pass planner and the
-// publisher, put together from command-line specs (seed §2.1: one agent per VCR and
-// digitizer).
+// One capture agent (`dome-capture`): a deck, a digitizer, the pass planner
+// (capture/) and the frame publisher (ingest/publish.h), put together from their specs
+// (seed §2.1: one agent per VCR and digitizer).
 #pragma once
 
 #include <cstdio>
@@ -11,9 +11,9 @@
 #include "capture/deck.h"
 #include "capture/digitizer.h"
 #include "capture/pass_planner.h"
-#include "capture/publish.h"
+#include "ingest/publish.h"
 
-namespace dome::capture {
+namespace dome::capture_agent {
 
 struct AgentOptions {
   std::string camera_id;          // the camera this tape recorded
@@ -33,23 +33,24 @@ struct AgentOptions {
   double sim_pace = 0.0;  // sim deck: signal seconds per wall second (1 = real time); 0 = unpaced
   int ack_timeout_ms = 1000;            // resend frames not acknowledged within this, ms
   int flush_timeout_ms = 60000;         // wait at the end for the last acknowledgements, ms
-  int progress_interval_ms = 250;       // least time between progress messages within a pass, ms
-  SocketConfigurator configure_socket;  // optional, for the publisher's socket (security)
+  int progress_interval_ms = 250;  // least time between progress messages within a pass, ms
+  net::SocketOptions socket;       // the publisher's socket: CURVE keys (net/security.h)
+
+  // Throws core::InputError naming the first option out of range ("deck", "range", ...).
+  void Check() const;
 };
 
 struct AgentResult {
-  CaptureSummary summary;
+  capture::CaptureSummary summary;
   bool delivered = false;  // every captured frame acknowledged by the ingest
   int64_t acknowledged = 0;
   int64_t resent = 0;
   int reconnects = 0;
 };
 
-VideoStandard ParseStandard(const std::string& name, const std::string& where);
-
 // Runs the agent; progress lines go to `progress` (nullptr: none) and progress messages
-// to the ingest. Throws core::InputError naming the flag, file, device or peer at
+// to the ingest. Throws core::InputError naming the option, file, device or peer at
 // fault; once the publisher is up, the ingest is told of the failure first.
 AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress);
 
-}  // namespace dome::capture
+}  // namespace dome::capture_agent

@@ -22,7 +22,7 @@
 #include "fusion/volume.h"
 #include "mesh/smooth.h"
 #include "runtime.pb.h"
-#include "scheduler/blob_store.h"
+#include "master/blob_store.h"
 
 namespace dome::scheduler {
 

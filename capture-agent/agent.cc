@@ -1,30 +1,49 @@
-#include "capture/agent.h"
+#include "capture-agent/agent.h"
 
 #include <algorithm>
 #include <chrono>
 
-#include "capture/publish.h"
 #include "capture/sim_deck.h"
 #include "capture/sony9pin.h"
 #include "core/error.h"
+#include "ingest/publish.h"
 
-namespace dome::capture {
+namespace dome::capture_agent {
+using namespace capture;
 
-VideoStandard ParseStandard(const std::string& name, const std::string& where) {
-  if (name == "525-ndf") return VideoStandard::k525NonDrop;
-  if (name == "525-df") return VideoStandard::k525DropFrame;
-  if (name == "625") return VideoStandard::k625;
-  throw core::InputError(where, "got '" + name + "'; expected 525-ndf, 525-df or 625");
+namespace {
+bool StartsWith(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
+}  // namespace
+
+void AgentOptions::Check() const {
+  core::Require(!camera_id.empty(), "camera_id", "required: the camera id this tape recorded");
+  core::Require(StartsWith(deck, "sim:") || StartsWith(deck, "serial:"), "deck",
+                "got '" + deck + "'; expected serial:/dev/ttyXX or sim:TAPE");
+  core::Require(!digitizer.empty(), "digitizer", "expected v4l2:/dev/videoN, file:PATH or sim");
+  core::Require(digitizer != "sim" || StartsWith(deck, "sim:"), "digitizer",
+                "sim digitizes a simulated deck's signal; use it with deck sim:TAPE");
+  ParseRange(range, ParseStandard(standard, "standard"), "range");
+  core::Require(!master.empty(), "master", "required: the frame ingest's address");
+  core::Require(every >= 1, "every", "must be at least 1, got " + std::to_string(every));
+  core::Require(preroll_frames >= 0, "preroll_frames", "must not be negative");
+  core::Require(max_passes >= 1, "max_passes", "must be at least 1");
+  core::Require(keep_per_second >= 0, "keep_per_second", "must not be negative");
+  core::Require(drop_probability >= 0 && drop_probability <= 1, "drop_probability",
+                "must be in [0, 1]");
+  core::Require(sim_pace >= 0, "sim_pace", "must not be negative");
+  core::Require(ack_timeout_ms > 0, "ack_timeout_ms", "must be positive");
+  core::Require(flush_timeout_ms >= 0, "flush_timeout_ms", "must not be negative");
+  core::Require(progress_interval_ms >= 0, "progress_interval_ms", "must not be negative");
+  socket.Check();
 }
 
 AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
-  core::Require(!options.camera_id.empty(), "--camera",
-                "required: the camera id this tape recorded");
+  options.Check();
   TapeLayout layout;
-  layout.standard = ParseStandard(options.standard, "--standard");
+  layout.standard = ParseStandard(options.standard, "standard");
 
   CaptureOptions capture;
-  capture.range = ParseRange(options.range, layout.standard, "--range");
+  capture.range = ParseRange(options.range, layout.standard, "range");
   capture.every = options.every;
   capture.preroll_frames = options.preroll_frames;
   capture.max_passes = options.max_passes;
@@ -35,23 +54,18 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
   // The deck, and the signal a simulated digitizer watches.
   std::unique_ptr<Deck> deck;
   VideoSignal* signal = nullptr;
-  if (options.deck.rfind("sim:", 0) == 0) {
+  if (StartsWith(options.deck, "sim:")) {
     auto sim = std::make_unique<SimDeck>(options.deck.substr(4), layout);
     sim->SetPace(options.sim_pace);
     signal = sim.get();
     deck = std::move(sim);
-  } else if (options.deck.rfind("serial:", 0) == 0) {
+  } else {
     Sony9PinOptions serial;
     serial.drop_frame = layout.standard == VideoStandard::k525DropFrame;
     deck = std::make_unique<Sony9PinDeck>(options.deck.substr(7), serial);
-  } else {
-    throw core::InputError("--deck",
-                           "got '" + options.deck + "'; expected serial:/dev/ttyXX or sim:TAPE");
   }
   std::unique_ptr<Digitizer> digitizer;
   if (options.digitizer == "sim") {
-    core::Require(signal != nullptr, "--digitizer",
-                  "sim digitizes a simulated deck's signal; use it with --deck sim:TAPE");
     SimDigitizerOptions sim;
     sim.keep_per_second = options.keep_per_second;
     sim.drop_probability = options.drop_probability;
@@ -61,12 +75,12 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
     digitizer = std::make_unique<OpenCvDigitizer>(options.digitizer);
   }
 
-  PublisherOptions publish;
+  ingest::PublisherOptions publish;
   publish.endpoint = options.master;
   publish.spool_dir = options.spool_dir;
   publish.ack_timeout_ms = options.ack_timeout_ms;
-  publish.configure_socket = options.configure_socket;
-  FramePublisher publisher(options.camera_id, publish);
+  publish.socket = options.socket;
+  ingest::FramePublisher publisher(options.camera_id, publish);
 
   PassPlanner planner(deck.get(), digitizer.get(), capture);
   for (const auto& tc : publisher.spooled_at_start()) planner.MarkCaptured(tc);
@@ -75,7 +89,7 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
                  options.camera_id.c_str(), publisher.spooled_at_start().size());
   }
 
-  AgentProgress last;
+  ingest::AgentProgress last;
   auto last_sent = std::chrono::steady_clock::time_point{};
   const auto on_progress = [&](const PassReport& pass, int captured, int wanted, bool pass_done) {
     publisher.Pump(0);
@@ -142,4 +156,4 @@ AgentResult RunCaptureAgent(const AgentOptions& options, std::FILE* progress) {
   return result;
 }
 
-}  // namespace dome::capture
+}  // namespace dome::capture_agent

@@ -1,8 +1,8 @@
-#include "scheduler/blob_store.h"
+#include "master/blob_store.h"
 
 #include "core/error.h"
 #include "io/file_util.h"
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 
 namespace dome::scheduler {
 namespace fs = std::filesystem;
@@ -10,7 +10,7 @@ namespace fs = std::filesystem;
 runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& name) {
   const std::string bytes = io::ReadFileBytes(path);
   runtime::BlobRef ref;
-  ref.set_sha256(pipeline::Sha256Hex(bytes));
+  ref.set_sha256(net::Sha256Hex(bytes));
   ref.set_size(bytes.size());
   ref.set_name(name);
   std::lock_guard<std::mutex> lock(mutex_);
@@ -21,7 +21,7 @@ runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& nam
 runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& bytes,
                                      const std::string& name) {
   runtime::BlobRef ref;
-  ref.set_sha256(pipeline::Sha256Hex(bytes));
+  ref.set_sha256(net::Sha256Hex(bytes));
   ref.set_size(bytes.size());
   ref.set_name(name);
   const fs::path path = dir / ref.sha256();
@@ -38,14 +38,14 @@ runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& byt
 bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
   const fs::path path = dir / sha256;
   std::error_code ec;
-  if (!pipeline::IsSha256Hex(sha256) || !fs::exists(path, ec)) return false;
+  if (!net::IsSha256Hex(sha256) || !fs::exists(path, ec)) return false;
   std::string bytes;
   try {
     bytes = io::ReadFileBytes(path);
   } catch (const core::InputError&) {
     return false;
   }
-  if (pipeline::Sha256Hex(bytes) != sha256) return false;
+  if (net::Sha256Hex(bytes) != sha256) return false;
   std::lock_guard<std::mutex> lock(mutex_);
   entries_[sha256] = Entry{path, bytes.size(), sha256, true};
   return true;

@@ -1,4 +1,4 @@
-#include "scheduler/surface_stream.h"
+#include "master/surface_stream.h"
 
 #include <chrono>
 

@@ -1,4 +1,4 @@
-#include "scheduler/master.h"
+#include "master/master.h"
 
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
@@ -25,14 +25,14 @@
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "net/security.h"
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 #include "pipeline/session.h"
 #include "pipeline/stages.h"
-#include "scheduler/blob_store.h"
-#include "scheduler/capture_host.h"
-#include "scheduler/graph.h"
-#include "scheduler/journal.h"
-#include "scheduler/surface_stream.h"
+#include "master/blob_store.h"
+#include "master/capture_host.h"
+#include "master/graph.h"
+#include "master/journal.h"
+#include "master/surface_stream.h"
 #include "stereo/cluster.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
@@ -235,7 +235,7 @@ struct Master::Impl {
   std::map<std::string, WorkerRec> workers;
   std::map<std::string, std::unique_ptr<SessionRec>> sessions;
   std::vector<std::string> session_order;
-  std::unique_ptr<capture::FrameIngest> capture_ingest;  // with capture_endpoint
+  std::unique_ptr<ingest::FrameIngest> capture_ingest;  // with capture_endpoint
   BlobStore blobs;
   int next_seq = 0;
   Clock::time_point next_heartbeat = Clock::now();
@@ -365,7 +365,7 @@ struct Master::Impl {
     coded.SetSerializationDeterministic(true);
     canon.SerializeToCodedStream(&coded);
     coded.Trim();
-    return pipeline::Sha256Hex(bytes);
+    return net::Sha256Hex(bytes);
   }
 
   std::string Submit(const runtime::Session& spec) {
@@ -907,7 +907,7 @@ struct Master::Impl {
       auto* b = env.mutable_blob_reply()->add_blobs();
       b->set_sha256(sha.substr(0, 64));
       std::optional<std::string> bytes;
-      if (pipeline::IsSha256Hex(sha)) bytes = blobs.Read(sha);
+      if (net::IsSha256Hex(sha)) bytes = blobs.Read(sha);
       if (!bytes) {
         spdlog::warn("{}: asked for unknown blob '{}'", WorkerName(id), sha.substr(0, 80));
         b->set_missing(true);
@@ -1146,21 +1146,9 @@ struct Master::Impl {
 
   // ---- loop -------------------------------------------------------------------------
 
-  static std::vector<zmq::message_t> ReceiveAll(zmq::socket_t* s) {
-    std::vector<zmq::message_t> frames;
-    while (true) {
-      zmq::message_t m;
-      if (!s->recv(m, zmq::recv_flags::dontwait)) break;
-      const bool more = m.more();
-      frames.push_back(std::move(m));
-      if (!more) break;
-    }
-    return frames;
-  }
-
   void HandleWorkerSocket() {
     for (int budget = 0; budget < 1000; ++budget) {
-      std::vector<zmq::message_t> frames = ReceiveAll(&workers_socket);
+      std::vector<zmq::message_t> frames = net::ReceiveFrames(&workers_socket);
       if (frames.empty()) return;
       const std::string id = frames[0].to_string();
       if (frames.size() != 2) {
@@ -1191,7 +1179,7 @@ struct Master::Impl {
 
   void HandleControlSocket() {
     for (int budget = 0; budget < 1000; ++budget) {
-      std::vector<zmq::message_t> frames = ReceiveAll(&control_socket);
+      std::vector<zmq::message_t> frames = net::ReceiveFrames(&control_socket);
       if (frames.empty()) return;
       const std::string id = frames[0].to_string();
       const std::string peer = "control " + net::PeerName(id);

@@ -1,4 +1,4 @@
-#include "client/client.h"
+#include "cli/client.h"
 
 #include <unistd.h>
 
@@ -24,8 +24,7 @@ namespace {
 template <class OnEvent>
 void DrainStatusEvents(zmq::socket_t* sub, const std::string& events, int64_t max_bytes,
                        int wait_ms, OnEvent on_event) {
-  zmq::pollitem_t items[] = {{sub->handle(), 0, ZMQ_POLLIN, 0}};
-  zmq::poll(items, 1, std::chrono::milliseconds(wait_ms));
+  net::WaitForInput(sub, wait_ms);
   zmq::message_t m;
   while (sub->recv(m, zmq::recv_flags::dontwait)) {
     runtime::Envelope env;
@@ -54,10 +53,8 @@ runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoi
   *env.mutable_control() = request;
   const std::string bytes = net::EncodeEnvelope(env);
   socket.send(zmq::buffer(bytes), zmq::send_flags::none);
-  zmq::pollitem_t items[] = {{socket.handle(), 0, ZMQ_POLLIN, 0}};
-  zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
   zmq::message_t reply;
-  if (!(items[0].revents & ZMQ_POLLIN) || !socket.recv(reply, zmq::recv_flags::dontwait)) {
+  if (!net::WaitForInput(&socket, timeout_ms) || !socket.recv(reply, zmq::recv_flags::dontwait)) {
     // A refused CURVE handshake looks the same from here: no answer.
     throw core::InputError(
         where, "no answer within " + std::to_string(timeout_ms) +

@@ -1,4 +1,4 @@
-// Publishing captured frames: the agent's side (FramePublisher, a ZeroMQ DEALER with a
+// Captured frames over the network (seed §2.1): the agent's side (FramePublisher, a ZeroMQ DEALER with a
 // local spool) and the receiving side (FrameIngest, a ROUTER that stores frames into a
 // take). The messages are proto/capture.proto's.
 //
@@ -29,17 +29,9 @@
 #include <string>
 
 #include "capture/pass_planner.h"
+#include "net/wire.h"
 
-namespace zmq {
-class context_t;
-class socket_t;
-}  // namespace zmq
-
-namespace dome::capture {
-
-// Applied to a socket before it binds or connects, e.g. the runtime's
-// net::ConfigureSocket (security options); the capture's own options come after it.
-using SocketConfigurator = std::function<void(zmq::socket_t*)>;
+namespace dome::ingest {
 
 // One agent's progress (proto/capture.proto CaptureProgress).
 struct AgentProgress {
@@ -55,12 +47,15 @@ struct AgentProgress {
 inline constexpr const char* kCaptureProtocol = "dome-capture/1";
 
 struct PublisherOptions {
-  std::string endpoint;                   // the ingest, e.g. tcp://master:5570
-  std::filesystem::path spool_dir;        // created if missing
-  int ack_timeout_ms = 1000;              // resend a frame not acknowledged within this, ms
-  int max_in_flight = 16;                 // frames sent and not yet acknowledged
-  SocketConfigurator configure_socket{};  // optional; applied to each new socket
-  zmq::context_t* context = nullptr;      // optional; the publisher's own when null
+  std::string endpoint;               // the ingest, e.g. tcp://master:5570
+  std::filesystem::path spool_dir;    // created if missing
+  int ack_timeout_ms = 1000;          // resend a frame not acknowledged within this, ms
+  int max_in_flight = 16;             // frames sent and not yet acknowledged (count)
+  net::SocketOptions socket;          // CURVE keys (net/security.h); plaintext by default
+  zmq::context_t* context = nullptr;  // optional; the publisher's own when null
+
+  // Throws core::InputError naming the first option out of range ("endpoint").
+  void Check() const;
 };
 
 class FramePublisher {
@@ -73,7 +68,7 @@ class FramePublisher {
   FramePublisher& operator=(const FramePublisher&) = delete;
 
   // Spools `frame` and sends it when the window allows. Returns at once.
-  void Publish(const CapturedFrame& frame);
+  void Publish(const capture::CapturedFrame& frame);
   // Progress for status displays: best effort, not spooled; with `done` set it is
   // resent until acknowledged (Flush waits for it). `acknowledged` is filled in here.
   void SendProgress(AgentProgress progress);
@@ -133,12 +128,14 @@ struct IngestProgress {
 struct IngestOptions {
   std::string bind;  // e.g. tcp://*:5570, tcp://127.0.0.1:* (port chosen)
   std::filesystem::path take_dir;
-  size_t max_message_bytes = 64u << 20;   // larger messages are rejected unread
-  SocketConfigurator configure_socket{};  // optional, before the bind
-  zmq::context_t* context = nullptr;      // optional; the ingest's own when null
+  size_t max_message_bytes = 64u << 20;  // larger messages are rejected unread, bytes
+  net::SocketOptions socket;  // CURVE server key (net/security.h); plaintext by default
+  zmq::context_t* context = nullptr;  // optional; the ingest's own when null
   // Called from Poll() on every progress message (e.g. to republish it).
   std::function<void(const IngestProgress&)> on_progress{};
-  std::string flag = "--bind";  // the option that named `bind`, for errors
+
+  // Throws core::InputError naming the first option out of range ("bind", "take_dir").
+  void Check() const;
 };
 
 class FrameIngest {
@@ -171,4 +168,4 @@ class FrameIngest {
   std::map<std::string, IngestProgress> progress_;
 };
 
-}  // namespace dome::capture
+}  // namespace dome::ingest

@@ -1,10 +1,10 @@
-#include "pipeline/content_hash.h"
+#include "net/content_hash.h"
 
 #include <openssl/evp.h>
 
 #include "core/error.h"
 
-namespace dome::pipeline {
+namespace dome::net {
 
 std::string Sha256Hex(std::string_view bytes) {
   unsigned char digest[EVP_MAX_MD_SIZE];
@@ -28,4 +28,4 @@ bool IsSha256Hex(std::string_view text) {
   return true;
 }
 
-}  // namespace dome::pipeline
+}  // namespace dome::net

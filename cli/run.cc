@@ -1,4 +1,4 @@
-// The runtime's client commands (client/client.h, scheduler/master.h):
+// The runtime's client commands (cli/client.h, master/master.h):
 //   dome run TAKE|SESSION.json --out OUT [--workers N] [--master ADDR]
 //   dome submit TAKE|SESSION.json [--out OUT] --master ADDR   prints the session id
 //   dome status [ID] --master ADDR                            instant answer
@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "cli/commands.h"
-#include "client/client.h"
+#include "cli/client.h"
 #include "core/error.h"
 #include "net/security.h"
 #include "pipeline/session.h"

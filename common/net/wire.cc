@@ -1,5 +1,9 @@
 #include "net/wire.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
 #include <vector>
 
 #include "core/error.h"
@@ -71,6 +75,10 @@ runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer
 }
 
 std::string PeerName(std::string_view id) {
+  const bool text = !id.empty() && std::all_of(id.begin(), id.end(), [](char c) {
+    return std::isprint(static_cast<unsigned char>(c));
+  });
+  if (text) return "peer " + std::string(id);
   static const char* kHex = "0123456789abcdef";
   std::string s = "peer 0x";
   for (unsigned char c : id) {
@@ -90,6 +98,33 @@ bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> f
     if (!sent) return false;
   }
   return true;
+}
+
+std::vector<zmq::message_t> ReceiveFrames(zmq::socket_t* socket) {
+  std::vector<zmq::message_t> frames;
+  zmq::message_t m;
+  if (!socket->recv(m, zmq::recv_flags::dontwait)) return frames;
+  bool more = m.more();
+  frames.push_back(std::move(m));
+  // The parts of a message arrive together: the rest never blocks.
+  while (more) {
+    zmq::message_t part;
+    if (!socket->recv(part, zmq::recv_flags::none)) break;
+    more = part.more();
+    frames.push_back(std::move(part));
+  }
+  return frames;
+}
+
+bool WaitForInput(zmq::socket_t* socket, int timeout_ms) {
+  zmq::pollitem_t items[] = {{socket->handle(), 0, ZMQ_POLLIN, 0}};
+  try {
+    zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+    return false;
+  }
+  return (items[0].revents & ZMQ_POLLIN) != 0;
 }
 
 }  // namespace dome::net

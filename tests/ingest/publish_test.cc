@@ -1,4 +1,4 @@
-#include "capture/publish.h"
+#include "ingest/publish.h"
 
 #include <gtest/gtest.h>
 
@@ -11,13 +11,14 @@
 #include "capture/pass_planner.h"
 #include "capture/sim_deck.h"
 #include "io/image_io.h"
-#include "tape_fixture.h"
+#include "capture/tape_fixture.h"
 #include "testing/temp_dir.h"
 
-namespace dome::capture {
+namespace dome::ingest {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace capture;
 
 CapturedFrame Frame(int64_t n) {
   CapturedFrame f;
@@ -223,10 +224,11 @@ TEST(Publish, OvertakenProgressIsNotShownAndTheFinalOneIsAcknowledged) {
 }
 
 }  // namespace
-}  // namespace dome::capture
+}  // namespace dome::ingest
 
-namespace dome::capture {
+namespace dome::ingest {
 namespace {
+using namespace capture;
 
 // The whole agent path in one process: passes over a tape, frames published while the
 // ingest is stopped mid-capture and started again; every frame ends up in the take
@@ -271,4 +273,4 @@ TEST(Publish, IngestRestartedDuringCaptureLosesNothing) {
 }
 
 }  // namespace
-}  // namespace dome::capture
+}  // namespace dome::ingest
