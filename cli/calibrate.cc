@@ -10,7 +10,7 @@
 
 #include "cli/commands.h"
 #include "io/file_util.h"
-#include "take/rig.h"
+#include "schema/rig_json.h"
 
 namespace dome::cli {
 
@@ -50,14 +50,14 @@ void AddCalibrateCommand(CLI::App* app, int* exit_code) {
     const std::filesystem::path take(args->take);
     calib::CalibrateOptions options = args->options;
     options.joint_refinement = !args->no_joint;
-    const take::Rig prior =
-        take::ReadRig(args->prior.empty() ? take / "rig.json" : std::filesystem::path(args->prior));
+    const geometry::Rig prior = schema::ReadRig(
+        args->prior.empty() ? take / "rig.json" : std::filesystem::path(args->prior));
     const calib::CalibrationResult result = calib::CalibrateTake(take, prior, options);
     const std::filesystem::path report =
         args->report.empty() ? take / "calib" / "report.json" : std::filesystem::path(args->report);
     io::WriteFileAtomically(report, result.ReportJson());
-    take::WriteRig(result.rig,
-                   args->out.empty() ? take / "rig.json" : std::filesystem::path(args->out));
+    schema::WriteRig(result.rig,
+                     args->out.empty() ? take / "rig.json" : std::filesystem::path(args->out));
     std::fputs(result.BriefReport().c_str(), stdout);
     bool flagged = false;
     for (const auto& c : result.cameras) flagged = flagged || c.flagged;

@@ -28,8 +28,8 @@
 #include "calib/target.h"
 #include "core/error.h"
 #include "io/image_io.h"
+#include "schema/rig_json.h"
 #include "synth/synth.h"
-#include "take/rig.h"
 
 namespace {
 
@@ -43,7 +43,7 @@ void Row(const char* name, std::vector<double> v, const char* unit) {
 }
 
 // The detector against the true image points of every view of a stage.
-void DetectionErrors(const std::string& take, const dome::take::Rig& rig, const char* stage) {
+void DetectionErrors(const std::string& take, const dome::geometry::Rig& rig, const char* stage) {
   namespace calib = dome::calib;
   const std::string dir = take + "/calib/" + stage;
   const calib::Target target = calib::ReadTarget(dir + "/target.json");
@@ -53,7 +53,7 @@ void DetectionErrors(const std::string& take, const dome::take::Rig& rig, const 
   for (const auto& cam : rig.cameras) {
     const auto paths = calib::ViewPaths(dir, cam.model.id);
     for (const auto& path : paths) {
-      const calib::CalibViewFile view = calib::ReadCalibView(path);
+      const calib::CalibView view = calib::ReadCalibView(path);
       const cv::Mat gray = dome::io::ReadImage(view.image, dome::io::ImageMode::kGray8);
       ++views;
       try {
@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
       so.overwrite = true;
       std::fputs(dome::synth::GenerateTake(so, take).BriefReport().c_str(), stdout);
     }
-    const dome::take::Rig truth = dome::take::ReadRig(take + "/rig.json");
+    const dome::geometry::Rig truth = dome::schema::ReadRig(take + "/rig.json");
     DetectionErrors(take, truth, "stage1");
     DetectionErrors(take, truth, "stage2");
     if (first_view_only) options.max_stage1_views = 1;

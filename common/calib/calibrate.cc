@@ -54,7 +54,7 @@ struct LoadedView {
 
 LoadedView LoadView(const fs::path& view_path, const CalibrateOptions& options) {
   Require(fs::exists(view_path), view_path.string(), "calibration view file does not exist");
-  const CalibViewFile view = ReadCalibView(view_path);
+  const CalibView view = ReadCalibView(view_path);
   const Target target = ReadTarget(view.target);
   LoadedView out;
   out.where = view_path.string();
@@ -274,14 +274,14 @@ std::vector<fs::path> ViewPaths(const fs::path& stage_dir, const std::string& ca
   return paths;
 }
 
-CameraReport CalibrateCamera(const take::RigCamera& prior, const fs::path& stage1_view,
+CameraReport CalibrateCamera(const geometry::RigCamera& prior, const fs::path& stage1_view,
                              const fs::path& stage2_view, const CalibrateOptions& options,
                              geometry::TsaiCamera* calibrated) {
   return CalibrateCamera(prior, std::vector<fs::path>{stage1_view}, stage2_view, options,
                          calibrated);
 }
 
-CameraReport CalibrateCamera(const take::RigCamera& prior,
+CameraReport CalibrateCamera(const geometry::RigCamera& prior,
                              const std::vector<fs::path>& stage1_views, const fs::path& stage2_view,
                              const CalibrateOptions& options, geometry::TsaiCamera* calibrated) {
   const geometry::TsaiCamera& known = prior.model;
@@ -427,7 +427,7 @@ CameraReport CalibrateCamera(const take::RigCamera& prior,
   return report;
 }
 
-CalibrationResult CalibrateTake(const fs::path& take_dir, const take::Rig& prior,
+CalibrationResult CalibrateTake(const fs::path& take_dir, const geometry::Rig& prior,
                                 const CalibrateOptions& options) {
   options.Check();
   core::Stopwatch stopwatch;

@@ -28,7 +28,7 @@
 
 #include "calib/detect.h"
 #include "calib/tsai_calibration.h"
-#include "take/rig.h"
+#include "geometry/rig.h"
 
 namespace dome::calib {
 
@@ -90,7 +90,7 @@ struct CameraReport {
 };
 
 struct CalibrationResult {
-  take::Rig rig;
+  geometry::Rig rig;
   std::vector<CameraReport> cameras;
   double seconds = 0.0;
   std::string BriefReport() const;  // human-readable, one line per camera
@@ -101,17 +101,18 @@ struct CalibrationResult {
 // naming the file and what is wrong: a missing view or image, a target with NaN or
 // duplicate ids, too few points, stage-1 points without volume, points behind the
 // camera, a camera that sees too few floor marks.
-CalibrationResult CalibrateTake(const std::filesystem::path& take_dir, const take::Rig& prior,
+CalibrationResult CalibrateTake(const std::filesystem::path& take_dir, const geometry::Rig& prior,
                                 const CalibrateOptions& options);
 
 // One camera, from its stage-1 views (the first required, the object's further poses
 // optional) and its stage-2 view (what CalibrateTake runs per camera).
-CameraReport CalibrateCamera(const take::RigCamera& prior,
+CameraReport CalibrateCamera(const geometry::RigCamera& prior,
                              const std::vector<std::filesystem::path>& stage1_views,
                              const std::filesystem::path& stage2_view,
                              const CalibrateOptions& options, geometry::TsaiCamera* calibrated);
 // One stage-1 view.
-CameraReport CalibrateCamera(const take::RigCamera& prior, const std::filesystem::path& stage1_view,
+CameraReport CalibrateCamera(const geometry::RigCamera& prior,
+                             const std::filesystem::path& stage1_view,
                              const std::filesystem::path& stage2_view,
                              const CalibrateOptions& options, geometry::TsaiCamera* calibrated);
 

@@ -1,9 +1,4 @@
-// Calibration targets and views of TAKE/calib/ (the format is proto/calib.proto, read
-// through protobuf's JSON mapping; unknown fields are rejected by name):
-//   calib/stage1/target.json   TargetPoints: the 3D calibration object (frame "object")
-//   calib/stage1/<camera>.json CalibView: the camera's image of it ("image", relative)
-//   calib/stage2/target.json   TargetPoints: the floor marks (frame "world", z = 0)
-//   calib/stage2/<camera>.json CalibView
+// Calibration targets and views of TAKE/calib/ (files: schema/calib_json.h).
 // A view's "points" (true or detected image points) are optional for dome calibrate,
 // which detects its own; "target_to_camera" is never used by the calibration.
 //
@@ -22,45 +17,17 @@
 #include <string>
 #include <vector>
 
+#include "schema/calib_json.h"
+
 namespace dome::calib {
 
-struct TargetPoint {
-  int id = 0;
-  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
-};
-
-struct Target {
-  std::string path;   // file it was read from (for messages)
-  std::string frame;  // "object" or "world"
-  double marker_radius_mm = 0.0;
-  double key_marker_radius_mm = 0.0;
-  std::vector<TargetPoint> points;  // ids unique, coordinates finite
-  // How many points, the lowest ids, form the grids; the rest are plain marks. 0 = all.
-  int grid_points = 0;
-
-  int Find(int id) const;  // index of the point with this id, or -1
-};
-
-struct ImagePoint {
-  int id = 0;
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
-};
-
-struct CalibViewFile {
-  std::string path;                // the view's JSON file
-  std::string camera;              // camera id
-  std::filesystem::path image;     // absolute (resolved against the JSON's folder)
-  std::filesystem::path target;    // absolute
-  std::vector<ImagePoint> points;  // as stored (truth or a detector's), may be empty
-};
-
-// Reads and checks a TargetPoints file. Throws core::InputError naming the file and
-// field: unreadable or malformed JSON, a coordinate that is NaN or infinite, a
-// duplicate id, no points, a non-positive marker radius.
-Target ReadTarget(const std::filesystem::path& path);
-
-// Reads a CalibView file. Throws core::InputError naming the file and field.
-CalibViewFile ReadCalibView(const std::filesystem::path& path);
+// The files' records (schema/calib_json.h).
+using schema::CalibView;
+using schema::ImagePoint;
+using schema::ReadCalibView;
+using schema::ReadTarget;
+using schema::Target;
+using schema::TargetPoint;
 
 // One square grid of a dot target, in grid order: ids[n * j + i].
 struct Grid {

@@ -18,8 +18,8 @@
 #include "mesh/texture.h"
 #include "pipeline/coarse_to_fine.h"
 #include "pipeline/session.h"
+#include "schema/rig_json.h"
 #include "stereo/take_stereo.h"
-#include "take/rig.h"
 
 namespace dome::pipeline {
 
@@ -69,8 +69,8 @@ void RequireBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t n) {
       "expected " + std::to_string(n) + " input blobs, got " + std::to_string(blobs.size()));
 }
 
-take::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs) {
-  return take::ParseRigJson(*blobs[0], BlobName(job, 0));
+geometry::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs) {
+  return schema::ParseRigJson(*blobs[0], BlobName(job, 0));
 }
 
 cv::Mat FrameBlob(const runtime::Job& job, const JobBlobs& blobs, size_t i, io::ImageMode mode) {
@@ -80,7 +80,7 @@ cv::Mat FrameBlob(const runtime::Job& job, const JobBlobs& blobs, size_t i, io::
 std::vector<runtime::Output> RunStereo(const runtime::Job& job, const JobBlobs& blobs) {
   const runtime::StereoJob& sj = job.stereo();
   RequireBlobs(job, blobs, 2 + sj.neighbours_size());
-  const take::Rig rig = RigBlob(job, blobs);
+  const geometry::Rig rig = RigBlob(job, blobs);
   stereo::TakeStereoOptions options = stereo::FromStereoSettings(sj.stereo(), "job " + job.id());
   options.stereo.num_threads = job.threads();
   auto camera = [&](const std::string& id) {
@@ -129,7 +129,7 @@ std::string FusionKey(const runtime::Job& job) {
 
 std::unique_ptr<PreparedFusion> PrepareFusion(const runtime::Job& job, const JobBlobs& blobs) {
   const runtime::FusionJob& fj = job.fusion();
-  const take::Rig rig = RigBlob(job, blobs);
+  const geometry::Rig rig = RigBlob(job, blobs);
   const std::string where = "job " + job.id();
   const fusion::VolumeGrid grid = FromVolume(fj.volume(), where);
   fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
@@ -196,7 +196,7 @@ std::vector<runtime::Output> RunDecimate(const runtime::Job& job, const JobBlobs
 
 std::vector<runtime::Output> RunTexture(const runtime::Job& job, const JobBlobs& blobs) {
   RequireBlobs(job, blobs, 2);
-  const take::Rig rig = RigBlob(job, blobs);
+  const geometry::Rig rig = RigBlob(job, blobs);
   io::Mesh decimated = io::ParsePly(*blobs[1], BlobName(job, 1));
   core::Require(blobs.size() == rig.cameras.size() + 2, "job " + job.id(),
                 "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +

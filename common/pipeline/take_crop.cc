@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "io/image_io.h"
+#include "schema/rig_json.h"
 #include "take/take.h"
 
 namespace dome::pipeline {
@@ -94,7 +95,7 @@ CropSummary CropTakeToBox(const std::filesystem::path& dir, const CropBox& box) 
     after += double(rect.area());
     ++summary.cameras_cropped;
   }
-  take::WriteRig(take.rig, take.RigPath());
+  schema::WriteRig(take.rig, take.RigPath());
   summary.pixel_fraction = before > 0 ? after / before : 1.0;
   return summary;
 }

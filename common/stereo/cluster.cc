@@ -16,7 +16,7 @@ void ClusterOptions::Check() const {
       "max_axis_angle_deg", "must be in (0, 180], got " + std::to_string(max_axis_angle_deg));
 }
 
-std::vector<int> SelectCluster(const take::Rig& rig, const std::string& camera_id,
+std::vector<int> SelectCluster(const geometry::Rig& rig, const std::string& camera_id,
                                const ClusterOptions& options) {
   options.Check();
   const int ref = rig.Find(camera_id);

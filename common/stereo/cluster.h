@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "take/rig.h"
+#include "geometry/rig.h"
 
 namespace dome::stereo {
 
@@ -24,7 +24,7 @@ struct ClusterOptions {
 
 // Indices into rig.cameras of the reference's neighbours. Throws core::InputError when
 // `camera_id` is not in the rig, or when the cluster would hold only the reference.
-std::vector<int> SelectCluster(const take::Rig& rig, const std::string& camera_id,
+std::vector<int> SelectCluster(const geometry::Rig& rig, const std::string& camera_id,
                                const ClusterOptions& options);
 
 }  // namespace dome::stereo

@@ -23,12 +23,11 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "schema/calib_json.h"
+
 namespace dome::synth {
 
-struct TargetPoint {
-  int id = 0;
-  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
-};
+using schema::TargetPoint;  // the points as TAKE/calib/*/target.json holds them
 
 // Stage-1 object.
 inline constexpr double kPlateSizeMm = 800.0;

@@ -75,10 +75,10 @@ void Stage1Pose(const geometry::TsaiCamera& camera, int camera_index, int pose, 
   *translation = -r * (look_at + distance * view);
 }
 
-std::vector<ImagePointTruth> TrueImagePoints(const geometry::TsaiCamera& camera,
-                                             const std::vector<TargetPoint>& points,
-                                             double marker_radius_mm, const RayCaster& caster) {
-  std::vector<ImagePointTruth> out;
+std::vector<ImagePoint> TrueImagePoints(const geometry::TsaiCamera& camera,
+                                        const std::vector<TargetPoint>& points,
+                                        double marker_radius_mm, const RayCaster& caster) {
+  std::vector<ImagePoint> out;
   const CameraRays rays(camera);
   const double fx = camera.focal_mm * camera.sx / camera.sensor.dpx_mm();
   for (const auto& point : points) {

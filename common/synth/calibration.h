@@ -22,10 +22,7 @@
 
 namespace dome::synth {
 
-struct ImagePointTruth {
-  int id = 0;
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
-};
+using schema::ImagePoint;  // where a target point is seen, as a CalibView file holds it
 
 // Stage-1 images per camera: pose 0 (the object centred) and one pose per image
 // corner.
@@ -45,8 +42,8 @@ inline void Stage1Pose(const geometry::TsaiCamera& camera, int camera_index,
 
 // True image points of `points` (given in the frame of the scene `caster` holds),
 // seen by `camera` whose pose maps that frame to the camera.
-std::vector<ImagePointTruth> TrueImagePoints(const geometry::TsaiCamera& camera,
-                                             const std::vector<TargetPoint>& points,
-                                             double marker_radius_mm, const RayCaster& caster);
+std::vector<ImagePoint> TrueImagePoints(const geometry::TsaiCamera& camera,
+                                        const std::vector<TargetPoint>& points,
+                                        double marker_radius_mm, const RayCaster& caster);
 
 }  // namespace dome::synth

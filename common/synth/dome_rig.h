@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-#include "take/rig.h"
+#include "geometry/rig.h"
 
 namespace dome::synth {
 
@@ -44,7 +44,7 @@ struct CameraResponse {
 };
 
 struct DomeCamera {
-  take::RigCamera rig;  // model + neighbours, as written to rig.json
+  geometry::RigCamera rig;  // model + neighbours, as written to rig.json
   CameraResponse response;
   double elevation_deg = 0.0;  // of the camera centre seen from the dome's centre
   double azimuth_deg = 0.0;

@@ -1,6 +1,5 @@
 #include "synth/synth.h"
 
-#include <google/protobuf/util/json_util.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -11,7 +10,6 @@
 #include <mutex>
 #include <sstream>
 
-#include "calib.pb.h"
 #include "capture/tape.h"
 #include "core/error.h"
 #include "core/parallel_for.h"
@@ -20,12 +18,12 @@
 #include "io/file_util.h"
 #include "io/image_io.h"
 #include "io/ply.h"
+#include "schema/rig_json.h"
 #include "synth/batter.h"
 #include "synth/calibration.h"
 #include "synth/dome_rig.h"
 #include "synth/render.h"
 #include "synth/scene.h"
-#include "take/rig.h"
 #include "take/take.h"
 #include "take/timecode.h"
 
@@ -41,57 +39,31 @@ enum NoiseKind : uint64_t { kTakeView = 1, kStage1View = 2, kStage2View = 3 };
 constexpr int kFirstFrame = 10 * 30;  // 00:00:10:00 at 30 frames per second
 constexpr int kFramesPerInstant = 5;  // 6 Hz
 
-std::string ToJson(const google::protobuf::Message& message) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.add_whitespace = true;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  std::string json;
-  const auto status = google::protobuf::util::MessageToJsonString(message, &json, options);
-  DOME_CHECK(status.ok(), "cannot print JSON: " + status.ToString());
-  return json;
+std::string TargetJson(const std::vector<TargetPoint>& points, const std::string& frame,
+                       const std::string& description, double radius, double key_radius,
+                       int grid_points = 0) {
+  schema::Target target;
+  target.points = points;
+  target.frame = frame;
+  target.description = description;
+  target.marker_radius_mm = radius;
+  target.key_marker_radius_mm = key_radius;
+  target.grid_points = grid_points;
+  return schema::TargetToJson(target);
 }
 
-proto::TargetPoints TargetProto(const std::vector<TargetPoint>& points, const std::string& frame,
-                                const std::string& description, double radius, double key_radius,
-                                int grid_points = 0) {
-  proto::TargetPoints msg;
-  msg.set_format_version(1);
-  msg.set_grid_points(static_cast<uint32_t>(grid_points));
-  msg.set_frame(frame);
-  msg.set_description(description);
-  msg.set_marker_radius_mm(radius);
-  msg.set_key_marker_radius_mm(key_radius);
-  for (const auto& p : points) {
-    auto* q = msg.add_points();
-    q->set_id(static_cast<uint32_t>(p.id));
-    q->set_x_mm(p.position_mm.x());
-    q->set_y_mm(p.position_mm.y());
-    q->set_z_mm(p.position_mm.z());
-  }
-  return msg;
-}
-
-proto::CalibView ViewProto(const std::string& camera, const Eigen::Matrix3d& rotation,
-                           const Eigen::Vector3d& translation,
-                           const std::vector<ImagePointTruth>& points) {
-  proto::CalibView msg;
-  msg.set_format_version(1);
-  msg.set_camera(camera);
-  msg.set_image(camera + ".png");
-  msg.set_target("target.json");
-  msg.set_source("truth");
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) msg.mutable_target_to_camera()->add_rotation(rotation(r, c));
-  }
-  for (int k = 0; k < 3; ++k) msg.mutable_target_to_camera()->add_translation_mm(translation[k]);
-  for (const auto& p : points) {
-    auto* q = msg.add_points();
-    q->set_id(static_cast<uint32_t>(p.id));
-    q->set_x_px(p.pixel.x());
-    q->set_y_px(p.pixel.y());
-  }
-  return msg;
+// The true view of the target from `camera` (pose: target -> camera), image <name>.png.
+std::string ViewJson(const std::string& camera, const std::string& name,
+                     const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation,
+                     const std::vector<ImagePoint>& points) {
+  schema::CalibView view;
+  view.camera = camera;
+  view.image = name + ".png";
+  view.target = "target.json";
+  view.source = "truth";
+  view.target_to_camera = schema::TargetPose{rotation, translation};
+  view.points = points;
+  return schema::CalibViewToJson(view);
 }
 
 // The truth mesh: vertices, normals, and the albedo at each vertex as a grey colour.
@@ -244,12 +216,12 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
   rig_options.width_px = scene.width_px;
   rig_options.height_px = scene.height_px;
   const std::vector<DomeCamera> cameras = MakeDomeRig(rig_options);
-  take::Rig rig;
+  geometry::Rig rig;
   rig.source = "synthetic";
   rig.source_unit = "mm";
   rig.source_unit_mm = 1.0;
   for (const auto& cam : cameras) rig.cameras.push_back(cam.rig);
-  take::WriteRig(rig, out_dir / "rig.json");
+  schema::WriteRig(rig, out_dir / "rig.json");
 
   // Folders.
   for (int k = 0; k < scene.instants; ++k) {
@@ -315,19 +287,19 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
   if (options.write_calibration) {
     io::WriteFileAtomically(
         out_dir / "calib" / "stage1" / "target.json",
-        ToJson(TargetProto(CalibObjectPoints(), "object",
-                           "three orthogonal 800 mm white plates meeting at the origin (the "
-                           "inside of a box corner), dotted faces on z=0, y=0, x=0; 7x7 black "
-                           "dots 100 mm apart on each; the dot nearest the corner is larger",
-                           kPlateDotRadiusMm, kPlateKeyDotRadiusMm)));
+        TargetJson(CalibObjectPoints(), "object",
+                   "three orthogonal 800 mm white plates meeting at the origin (the "
+                   "inside of a box corner), dotted faces on z=0, y=0, x=0; 7x7 black "
+                   "dots 100 mm apart on each; the dot nearest the corner is larger",
+                   kPlateDotRadiusMm, kPlateKeyDotRadiusMm));
     io::WriteFileAtomically(
         out_dir / "calib" / "stage2" / "target.json",
-        ToJson(TargetProto(AllFloorMarkPoints(), "world",
-                           "floor marks: black dots on white pads, 5x5 grid 250 mm apart "
-                           "centred on the dome's axis, the mark at (-500,-500) larger; "
-                           "around it plain marks 500 mm apart out to 2 m from the axis",
-                           kFloorMarkDotRadiusMm, kFloorMarkKeyDotRadiusMm,
-                           static_cast<int>(FloorMarkPoints().size()))));
+        TargetJson(AllFloorMarkPoints(), "world",
+                   "floor marks: black dots on white pads, 5x5 grid 250 mm apart "
+                   "centred on the dome's axis, the mark at (-500,-500) larger; "
+                   "around it plain marks 500 mm apart out to 2 m from the axis",
+                   kFloorMarkDotRadiusMm, kFloorMarkKeyDotRadiusMm,
+                   static_cast<int>(FloorMarkPoints().size())));
     files += 2;
   }
 
@@ -411,10 +383,8 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         const fs::path dir = out_dir / "calib" / "stage1";
         // pose 0: <camera>.json; the object moved: <camera>.<pose>.json
         const std::string name = pose == 0 ? id : id + "." + std::to_string(pose);
-        proto::CalibView msg = ViewProto(id, r, t, truth);
-        msg.set_image(name + ".png");
         io::WriteImage(dir / (name + ".png"), view.image);
-        io::WriteFileAtomically(dir / (name + ".json"), ToJson(msg));
+        io::WriteFileAtomically(dir / (name + ".json"), ViewJson(id, name, r, t, truth));
         files += 2;
         break;
       }
@@ -436,7 +406,7 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         io::WriteImage(dir / (id + ".png"), view.image);
         io::WriteFileAtomically(
             dir / (id + ".json"),
-            ToJson(ViewProto(id, cam->rig.model.rotation, cam->rig.model.translation_mm, truth)));
+            ViewJson(id, id, cam->rig.model.rotation, cam->rig.model.translation_mm, truth));
         files += 2;
         break;
       }

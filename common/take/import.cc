@@ -12,6 +12,7 @@
 #include "geometry/middlebury.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
+#include "schema/rig_json.h"
 #include "take/timecode.h"
 
 namespace dome::take {
@@ -33,7 +34,7 @@ void CopyImage(const fs::path& from, const fs::path& to) {
 }
 
 // Writes rig.json and frames/<instant>/<id>.png for each (camera, image) pair.
-Take WriteImportedTake(Rig rig, const std::vector<fs::path>& images, const fs::path& out,
+Take WriteImportedTake(geometry::Rig rig, const std::vector<fs::path>& images, const fs::path& out,
                        const ImportOptions& options) {
   DOME_CHECK(rig.cameras.size() == images.size(), "one image per camera");
   CreateTakeDir(out, options.overwrite);
@@ -45,7 +46,7 @@ Take WriteImportedTake(Rig rig, const std::vector<fs::path>& images, const fs::p
   for (size_t i = 0; i < images.size(); ++i) {
     CopyImage(images[i], frames / (rig.cameras[i].model.id + ".png"));
   }
-  WriteRig(rig, out / "rig.json");
+  schema::WriteRig(rig, out / "rig.json");
   return OpenTake(out);
 }
 
@@ -71,7 +72,7 @@ Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out,
   Require(!ids.empty(), scene_dir.string(),
           "no HALCON cameras: expected intrinsics_<camera>.txt files");
   std::sort(ids.begin(), ids.end());
-  Rig rig;
+  geometry::Rig rig;
   rig.source = "halcon";
   rig.source_unit = "m";
   rig.source_unit_mm = 1000.0;
@@ -83,7 +84,7 @@ Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out,
             "missing: every intrinsics file needs its extrinsics file");
     Require(fs::is_regular_file(image, ec), image.string(),
             "missing: every camera needs its image");
-    RigCamera cam;
+    geometry::RigCamera cam;
     cam.model = geometry::ReadHalconCamera((scene_dir / ("intrinsics_" + id + ".txt")).string(),
                                            extrinsics.string(), id);
     rig.cameras.push_back(cam);
@@ -121,7 +122,7 @@ Take ImportMiddlebury(const fs::path& par_file, const fs::path& out, const Impor
   read_options.height_px = first.rows;
   const std::vector<geometry::TsaiCamera> cameras =
       geometry::ReadMiddleburyPar(par_file.string(), read_options);
-  Rig rig;
+  geometry::Rig rig;
   rig.source = "middlebury";
   rig.source_unit = "m";
   rig.source_unit_mm = read_options.mm_per_unit;
@@ -133,7 +134,7 @@ Take ImportMiddlebury(const fs::path& par_file, const fs::path& out, const Impor
             "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                 ", expected the set's " + std::to_string(first.cols) + "x" +
                 std::to_string(first.rows));
-    RigCamera cam;
+    geometry::RigCamera cam;
     cam.model = model;
     cam.model.id = fs::path(model.id).stem().string();
     rig.cameras.push_back(cam);
@@ -153,13 +154,13 @@ Take ImportColmap(const fs::path& sparse_dir, const fs::path& images_dir, const 
   const std::vector<geometry::ColmapImage> model =
       geometry::ReadColmapModel(sparse_dir.string(), read_options);
   Require(!model.empty(), (sparse_dir / "images.txt").string(), "no images in the model");
-  Rig rig;
+  geometry::Rig rig;
   rig.source = "colmap";
   rig.source_unit = "model unit";
   rig.source_unit_mm = mm_per_unit;
   std::vector<fs::path> images;
   for (const auto& image : model) {
-    RigCamera cam;
+    geometry::RigCamera cam;
     cam.model = image.camera;
     cam.model.id = fs::path(image.name).stem().string();
     if (!image.distortion_fit.exact) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "schema/rig_json.h"
 #include "take/timecode.h"
 
 namespace dome::take {
@@ -29,7 +30,7 @@ Take OpenTake(const fs::path& dir) {
   take.dir = dir;
   Require(fs::is_regular_file(take.RigPath(), ec), take.RigPath().string(),
           "missing: a take needs rig.json");
-  take.rig = ReadRig(take.RigPath());
+  take.rig = schema::ReadRig(take.RigPath());
   const fs::path frames = dir / "frames";
   Require(fs::is_directory(frames, ec), frames.string(),
           "missing: a take needs frames/<instant>/<camera>.png");

@@ -1,6 +1,6 @@
 // The take folder: dome's input format.
 //
-//   TAKE/rig.json                          cameras (take/rig.h)
+//   TAKE/rig.json                          cameras (schema/rig_json.h)
 //   TAKE/frames/<instant>/<camera>.png     one image per camera per instant: 8-bit
 //                                          gray, BGR, or BGRA whose alpha marks valid
 //                                          pixels (255) and pixels without data (0)
@@ -17,13 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "take/rig.h"
+#include "geometry/rig.h"
 
 namespace dome::take {
 
 struct Take {
   std::filesystem::path dir;
-  Rig rig;
+  geometry::Rig rig;
   std::vector<std::string> instants;  // sorted, i.e. in time order
 
   std::filesystem::path RigPath() const { return dir / "rig.json"; }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "schema/rig_json.h"
 #include "take/timecode.h"
 
 namespace dome::take {
@@ -119,7 +120,7 @@ TakeReport ValidateTake(const fs::path& dir, const ValidateOptions& options) {
     checker.Problem(rig_path, "missing: a take needs rig.json");
   } else {
     try {
-      report.rig = ReadRig(rig_path);
+      report.rig = schema::ReadRig(rig_path);
       report.rig_ok = true;
     } catch (const core::InputError& e) {
       report.problems.push_back({e.where(), std::string(e.what()).substr(e.where().size() + 2)});

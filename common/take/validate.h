@@ -21,7 +21,7 @@ struct TakeProblem {
 struct TakeReport {
   std::filesystem::path dir;
   bool rig_ok = false;
-  Rig rig;                            // valid when rig_ok
+  geometry::Rig rig;                  // valid when rig_ok
   std::vector<std::string> instants;  // sorted instant folder names found
   int images_checked = 0;
   bool has_calib = false;

@@ -55,7 +55,7 @@ CameraFrustum FrustumOf(const geometry::TsaiCamera& camera, double depth_mm) {
   return f;
 }
 
-double DefaultFrustumDepthMm(const take::Rig& rig) {
+double DefaultFrustumDepthMm(const geometry::Rig& rig) {
   double extent = 0.0;
   for (size_t i = 0; i < rig.cameras.size(); ++i)
     for (size_t j = i + 1; j < rig.cameras.size(); ++j)

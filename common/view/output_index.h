@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "geometry/rig.h"
 #include "geometry/tsai_camera.h"
-#include "take/rig.h"
 
 namespace dome::view {
 
@@ -50,7 +50,7 @@ CameraFrustum FrustumOf(const geometry::TsaiCamera& camera, double depth_mm);
 
 // A frustum depth that reads well for the whole rig: 8% of the largest distance
 // between two camera centres (400 mm for the 5 m dome), 300 mm for a single camera.
-double DefaultFrustumDepthMm(const take::Rig& rig);
+double DefaultFrustumDepthMm(const geometry::Rig& rig);
 
 // Which mesh of an instant a per-vertex error refers to.
 enum class MeshVariant { kFused, kDecimated };

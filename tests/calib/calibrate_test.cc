@@ -16,9 +16,9 @@
 #include "calib/target.h"
 #include "io/image_io.h"
 #include "io/ply.h"
+#include "schema/rig_json.h"
 #include "synth/calibration.h"
 #include "synth/synth.h"
-#include "take/rig.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
@@ -62,12 +62,12 @@ std::unique_ptr<dome::testing::TempDir> SmallTake::tmp_;
 fs::path SmallTake::dir_;
 
 TEST_F(SmallTake, DetectsDotsWhereTheRendererPutThem) {
-  const take::Rig rig = take::ReadRig(dir_ / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(dir_ / "rig.json");
   for (const char* stage : {"stage1", "stage2"}) {
     const Target target = ReadTarget(dir_ / "calib" / stage / "target.json");
     const GridLayout layout = InferGridLayout(target);
     for (const auto& cam : rig.cameras) {
-      const CalibViewFile view = ReadCalibView(dir_ / "calib" / stage / (cam.model.id + ".json"));
+      const CalibView view = ReadCalibView(dir_ / "calib" / stage / (cam.model.id + ".json"));
       const cv::Mat gray = io::ReadImage(view.image, io::ImageMode::kGray8);
       const DotDetection det = DetectDotTarget(gray, target, layout, {}, view.image.string());
       // the detector labels the grids; plain marks are found later, from the pose
@@ -93,14 +93,14 @@ TEST_F(SmallTake, DetectsDotsWhereTheRendererPutThem) {
 }
 
 TEST_F(SmallTake, CalibratedRigProjectsTheMeshLikeTheTrueRig) {
-  const take::Rig truth = take::ReadRig(dir_ / "rig.json");
+  const geometry::Rig truth = schema::ReadRig(dir_ / "rig.json");
   CalibrateOptions options;
   const CalibrationResult result = CalibrateTake(dir_, truth, options);
   ASSERT_EQ(result.rig.cameras.size(), truth.cameras.size());
   // Written and read back, as `dome calibrate` does.
   const fs::path rig_path = tmp_->path() / "calibrated_rig.json";
-  take::WriteRig(result.rig, rig_path);
-  const take::Rig calibrated = take::ReadRig(rig_path);
+  schema::WriteRig(result.rig, rig_path);
+  const geometry::Rig calibrated = schema::ReadRig(rig_path);
   const io::Mesh mesh = io::ReadPly(dir_ / "truth" / synth::InstantName(0) / "mesh.ply");
   std::vector<double> diffs;
   for (size_t c = 0; c < truth.cameras.size(); ++c) {
@@ -142,7 +142,7 @@ TEST_F(SmallTake, CalibratedRigProjectsTheMeshLikeTheTrueRig) {
 TEST_F(SmallTake, MissingCalibrationImage) {
   const fs::path take = Copy("image");
   fs::remove(take / "calib" / "stage1" / "c02.png");
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); },
                             {"stage1/c02.json: image", "c02.png", "does not exist"});
 }
@@ -150,7 +150,7 @@ TEST_F(SmallTake, MissingCalibrationImage) {
 TEST_F(SmallTake, MissingViewFile) {
   const fs::path take = Copy("view");
   fs::remove(take / "calib" / "stage2" / "c01.json");
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); },
                             {"stage2/c01.json", "does not exist"});
 }
@@ -162,7 +162,7 @@ TEST_F(SmallTake, CameraThatSeesTooFewFloorMarks) {
   cv::Mat gray = io::ReadImage(image, io::ImageMode::kGray8);
   gray(cv::Rect(0, 0, gray.cols, gray.rows)).setTo(200);
   // keep a 2 x 2 block of marks' worth of the original image around the key mark
-  const CalibViewFile view = ReadCalibView(take / "calib" / "stage2" / "c03.json");
+  const CalibView view = ReadCalibView(take / "calib" / "stage2" / "c03.json");
   const cv::Mat original = io::ReadImage(image, io::ImageMode::kGray8);
   int x0 = gray.cols, y0 = gray.rows, x1 = 0, y1 = 0;
   for (const auto& p : view.points) {
@@ -177,7 +177,7 @@ TEST_F(SmallTake, CameraThatSeesTooFewFloorMarks) {
   const cv::Rect keep = cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, gray.cols, gray.rows);
   original(keep).copyTo(gray(keep));
   io::WriteImage(image, gray);
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   testing::ExpectInputError(
       [&] { CalibrateTake(take, rig, {}); },
       {"stage2/c03.json", "camera c03 sees", "floor marks; stage 2 needs at least 6"});
@@ -194,7 +194,7 @@ TEST_F(SmallTake, UnusableFurtherObjectPoseIsSkipped) {
   cv::Mat gray = io::ReadImage(image, io::ImageMode::kGray8);
   gray.setTo(200);
   io::WriteImage(image, gray);
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   geometry::TsaiCamera calibrated;
   const CameraReport report = CalibrateCamera(
       rig.cameras[1], views, take / "calib" / "stage2" / "c01.json", {}, &calibrated);
@@ -222,7 +222,7 @@ TEST_F(SmallTake, FloorTargetWithoutPlainMarksCalibratesFromTheGrid) {
             std::to_string(p.position_mm.y()) + "}";
   }
   std::ofstream(take / "calib" / "stage2" / "target.json") << json << "]}";
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   geometry::TsaiCamera calibrated;
   const CameraReport report =
       CalibrateCamera(rig.cameras[0], ViewPaths(take / "calib" / "stage1", "c00"),
@@ -243,7 +243,7 @@ TEST_F(SmallTake, StoredPointsWithUnknownIdOrTooFew) {
       << R"({"format_version": 1, "camera": "c00", "image": "c00.png", "target": "target.json",
             "points": [{"id": 1, "x_px": 10, "y_px": 10}, {"id": 2, "x_px": 20, "y_px": 10},
                        {"id": 3, "x_px": 30, "y_px": 10}]})";
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   CalibrateOptions options;
   options.use_stored_points = true;
   testing::ExpectInputError([&] { CalibrateTake(take, rig, options); },
@@ -260,7 +260,7 @@ TEST_F(SmallTake, TargetWithDuplicateIds) {
   const fs::path target = take / "calib" / "stage2" / "target.json";
   std::ofstream(target) << R"({"format_version": 1, "frame": "world", "marker_radius_mm": 45,
       "key_marker_radius_mm": 60, "points": [{"id": 0, "x_mm": 0}, {"id": 0, "x_mm": 300}]})";
-  const take::Rig rig = take::ReadRig(take / "rig.json");
+  const geometry::Rig rig = schema::ReadRig(take / "rig.json");
   testing::ExpectInputError([&] { CalibrateTake(take, rig, {}); },
                             {"stage2/target.json: points[1].id", "duplicate id 0"});
 }

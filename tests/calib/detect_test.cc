@@ -62,7 +62,7 @@ TEST(DetectDotTarget, LabelsTheFloorMarksOfGrazingAndHardPaperCameras) {
     double worst = 0;
     for (const auto& p : det.points) {
       const auto it = std::find_if(truth.begin(), truth.end(),
-                                   [&](const synth::ImagePointTruth& t) { return t.id == p.id; });
+                                   [&](const synth::ImagePoint& t) { return t.id == p.id; });
       if (it == truth.end()) continue;
       ++matched;
       worst = std::max(worst, (it->pixel - p.pixel).norm());

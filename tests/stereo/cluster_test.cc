@@ -8,10 +8,10 @@
 namespace dome::stereo {
 namespace {
 
-take::Rig LineRig(int n) {
-  take::Rig rig;
+geometry::Rig LineRig(int n) {
+  geometry::Rig rig;
   for (int i = 0; i < n; ++i) {
-    take::RigCamera c;
+    geometry::RigCamera c;
     c.model = testing::PlaneCamera("c" + std::to_string(i), 100.0 * i, 0);
     rig.cameras.push_back(c);
   }
@@ -19,7 +19,7 @@ take::Rig LineRig(int n) {
 }
 
 TEST(ClusterTest, DerivedFromGeometryNearestFirst) {
-  const take::Rig rig = LineRig(6);
+  const geometry::Rig rig = LineRig(6);
   ClusterOptions opt;
   opt.max_neighbours = 3;
   const auto c = SelectCluster(rig, "c2", opt);
@@ -29,14 +29,14 @@ TEST(ClusterTest, DerivedFromGeometryNearestFirst) {
 }
 
 TEST(ClusterTest, RigNeighboursWin) {
-  take::Rig rig = LineRig(4);
+  geometry::Rig rig = LineRig(4);
   rig.cameras[0].neighbours = {"c3", "c2"};
   const auto c = SelectCluster(rig, "c0", {});
   EXPECT_EQ(c, (std::vector<int>{3, 2}));
 }
 
 TEST(ClusterTest, AxesFacingAwayAreNotNeighbours) {
-  take::Rig rig = LineRig(2);
+  geometry::Rig rig = LineRig(2);
   // Turn c1 around (180 degrees about y): it looks the other way.
   rig.cameras[1].model.rotation = Eigen::Vector3d(-1, 1, -1).asDiagonal();
   dome::testing::ExpectInputError([&] { SelectCluster(rig, "c0", {}); },

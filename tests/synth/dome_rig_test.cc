@@ -7,9 +7,9 @@
 #include <cmath>
 #include <set>
 
+#include "geometry/rig.h"
 #include "synth/calib_target.h"
 #include "synth/render.h"
-#include "take/rig.h"
 #include "testing/expect_error.h"
 
 namespace dome::synth {
@@ -22,7 +22,7 @@ TEST(DomeRig, PaperDomeIsTheSeeds) {
   const auto cameras = MakeDomeRig(DomeRigOptions());
   ASSERT_EQ(cameras.size(), 51u);
   std::set<std::string> ids;
-  take::Rig rig;
+  geometry::Rig rig;
   for (const auto& cam : cameras) {
     const auto& m = cam.rig.model;
     ids.insert(m.id);
@@ -46,7 +46,7 @@ TEST(DomeRig, PaperDomeIsTheSeeds) {
     EXPECT_GT(cam.response.noise_sigma, 0.0);
   }
   EXPECT_EQ(ids.size(), 51u);
-  EXPECT_NO_THROW(take::CheckRig(rig, "synthetic rig"));
+  EXPECT_NO_THROW(geometry::CheckRig(rig, "synthetic rig"));
   // Neighbours are mutual and close (a geodesic edge: ~30 degrees apart at most).
   for (const auto& cam : rig.cameras) {
     for (const auto& n : cam.neighbours) {

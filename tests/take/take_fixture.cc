@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "schema/rig_json.h"
 #include "take/take.h"
 #include "take/timecode.h"
 
@@ -12,11 +13,11 @@ namespace dome::take::testing {
 
 namespace fs = std::filesystem;
 
-Rig MakeRingRig(int cameras, int width_px, int height_px) {
-  Rig rig;
+geometry::Rig MakeRingRig(int cameras, int width_px, int height_px) {
+  geometry::Rig rig;
   rig.source = "test";
   for (int i = 0; i < cameras; ++i) {
-    RigCamera cam;
+    geometry::RigCamera cam;
     geometry::TsaiCamera& m = cam.model;
     m.id = "c" + std::to_string(i);
     m.width_px = width_px;
@@ -41,9 +42,9 @@ Rig MakeRingRig(int cameras, int width_px, int height_px) {
   return rig;
 }
 
-fs::path WriteTake(const fs::path& dir, const Rig& rig, int instants) {
+fs::path WriteTake(const fs::path& dir, const geometry::Rig& rig, int instants) {
   CreateTakeDir(dir, true);
-  WriteRig(rig, dir / "rig.json");
+  schema::WriteRig(rig, dir / "rig.json");
   cv::RNG rng(7);
   for (int t = 0; t < instants; ++t) {
     const std::string instant = Timecode{0, 0, 1, 5 * t}.FolderName();

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "schema/rig_json.h"
 #include "take_fixture.h"
 #include "testing/temp_dir.h"
 
@@ -91,9 +92,9 @@ TEST_F(ValidateTest, BadRigJson) {
 }
 
 TEST_F(ValidateTest, DuplicateCameraIdInRig) {
-  Rig rig = testing::MakeRingRig(3, 40, 30);
+  geometry::Rig rig = testing::MakeRingRig(3, 40, 30);
   rig.cameras[2].model.id = "c0";
-  std::ofstream(dir_ / "rig.json") << RigToJson(rig);
+  std::ofstream(dir_ / "rig.json") << schema::RigToJson(rig);
   const TakeReport report = ValidateTake(dir_);
   ASSERT_FALSE(report.ok());
   EXPECT_NE(report.problems[0].Text().find("duplicate camera id 'c0'"), std::string::npos);

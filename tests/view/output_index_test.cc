@@ -21,7 +21,7 @@ google::protobuf::Struct ParseJson(const std::string& json) {
 }
 
 TEST(Frustum, CornersProjectToTheImageCornersAtTheGivenDepth) {
-  const take::Rig rig = take::testing::MakeRingRig(3, 64, 48);
+  const geometry::Rig rig = take::testing::MakeRingRig(3, 64, 48);
   for (const auto& rc : rig.cameras) {
     geometry::TsaiCamera cam = rc.model;
     cam.kappa1_per_mm2 = 0.5;  // ~8% at the corners: they must follow the distortion

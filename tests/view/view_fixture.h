@@ -13,9 +13,9 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include "geometry/rig.h"
 #include "io/depth_tiff.h"
 #include "io/ply.h"
-#include "take/rig.h"
 #include "take/take.h"
 #include "take_fixture.h"
 
@@ -35,7 +35,7 @@ inline io::Mesh Square(float half_mm, float z_mm) {
 struct ViewFixture {
   std::filesystem::path take, out;
   std::vector<std::string> instants;  // the take's, in order
-  take::Rig rig;
+  geometry::Rig rig;
 };
 
 // TAKE: 4 ring cameras (64 x 48), 3 instants, a truth mesh (the square at z = 0) and

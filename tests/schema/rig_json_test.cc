@@ -1,4 +1,4 @@
-#include "take/rig.h"
+#include "schema/rig_json.h"
 
 #include <gtest/gtest.h>
 
@@ -11,10 +11,12 @@
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
-namespace dome::take {
+namespace dome::schema {
 namespace {
 
-using testing::MakeRingRig;
+using geometry::Rig;
+using geometry::RigCamera;
+using take::testing::MakeRingRig;
 
 using dome::testing::ExpectInputError;
 
@@ -156,4 +158,4 @@ TEST(Rig, EmptyRigRejected) {
 }
 
 }  // namespace
-}  // namespace dome::take
+}  // namespace dome::schema

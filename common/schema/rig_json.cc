@@ -1,23 +1,16 @@
-#include "take/rig.h"
-
-#include <google/protobuf/util/json_util.h>
-
-#include <cmath>
-#include <set>
+#include "schema/rig_json.h"
 
 #include "core/error.h"
 #include "io/file_util.h"
 #include "rig.pb.h"
+#include "schema/json.h"
 
-namespace dome::take {
+namespace dome::schema {
 namespace {
 
-using core::InputError;
 using core::Require;
-
-std::string CameraWhere(const std::string& where, size_t i, const std::string& id) {
-  return where + ": cameras[" + std::to_string(i) + "] (id '" + id + "')";
-}
+using geometry::Rig;
+using geometry::RigCamera;
 
 RigCamera FromProto(const proto::Camera& c, const std::string& where) {
   RigCamera out;
@@ -70,47 +63,9 @@ void ToProto(const RigCamera& in, proto::Camera* c) {
 
 }  // namespace
 
-int Rig::Find(const std::string& id) const {
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    if (cameras[i].model.id == id) return static_cast<int>(i);
-  }
-  return -1;
-}
-
-void CheckRig(const Rig& rig, const std::string& where) {
-  Require(!rig.cameras.empty(), where + ": cameras", "expected at least one camera");
-  Require(std::isfinite(rig.source_unit_mm) && rig.source_unit_mm > 0, where + ": source_unit_mm",
-          "expected a positive number of millimetres per source unit");
-  std::set<std::string> ids;
-  for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    const auto& cam = rig.cameras[i];
-    const std::string cw = CameraWhere(where, i, cam.model.id);
-    Require(!cam.model.id.empty(), cw + ".id", "expected a non-empty camera id");
-    Require(cam.model.id.find_first_of("/\\ \t\n") == std::string::npos && cam.model.id != "." &&
-                cam.model.id != "..",
-            cw + ".id", "a camera id names files: no slashes, spaces or dot-only names");
-    Require(ids.insert(cam.model.id).second, cw + ".id",
-            "duplicate camera id '" + cam.model.id + "'");
-    cam.model.Check(cw);
-  }
-  for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    const auto& cam = rig.cameras[i];
-    for (const auto& n : cam.neighbours) {
-      const std::string nw = CameraWhere(where, i, cam.model.id) + ".neighbours";
-      Require(n != cam.model.id, nw, "a camera cannot be its own neighbour");
-      Require(ids.count(n) == 1, nw, "unknown camera id '" + n + "'");
-    }
-  }
-}
-
 Rig ParseRigJson(const std::string& json, const std::string& where) {
   proto::Rig msg;
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = false;
-  const auto status = google::protobuf::util::JsonStringToMessage(json, &msg, options);
-  if (!status.ok()) {
-    throw InputError(where, "invalid rig JSON: " + std::string(status.message()));
-  }
+  ParseJson(json, where, "invalid rig JSON", &msg);
   Require(msg.format_version() == kRigFormatVersion, where + ": format_version",
           "expected " + std::to_string(kRigFormatVersion) + ", got " +
               std::to_string(msg.format_version()));
@@ -119,9 +74,10 @@ Rig ParseRigJson(const std::string& json, const std::string& where) {
   rig.source_unit = msg.source_unit();
   rig.source_unit_mm = msg.source_unit_mm();
   for (int i = 0; i < msg.cameras_size(); ++i) {
-    rig.cameras.push_back(FromProto(msg.cameras(i), CameraWhere(where, i, msg.cameras(i).id())));
+    rig.cameras.push_back(
+        FromProto(msg.cameras(i), geometry::RigCameraWhere(where, i, msg.cameras(i).id())));
   }
-  CheckRig(rig, where);
+  geometry::CheckRig(rig, where);
   return rig;
 }
 
@@ -132,14 +88,7 @@ std::string RigToJson(const Rig& rig) {
   msg.set_source_unit(rig.source_unit);
   msg.set_source_unit_mm(rig.source_unit_mm);
   for (const auto& cam : rig.cameras) ToProto(cam, msg.add_cameras());
-  google::protobuf::util::JsonPrintOptions options;
-  options.add_whitespace = true;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  std::string out;
-  const auto status = google::protobuf::util::MessageToJsonString(msg, &out, options);
-  DOME_CHECK(status.ok(), std::string(status.message()));
-  return out;
+  return PrintJson(msg);
 }
 
 Rig ReadRig(const std::filesystem::path& path) {
@@ -147,8 +96,8 @@ Rig ReadRig(const std::filesystem::path& path) {
 }
 
 void WriteRig(const Rig& rig, const std::filesystem::path& path) {
-  CheckRig(rig, path.string());
+  geometry::CheckRig(rig, path.string());
   io::WriteFileAtomically(path, RigToJson(rig));
 }
 
-}  // namespace dome::take
+}  // namespace dome::schema
