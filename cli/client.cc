@@ -197,6 +197,7 @@ runtime::SessionStatus RunEmbedded(const runtime::Session& session, const Embedd
     wo.heartbeat_interval_ms = mo.heartbeat_interval_ms;
     wo.heartbeat_liveness = mo.heartbeat_liveness;
     wo.name = "embedded-" + std::to_string(w);
+    wo.stages = options.worker_stages ? options.worker_stages : mo.stages;
     workers.push_back(std::make_unique<worker::Worker>(&context, wo));
   }
   for (auto& w : workers) {

@@ -10,9 +10,9 @@
 #include <string>
 #include <zmq.hpp>
 
+#include "master/master.h"
 #include "net/wire.h"
 #include "runtime.pb.h"
-#include "master/master.h"
 
 namespace dome::client {
 
@@ -58,6 +58,8 @@ struct EmbeddedOptions {
   int threads_per_worker = 0;       // <= 0: hardware threads / workers, at least 1
   int64_t cache_mb = 1024;          // each worker's blob cache, MiB
   scheduler::MasterOptions master;  // endpoints are replaced by inproc:// ones
+  // The stages the workers run; null: the master's (tests give them another set).
+  std::shared_ptr<const pipeline::StageSet> worker_stages;
 };
 
 // Runs `session` on an embedded master with in-process workers; progress to `out`.

@@ -1,6 +1,6 @@
 // `dome import halcon|middlebury|colmap ... --out TAKE`: make a take from another
 // tool's calibrated images (take/import.h), optionally cropped to a world box
-// (pipeline/take_crop.h): --crop-box X0 Y0 Z0 X1 Y1 Z1 (mm) [--crop-margin-px N].
+// (take/crop.h): --crop-box X0 Y0 Z0 X1 Y1 Z1 (mm) [--crop-margin-px N].
 #include "take/import.h"
 
 #include <cstdio>
@@ -10,7 +10,7 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
-#include "pipeline/take_crop.h"
+#include "take/crop.h"
 
 namespace dome::cli {
 namespace {
@@ -22,12 +22,12 @@ struct ImportArgs {
   double mm_per_unit = 0.0;
   take::ImportOptions options;
   std::vector<double> crop_box;  // x0 y0 z0 x1 y1 z1, world mm; empty: no crop
-  int crop_margin_px = pipeline::CropBox{}.margin_px;
+  int crop_margin_px = take::CropBox{}.margin_px;
 };
 
 // The --crop-box flags as a checked box.
-pipeline::CropBox CropBoxOf(const ImportArgs& args) {
-  pipeline::CropBox box;
+take::CropBox CropBoxOf(const ImportArgs& args) {
+  take::CropBox box;
   box.min_mm = Eigen::Vector3d(args.crop_box[0], args.crop_box[1], args.crop_box[2]);
   box.max_mm = Eigen::Vector3d(args.crop_box[3], args.crop_box[4], args.crop_box[5]);
   box.margin_px = args.crop_margin_px;
@@ -56,7 +56,7 @@ void FinishImport(const ImportArgs& args, const take::Take& take) {
   std::printf("wrote take %s: %zu camera(s), instant %s\n", take.dir.c_str(),
               take.rig.cameras.size(), take.instants.front().c_str());
   if (args.crop_box.empty()) return;
-  const pipeline::CropSummary c = pipeline::CropTakeToBox(take.dir, CropBoxOf(args));
+  const take::CropSummary c = take::CropTakeToBox(take.dir, CropBoxOf(args));
   std::printf("cropped %d camera(s) to the box: %.1f%% of the pixels kept\n", c.cameras_cropped,
               100.0 * c.pixel_fraction);
 }

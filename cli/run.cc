@@ -20,23 +20,28 @@
 #include <string>
 #include <vector>
 
-#include "cli/commands.h"
 #include "cli/client.h"
+#include "cli/commands.h"
+#include "cli/setting_flags.h"
 #include "core/error.h"
 #include "net/security.h"
+#include "pipeline/defaults.h"
 #include "pipeline/session.h"
 
 namespace dome::cli {
 namespace {
 
+// The flags that make or amend a session: its own fields, and every stereo and fusion
+// option (pipeline/settings.h), each set in the session only when given.
 struct SessionArgs {
   std::string source, out;
   std::vector<std::string> instants;
   double voxel_mm = 0, decimate_ratio = 0;
-  int slab_planes = 0, levels = -1, smooth_iterations = 0;
-  bool smooth_given = false;  // any value, a bad one included, goes to the session
-  std::vector<int> windows;
+  int slab_planes = 0, smooth_iterations = 0;
   bool no_texture = false, no_preview = false;
+  CLI::Option *voxel = nullptr, *slabs = nullptr, *ratio = nullptr, *smooth = nullptr;
+  std::unique_ptr<SettingFlags<stereo::TakeStereoOptions>> stereo;
+  std::unique_ptr<SettingFlags<fusion::FusionOptions>> fusion;
 };
 
 void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
@@ -46,17 +51,21 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
       cmd->add_option("--out", a->out, "output folder (OUT/<instant>/..., OUT/report.json)");
   if (out_required) out->required();
   cmd->add_option("--instant", a->instants, "instants HH-MM-SS-FF (default: all)");
-  cmd->add_option("--voxel-mm", a->voxel_mm, "voxel edge, mm (default 20: the seed's volume)");
-  cmd->add_option("--slab-planes", a->slab_planes, "voxel planes per fusion job (default 16)");
-  cmd->add_option("--levels", a->levels, "stereo depth levels (0: from the geometry)");
-  cmd->add_option("--windows", a->windows, "stereo SSD window sides, px");
-  cmd->add_option("--decimate-ratio", a->decimate_ratio,
-                  "fraction of triangles kept (default 0.1)");
-  cmd->add_option("--smooth-iterations", a->smooth_iterations,
-                  "Taubin smoothing of mesh.ply, lambda|mu pairs (default 0: none)")
-      ->each([a](const std::string&) { a->smooth_given = true; });
+  a->voxel =
+      cmd->add_option("--voxel-mm", a->voxel_mm, "voxel edge, mm (default 20: the seed's volume)");
+  a->slabs =
+      cmd->add_option("--slab-planes", a->slab_planes, "voxel planes per fusion job (default 16)");
+  a->ratio = cmd->add_option("--decimate-ratio", a->decimate_ratio,
+                             "fraction of triangles kept (default 0.1)");
+  a->smooth = cmd->add_option("--smooth-iterations", a->smooth_iterations,
+                              "Taubin smoothing of mesh.ply, lambda|mu pairs (default 0: none)");
   cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
   cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
+  a->stereo = std::make_unique<SettingFlags<stereo::TakeStereoOptions>>(
+      cmd, pipeline::StereoSettingFields());
+  a->fusion = std::make_unique<SettingFlags<fusion::FusionOptions>>(
+      cmd, pipeline::FusionSettingFields(),
+      pipeline::DefaultFusionOptions(pipeline::kDefaultVoxelMm));
 }
 
 // A Session from a take folder and flags, or from SESSION.json with flags overriding.
@@ -77,17 +86,15 @@ runtime::Session MakeSession(const SessionArgs& a) {
     s.clear_instants();
     for (const auto& i : a.instants) s.add_instants(i);
   }
-  if (a.voxel_mm > 0) s.mutable_volume()->set_voxel_size_mm(a.voxel_mm);
-  if (a.slab_planes > 0) s.set_slab_planes(a.slab_planes);
-  if (a.levels >= 0) s.mutable_stereo()->set_num_levels(a.levels);
-  if (!a.windows.empty()) {
-    s.mutable_stereo()->clear_window_sizes_px();
-    for (int w : a.windows) s.mutable_stereo()->add_window_sizes_px(w);
-  }
-  if (a.decimate_ratio > 0) s.set_decimate_ratio(a.decimate_ratio);
-  if (a.smooth_given) s.set_smooth_iterations(a.smooth_iterations);
+  // Any value given, a bad one included, goes to the session: checked below by name.
+  if (a.voxel->count()) s.mutable_volume()->set_voxel_size_mm(a.voxel_mm);
+  if (a.slabs->count()) s.set_slab_planes(a.slab_planes);
+  if (a.ratio->count()) s.set_decimate_ratio(a.decimate_ratio);
+  if (a.smooth->count()) s.set_smooth_iterations(a.smooth_iterations);
   if (a.no_texture) s.set_texture(false);
   if (a.no_preview) s.set_write_previews(false);
+  a.stereo->Apply(s.mutable_stereo());
+  a.fusion->Apply(s.mutable_fusion());
   pipeline::ResolveSessionOptions(s, "session");  // bad options fail here, not remotely
   return s;
 }

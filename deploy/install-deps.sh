@@ -27,6 +27,7 @@ packages=(
   slurm-wlm munge  # a single-node Slurm for the test of deploy/slurm/dome-workers.sbatch
   openssh-server openssh-client  # sshd on loopback for the test of deploy/ssh/dome-ssh-workers
   libzstd-dev  # zstd: fusion slabs travel to the master compressed (fusion/volume.h)
+  nlohmann-json3-dev  # the one JSON writer of reports and JSON lines (report.json, eval, fuse)
 )
 
 missing=()

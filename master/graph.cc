@@ -4,59 +4,45 @@
 
 namespace dome::scheduler {
 
-const char* StageName(Stage stage) {
-  switch (stage) {
-    case Stage::kStereo:
-      return "stereo";
-    case Stage::kFusion:
-      return "fusion";
-    case Stage::kSurface:
-      return "surface";
-    case Stage::kDecimate:
-      return "decimate";
-    case Stage::kTexture:
-      return "texture";
-    case Stage::kNoop:
-      return "noop";
+std::vector<GraphStage> GraphStages(const pipeline::StageSet& stages,
+                                    const pipeline::SessionPlan& plan) {
+  std::vector<GraphStage> out;
+  for (const pipeline::StageDescriptor& d : stages.stages) {
+    GraphStage g{d.name, d.parts(plan), {}};
+    for (const std::string& a : d.after) g.after.push_back(stages.Find(a));
+    out.push_back(std::move(g));
   }
-  return "?";
+  return out;
 }
 
-JobGraph::JobGraph(const std::vector<std::string>& instants,
-                   const std::vector<std::string>& cameras, int num_slabs)
-    : instants_(instants), counts_(instants.size()) {
-  DOME_CHECK(!cameras.empty() && num_slabs > 0, "a graph needs cameras and slabs");
+JobGraph::JobGraph(const std::vector<std::string>& instants, const std::vector<GraphStage>& stages)
+    : instants_(instants),
+      stages_(stages),
+      first_(instants.size(), std::vector<int>(stages.size(), 0)),
+      counts_(instants.size(), std::vector<StageCount>(stages.size())) {
   for (int t = 0; t < int(instants.size()); ++t) {
-    const std::string& in = instants[t];
-    auto add = [&](Stage stage, int part, const std::string& name) {
-      JobNode n;
-      n.key = in + "/" + StageName(stage) + (name.empty() ? "" : "/" + name);
-      n.instant = t;
-      n.stage = stage;
-      n.part = part;
-      index_[n.key] = int(nodes_.size());
-      nodes_.push_back(n);
-      ++counts_[t][int(stage)].total;
-      return int(nodes_.size()) - 1;
-    };
-    auto depend = [&](int node, int on) {
-      nodes_[on].dependents.push_back(node);
-      ++nodes_[node].pending;
-    };
-    std::vector<int> stereo, fusion;
-    for (int c = 0; c < int(cameras.size()); ++c)
-      stereo.push_back(add(Stage::kStereo, c, cameras[c]));
-    for (int s = 0; s < num_slabs; ++s) {
-      const int f = add(Stage::kFusion, s, std::to_string(s));
-      for (int d : stereo) depend(f, d);
-      fusion.push_back(f);
+    for (int s = 0; s < int(stages.size()); ++s) {
+      const GraphStage& stage = stages[s];
+      first_[t][s] = int(nodes_.size());
+      for (int p = 0; p < int(stage.parts.size()); ++p) {
+        JobNode n;
+        n.key =
+            instants[t] + "/" + stage.name + (stage.parts[p].empty() ? "" : "/" + stage.parts[p]);
+        n.instant = t;
+        n.stage = s;
+        n.part = p;
+        for (int a : stage.after) {
+          DOME_CHECK(a >= 0 && a < s, "a stage comes after earlier stages only");
+          for (int q = 0; q < int(stages[a].parts.size()); ++q) {
+            nodes_[first_[t][a] + q].dependents.push_back(int(nodes_.size()));
+            ++n.pending;
+          }
+        }
+        index_[n.key] = int(nodes_.size());
+        nodes_.push_back(std::move(n));
+        ++counts_[t][s].total;
+      }
     }
-    const int surface = add(Stage::kSurface, 0, "");
-    for (int f : fusion) depend(surface, f);
-    const int decimate = add(Stage::kDecimate, 0, "");
-    depend(decimate, surface);
-    const int texture = add(Stage::kTexture, 0, "");
-    depend(texture, decimate);
   }
   for (int i = 0; i < int(nodes_.size()); ++i) {
     if (nodes_[i].pending == 0) {
@@ -66,27 +52,14 @@ JobGraph::JobGraph(const std::vector<std::string>& instants,
   }
 }
 
-JobGraph JobGraph::Noop(int count) {
-  JobGraph g;
-  g.instants_ = {"noop"};
-  g.counts_.resize(1);
-  for (int i = 0; i < count; ++i) {
-    JobNode n;
-    n.key = "noop/noop/" + std::to_string(i);
-    n.stage = Stage::kNoop;
-    n.part = i;
-    n.state = JobState::kReady;
-    g.index_[n.key] = i;
-    g.nodes_.push_back(n);
-    g.ready_.insert(i);
-  }
-  g.counts_[0][int(Stage::kNoop)].total = count;
-  return g;
-}
-
 int JobGraph::Find(const std::string& key) const {
   auto it = index_.find(key);
   return it == index_.end() ? -1 : it->second;
+}
+
+int JobGraph::NodeOf(int instant, int stage, int part) const {
+  DOME_CHECK(part >= 0 && part < int(stages_[stage].parts.size()), "a part of the stage");
+  return first_[instant][stage] + part;
 }
 
 void JobGraph::MarkRunning(int i) {
@@ -107,7 +80,7 @@ std::vector<int> JobGraph::MarkDone(int i) {
   ready_.erase(i);
   n.state = JobState::kDone;
   ++done_;
-  ++counts_[n.instant][int(n.stage)].done;
+  ++counts_[n.instant][n.stage].done;
   std::vector<int> now_ready;
   for (int d : n.dependents) {
     JobNode& m = nodes_[d];
@@ -127,6 +100,6 @@ bool JobGraph::InstantDone(int instant) const {
   return true;
 }
 
-StageCount JobGraph::Count(int instant, Stage stage) const { return counts_[instant][int(stage)]; }
+StageCount JobGraph::Count(int instant, int stage) const { return counts_[instant][stage]; }
 
 }  // namespace dome::scheduler

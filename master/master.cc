@@ -1,19 +1,16 @@
 #include "master/master.h"
 
-#include <google/protobuf/io/coded_stream.h>
-#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <functional>
 #include <map>
-#include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
 #include <set>
@@ -21,25 +18,20 @@
 #include <vector>
 
 #include "core/error.h"
-#include "fusion/volume.h"
 #include "io/file_util.h"
-#include "io/ply.h"
-#include "net/security.h"
-#include "net/content_hash.h"
-#include "pipeline/session.h"
-#include "pipeline/stages.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
 #include "master/graph.h"
 #include "master/journal.h"
-#include "master/surface_stream.h"
-#include "stereo/cluster.h"
-#include "stereo/take_stereo.h"
-#include "take/take.h"
+#include "master/offload.h"
+#include "net/content_hash.h"
+#include "net/security.h"
+#include "pipeline/session.h"
 
 namespace dome::scheduler {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using pipeline::StageDescriptor;
 
 void MasterOptions::Check() const {
   core::Require(heartbeat_interval_ms > 0, "heartbeat_interval_ms",
@@ -52,6 +44,7 @@ void MasterOptions::Check() const {
   core::Require(
       writer_threads >= 0 && writer_threads <= 256, "writer_threads",
       "must be in 0..256 (0 = half the hardware threads), got " + std::to_string(writer_threads));
+  core::Require(stages != nullptr && !stages->stages.empty(), "stages", "names no stage");
   socket.Check();
 }
 
@@ -59,18 +52,33 @@ namespace {
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
-std::string Num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
-
 std::string NewSessionId() {
   static std::mt19937_64 rng(std::random_device{}());
   char buf[17];
   std::snprintf(buf, sizeof buf, "%08llx", (unsigned long long)(rng() & 0xffffffffULL));
   return buf;
+}
+
+// A session's state; on the wire as its name (runtime.SessionStatus.state).
+enum class SessionState { kRunning, kDone, kFailed, kCancelled };
+
+const char* StateName(SessionState state) {
+  switch (state) {
+    case SessionState::kRunning:
+      return "running";
+    case SessionState::kDone:
+      return "done";
+    case SessionState::kFailed:
+      return "failed";
+    case SessionState::kCancelled:
+      return "cancelled";
+  }
+  return "?";
+}
+
+// JSON has no NaN or infinity: such figures are written as null.
+nlohmann::ordered_json Number(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
 }
 
 struct WorkerRec {
@@ -100,124 +108,51 @@ struct InstantStats {
   double first_start = -1, done = -1;
 };
 
+// A session's outputs in the master's blob store, kept under OUT/.blobs.
+class SessionBlobs : public pipeline::BlobAccess {
+ public:
+  SessionBlobs(BlobStore* store, fs::path dir) : store_(store), dir_(std::move(dir)) {}
+  std::optional<std::string> Read(const std::string& sha256) const override {
+    return store_->Read(sha256);
+  }
+  runtime::BlobRef Keep(const std::string& bytes, const std::string& name) override {
+    return store_->AddBytes(dir_, bytes, name);
+  }
+
+ private:
+  BlobStore* store_;
+  fs::path dir_;
+};
+
 struct SessionRec {
   std::string id;
-  int seq = 0;
-  runtime::Session spec;
-  pipeline::SessionOptions options;
-  take::Take take;
-  std::vector<std::string> cameras;
+  pipeline::SessionPlan plan;
   std::unique_ptr<JobGraph> graph;
   std::unique_ptr<Journal> journal;
+  std::unique_ptr<SessionBlobs> blobs;
   std::map<int, std::vector<runtime::BlobRef>> outputs;  // node -> output blobs (by name order)
   std::map<int, std::string> running_on;                 // node -> worker id
   std::map<int, int> losses;                             // node -> workers lost with it
   std::map<int, double> dispatched_at;
-  std::string state = "running";
+  SessionState state = SessionState::kRunning;
   std::string error;
   Clock::time_point start = Clock::now();
   double finished_s = -1;
-  std::array<StageStats, kNumStages> stage_stats;
+  std::vector<StageStats> stage_stats;  // by stage
   std::vector<InstantStats> instant_stats;
-  int num_slabs = 0;
-  runtime::BlobRef rig;
-  std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera]
   int64_t bytes_to_workers = 0, bytes_from_workers = 0;
   int requeued = 0, duplicates = 0, resumed = 0;
   std::map<std::string, int> jobs_by_worker;  // worker name -> results accepted from it
-  // instant -> its surface stage, fed slabs as they finish (surface_stream.h).
-  std::map<int, std::unique_ptr<SurfaceStream>> surface;
+  // (instant, stage) -> the run of a master stage, fed its input's outputs as they finish.
+  std::map<std::pair<int, int>, std::unique_ptr<pipeline::MasterStageRun>> master_runs;
   // The master loop while this session ran: its busy seconds when the session started
   // (the loop's running total), and its longest turn since.
   double loop_busy_at_start = 0, loop_longest_turn_s = 0;
 
-  fs::path out() const { return spec.out(); }
-  fs::path blob_dir() const { return out() / ".blobs"; }
+  bool running() const { return state == SessionState::kRunning; }
+  fs::path out() const { return plan.spec.out(); }
+  fs::path instant_dir(int instant) const { return out() / plan.instants[instant]; }
   double Now() const { return Seconds(Clock::now() - start); }
-};
-
-// Work handed off the loop (checking, hashing and writing a result's files) to a pool
-// of threads, started in the order posted. Each piece of work returns what the loop
-// does with its outcome; Collect() runs those on the loop's thread, in the order they
-// finished (results are independent; two results of one job are told apart by the
-// loop). Work still queued when the master stops is dropped (its results were never
-// journalled: they are redone).
-class Offload {
- public:
-  using Work = std::function<std::function<void()>()>;
-  explicit Offload(int threads) {
-    for (int t = 0; t < threads; ++t) threads_.emplace_back([this] { Loop(); });
-  }
-  ~Offload() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    for (auto& t : threads_) t.join();
-  }
-  void Post(Work work) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      queue_.push_back(std::move(work));
-      ++pending_;
-    }
-    cv_.notify_one();
-  }
-  // Runs the completions of the work finished so far (on the caller's thread).
-  void Collect() {
-    std::deque<std::function<void()>> done;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      done.swap(done_);
-      pending_ -= int(done.size());
-    }
-    for (auto& then : done) {
-      try {
-        then();
-      } catch (const std::exception& e) {
-        spdlog::error("master: acting on work done beside the loop failed: {}", e.what());
-      }
-    }
-  }
-  // Work posted whose completion has not been collected.
-  int pending() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return pending_;
-  }
-
- private:
-  void Loop() {
-    while (true) {
-      Work work;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-        if (stop_) return;
-        work = std::move(queue_.front());
-        queue_.pop_front();
-      }
-      std::function<void()> then;
-      try {
-        then = work();
-      } catch (const std::exception& e) {
-        // Work reports its own errors; this is a bug or the file system failing.
-        then = [what = std::string(e.what())] {
-          spdlog::error("master: work beside the loop failed: {}", what);
-        };
-      }
-      std::lock_guard<std::mutex> lock(mutex_);
-      done_.push_back(std::move(then));
-    }
-  }
-
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<Work> queue_;
-  std::deque<std::function<void()>> done_;
-  int pending_ = 0;
-  bool stop_ = false;
-  std::vector<std::thread> threads_;  // last: they start after the members they use
 };
 
 // A journal is fsync'd at most this often (journal.h): one fsync costs milliseconds on
@@ -229,6 +164,7 @@ constexpr auto kJournalSyncInterval = std::chrono::milliseconds(50);
 struct Master::Impl {
   zmq::context_t* context;
   MasterOptions options;
+  const pipeline::StageSet& stages;
   MasterEndpoints endpoints;
   zmq::socket_t workers_socket, control_socket, events_socket;
   std::unique_ptr<net::HandshakeLog> handshake_log;  // after the sockets: destroyed first
@@ -237,7 +173,6 @@ struct Master::Impl {
   std::vector<std::string> session_order;
   std::unique_ptr<ingest::FrameIngest> capture_ingest;  // with capture_endpoint
   BlobStore blobs;
-  int next_seq = 0;
   Clock::time_point next_heartbeat = Clock::now();
   Clock::time_point next_journal_sync = Clock::now();
   double loop_busy_s = 0;  // the loop's time outside poll, summed over its turns
@@ -247,11 +182,11 @@ struct Master::Impl {
   Impl(zmq::context_t* ctx, const MasterOptions& o)
       : context(ctx),
         options(o),
+        stages(*o.stages),
         workers_socket(*ctx, zmq::socket_type::router),
         control_socket(*ctx, zmq::socket_type::router),
         events_socket(*ctx, zmq::socket_type::pub),
         offload(WriterThreads(o)) {
-    options.Check();
     Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
     Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
     Bind(&events_socket, options.events_endpoint, "--events", &endpoints.events);
@@ -289,6 +224,10 @@ struct Master::Impl {
     *bound = net::BoundEndpoint(*s);
   }
 
+  const StageDescriptor& StageOf(const SessionRec& s, int node) const {
+    return stages.stages[s.graph->node(node).stage];
+  }
+
   // ---- sending ----------------------------------------------------------------------
 
   void SendToWorker(const std::string& id, const runtime::Envelope& env) {
@@ -317,130 +256,95 @@ struct Master::Impl {
     }
   }
 
-  void Publish(const SessionRec& s, int instant, Stage stage, const std::string& message) {
+  // A status event of `s`; of one stage of one instant when `node` >= 0.
+  void Publish(const SessionRec& s, int node, const std::string& message) {
     runtime::Envelope env;
     auto* ev = env.mutable_status();
     ev->set_session_id(s.id);
-    ev->set_state(s.state);
+    ev->set_state(StateName(s.state));
     ev->set_elapsed_s(s.finished_s >= 0 ? s.finished_s : s.Now());
     if (s.graph) {
       ev->set_jobs_done(s.graph->done());
       ev->set_jobs_total(s.graph->size());
-      if (instant >= 0) {
-        ev->set_instant(s.graph->instants()[instant]);
-        ev->set_stage(StageName(stage));
-        const StageCount c = s.graph->Count(instant, stage);
+      if (node >= 0) {
+        const JobNode& n = s.graph->node(node);
+        ev->set_instant(s.plan.instants[n.instant]);
+        ev->set_stage(stages.stages[n.stage].name);
+        const StageCount c = s.graph->Count(n.instant, n.stage);
         ev->set_done(c.done);
         ev->set_total(c.total);
       }
     }
     ev->set_message(message);
-    const std::string bytes = net::EncodeEnvelope(env);
-    net::SendFrames(&events_socket, {bytes});
+    net::SendFrames(&events_socket, {net::EncodeEnvelope(env)});
   }
 
   // ---- sessions -----------------------------------------------------------------------
-
-  // The digest the journal is keyed on: the take, the instants and every resolved
-  // option (not the session id, not the output folder).
-  static std::string SessionDigest(const SessionRec& s) {
-    runtime::Session canon;
-    // No take for benchmark sessions of no-op jobs (fs::absolute throws on "").
-    if (!s.take.dir.empty()) canon.set_take(fs::absolute(s.take.dir).lexically_normal().string());
-    for (const auto& in : s.graph->instants()) canon.add_instants(in);
-    *canon.mutable_stereo() = stereo::ToStereoSettings(s.options.stereo);
-    *canon.mutable_volume() = pipeline::ToVolume(s.options.grid);
-    *canon.mutable_fusion() = pipeline::ToFusionSettings(s.options.fusion);
-    canon.set_slab_planes(s.options.slab_planes);
-    canon.set_decimate_ratio(s.options.decimate_ratio);
-    canon.set_texture(s.options.texture);
-    canon.set_smooth_iterations(s.options.smooth.iterations);
-    canon.set_smooth_lambda(s.options.smooth.lambda);
-    canon.set_smooth_mu(s.options.smooth.mu);
-    canon.set_write_previews(s.options.stereo.write_previews);
-    canon.set_noop_jobs(s.spec.noop_jobs());
-    std::string bytes;
-    google::protobuf::io::StringOutputStream stream(&bytes);
-    google::protobuf::io::CodedOutputStream coded(&stream);
-    coded.SetSerializationDeterministic(true);
-    canon.SerializeToCodedStream(&coded);
-    coded.Trim();
-    return net::Sha256Hex(bytes);
-  }
 
   std::string Submit(const runtime::Session& spec) {
     auto s = std::make_unique<SessionRec>();
     s->loop_busy_at_start = loop_busy_s;
     s->id = NewSessionId();
     while (sessions.count(s->id) != 0) s->id = NewSessionId();
-    s->seq = next_seq++;
-    s->spec = spec;
-    core::Require(!spec.out().empty(), "session: out", "names no output folder");
-    s->options = pipeline::ResolveSessionOptions(spec, "session");
+    s->plan = pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
+      return blobs.AddFile(path, name);
+    });
     std::error_code ec;
     fs::create_directories(s->out(), ec);
     core::Require(!ec, s->out().string(), "cannot create the output folder: " + ec.message());
-    if (spec.noop_jobs() > 0) {
-      s->graph = std::make_unique<JobGraph>(JobGraph::Noop(spec.noop_jobs()));
-      s->instant_stats.resize(1);
-    } else {
-      core::Require(!spec.take().empty(), "session: take", "names no take folder");
-      s->take = take::OpenTake(spec.take());
-      const std::vector<std::string> instants = pipeline::SessionInstants(spec, s->take);
-      core::Require(!instants.empty(), spec.take(), "has no instants");
-      for (const auto& rc : s->take.rig.cameras) s->cameras.push_back(rc.model.id);
-      s->num_slabs = (s->options.grid.nz + s->options.slab_planes - 1) / s->options.slab_planes;
-      s->graph = std::make_unique<JobGraph>(instants, s->cameras, s->num_slabs);
-      s->instant_stats.resize(instants.size());
-      // Stereo clusters now, so that a bad rig fails the submit, not a worker.
-      for (const auto& c : s->cameras) {
-        stereo::SelectCluster(s->take.rig, c, s->options.stereo.cluster);
-      }
-      s->rig = blobs.AddFile(s->take.RigPath(), "rig.json");
-      for (const auto& in : instants) {
-        std::vector<runtime::BlobRef> row;
-        for (const auto& c : s->cameras) {
-          row.push_back(blobs.AddFile(s->take.FramePath(in, c), "frames/" + in + "/" + c + ".png"));
-        }
-        s->frames.push_back(std::move(row));
-      }
-    }
-    s->journal = std::make_unique<Journal>(s->out() / "journal.log", SessionDigest(*s));
+    s->blobs = std::make_unique<SessionBlobs>(&blobs, s->out() / ".blobs");
+    s->graph = std::make_unique<JobGraph>(s->plan.instants, GraphStages(stages, s->plan));
+    s->stage_stats.resize(stages.stages.size());
+    s->instant_stats.resize(s->plan.instants.size());
+    s->journal =
+        std::make_unique<Journal>(s->out() / "journal.log", pipeline::SessionDigest(s->plan));
     Resume(s.get());
     const std::string id = s->id;
-    spdlog::info(
-        "session {}: {} instants x {} cameras, {} slabs each, {} jobs ({} already done), "
-        "out {}",
-        id, s->graph->instants().size(), s->cameras.size(), s->num_slabs, s->graph->size(),
-        s->graph->done(), s->out().string());
+    spdlog::info("session {}: {} instants x {} cameras, {} jobs ({} already done), out {}", id,
+                 s->plan.instants.size(), s->plan.cameras.size(), s->graph->size(),
+                 s->graph->done(), s->out().string());
     session_order.push_back(id);
     SessionRec* raw = s.get();
     sessions[id] = std::move(s);
-    Publish(*raw, -1, Stage::kStereo, "submitted");
+    Publish(*raw, -1, "submitted");
     Advance(raw);
     return id;
   }
 
+  // True when `stage` of `instant` is done and consumed its inputs' outputs.
+  bool Consumed(const SessionRec* s, int instant, int stage, const std::set<std::string>& done) {
+    for (size_t c = 0; c < stages.stages.size(); ++c) {
+      const StageDescriptor& d = stages.stages[c];
+      if (!d.consumes_inputs ||
+          std::find(d.after.begin(), d.after.end(), stages.stages[stage].name) == d.after.end())
+        continue;
+      const auto& parts = s->graph->stages()[c].parts;
+      bool all = !parts.empty();
+      for (int p = 0; p < int(parts.size()); ++p)
+        all = all && done.count(s->graph->node(s->graph->NodeOf(instant, int(c), p)).key) != 0;
+      if (all) return true;
+    }
+    return false;
+  }
+
   // Marks the jobs the journal records as done, when their outputs are still there.
   void Resume(SessionRec* s) {
-    // Slab outputs are dropped once their instant's surface is done; a journal's
-    // fusion records then stand on the surface record.
-    std::set<int> surfaced;
+    std::set<std::string> done;
     for (const auto& [key, entry] : s->journal->done()) {
-      const int node = s->graph->Find(key);
-      if (node >= 0 && s->graph->node(node).stage == Stage::kSurface) {
-        surfaced.insert(s->graph->node(node).instant);
-      }
+      if (s->graph->Find(key) >= 0) done.insert(key);
     }
     for (const auto& [key, entry] : s->journal->done()) {
       const int node = s->graph->Find(key);
       if (node < 0) continue;
       const JobNode& n = s->graph->node(node);
+      // The outputs of a stage whose consumer is done are gone: its record stands on
+      // the consumer's.
+      const bool consumed = Consumed(s, n.instant, n.stage, done);
       std::vector<runtime::BlobRef> outs;
       bool ok = true;
       for (const auto& [name, sha] : entry.outputs) {
-        if (n.stage == Stage::kFusion && surfaced.count(n.instant) != 0) break;
-        if (!blobs.Adopt(s->blob_dir(), sha)) {
+        if (consumed) break;
+        if (!blobs.Adopt(s->out() / ".blobs", sha)) {
           ok = false;
           break;
         }
@@ -460,10 +364,9 @@ struct Master::Impl {
       spdlog::info("session {}: resumed from {}: {} jobs already done", s->id,
                    (s->out() / "journal.log").string(), s->resumed);
     }
-    // Slabs already done go to their instant's surface stream now.
+    // Outputs already there go to the master stages that read them.
     for (const auto& [node, outs] : s->outputs) {
-      const JobNode& n = s->graph->node(node);
-      if (n.stage == Stage::kFusion && !outs.empty()) FeedSurface(s, n.instant, n.part, outs[0]);
+      if (!outs.empty()) FeedMasterStages(s, node, nullptr);
     }
   }
 
@@ -473,135 +376,100 @@ struct Master::Impl {
     runtime::Job job;
     job.set_id(s->id + "/" + n.key);
     job.set_session_id(s->id);
-    job.set_instant(s->graph->instants()[n.instant]);
+    job.set_instant(s->plan.instants[n.instant]);
     job.set_threads(w.threads);
-    auto add = [&](const runtime::BlobRef& b) { *job.add_blobs() = b; };
-    switch (n.stage) {
-      case Stage::kStereo: {
-        auto* sj = job.mutable_stereo();
-        sj->set_camera(s->cameras[n.part]);
-        *sj->mutable_stereo() = stereo::ToStereoSettings(s->options.stereo);
-        sj->set_write_previews(s->options.stereo.write_previews);
-        const auto& frames = s->frames[n.instant];
-        add(s->rig);
-        add(frames[n.part]);
-        for (int j :
-             stereo::SelectCluster(s->take.rig, s->cameras[n.part], s->options.stereo.cluster)) {
-          sj->add_neighbours(s->cameras[j]);
-          add(frames[j]);
-        }
-        break;
-      }
-      case Stage::kFusion: {
-        auto* fj = job.mutable_fusion();
-        fj->set_k0(n.part * s->options.slab_planes);
-        fj->set_k1(std::min(s->options.grid.nz, (n.part + 1) * s->options.slab_planes));
-        *fj->mutable_volume() = pipeline::ToVolume(s->options.grid);
-        *fj->mutable_fusion() = pipeline::ToFusionSettings(s->options.fusion);
-        add(s->rig);
-        for (int c = 0; c < int(s->cameras.size()); ++c) {
-          add(s->outputs.at(
-              s->graph->Find(s->graph->instants()[n.instant] + "/stereo/" + s->cameras[c]))[0]);
-        }
-        break;
-      }
-      case Stage::kDecimate:
-        job.mutable_decimate()->set_ratio(s->options.decimate_ratio);
-        add(s->outputs.at(node - 1)[0]);  // the surface
-        break;
-      case Stage::kTexture:
-        job.mutable_texture()->set_atlas(s->options.texture);
-        add(s->rig);
-        add(s->outputs.at(node - 1)[0]);  // the decimated mesh
-        for (const auto& f : s->frames[n.instant]) add(f);
-        break;
-      case Stage::kNoop:
-        job.mutable_noop();
-        break;
-      case Stage::kSurface:
-        DOME_CHECK(false, "the surface is the master's stage");
-    }
+    job.set_stage(stages.stages[n.stage].name);
+    const pipeline::JobContext ctx{
+        s->plan, n.instant, n.part,
+        [&](const std::string& stage, int part) -> const std::vector<runtime::BlobRef>& {
+          return s->outputs.at(s->graph->NodeOf(n.instant, stages.Find(stage), part));
+        }};
+    stages.stages[n.stage].make_job(ctx, &job);
     return job;
   }
 
-  // Marks master-side stages that became ready as running (their surface streams have
-  // every slab by then) and finishes instants and sessions.
+  // Marks master stages that became ready as running (their runs have every input by
+  // then) and finishes sessions.
   void Advance(SessionRec* s) {
-    if (s->state != "running") return;
+    if (!s->running()) return;
     for (int node : std::vector<int>(s->graph->ready().begin(), s->graph->ready().end())) {
       const JobNode& n = s->graph->node(node);
-      if (n.stage != Stage::kSurface) continue;
+      const StageDescriptor& d = stages.stages[n.stage];
+      if (!d.on_master()) continue;
       s->graph->MarkRunning(node);
       Touch(s, node);
-      for (int k = 0; k < s->num_slabs; ++k) {
-        const auto& outs = s->outputs.at(FusionNode(s, n.instant, k));
-        DOME_CHECK(!outs.empty(), "a done slab has its output");
-        FeedSurface(s, n.instant, k, outs[0]);  // no-op for slabs fed as they came
+      const int input = stages.Find(d.after.at(0));
+      for (int p = 0; p < int(s->graph->stages()[input].parts.size()); ++p) {
+        const int in = s->graph->NodeOf(n.instant, input, p);
+        DOME_CHECK(!s->outputs.at(in).empty(), "a done input of a master stage has its output");
+        FeedMasterStages(s, in, nullptr);  // no-op for inputs fed as they came
       }
     }
     if (s->graph->AllDone()) Finish(s);
   }
 
-  int FusionNode(const SessionRec* s, int instant, int slab) const {
-    return s->graph->Find(s->graph->instants()[instant] + "/fusion/" + std::to_string(slab));
-  }
-
-  // Hands a finished slab to its instant's surface stream, started by the first slab.
-  void FeedSurface(SessionRec* s, int instant, int slab, const runtime::BlobRef& blob,
-                   std::shared_ptr<const fusion::Slab> decoded = nullptr) {
-    auto& stream = s->surface[instant];
-    if (!stream) {
-      stream =
-          std::make_unique<SurfaceStream>(s->options.grid, s->num_slabs, &blobs,
-                                          s->out() / s->graph->instants()[instant], s->blob_dir(),
-                                          s->options.smooth);
+  // Hands the outputs of `node` to the runs of the master stages that read its stage
+  // (started by their first input), unless they are done.
+  void FeedMasterStages(SessionRec* s, int node, std::shared_ptr<const void> decoded) {
+    const JobNode& n = s->graph->node(node);
+    for (int m = 0; m < int(stages.stages.size()); ++m) {
+      const StageDescriptor& d = stages.stages[m];
+      if (!d.on_master() || d.after.empty() || d.after[0] != stages.stages[n.stage].name ||
+          s->graph->stages()[m].parts.empty() ||
+          s->graph->node(s->graph->NodeOf(n.instant, m, 0)).state == JobState::kDone)
+        continue;
+      auto& run = s->master_runs[{n.instant, m}];
+      if (!run) {
+        run = d.start_on_master({s->plan, n.instant, s->instant_dir(n.instant), s->blobs.get()});
+      }
+      run->Feed(n.part, s->outputs.at(node), decoded);
     }
-    stream->Feed(slab, blob.sha256(), std::move(decoded));
   }
 
-  // Completes the surface stages whose streams have ended.
-  void PollSurfaces() {
+  // Completes the master stages whose runs have ended.
+  void PollMasterStages() {
     for (const auto& id : session_order) {
       SessionRec* s = sessions[id].get();
-      for (auto it = s->surface.begin(); it != s->surface.end();) {
+      for (auto it = s->master_runs.begin(); it != s->master_runs.end();) {
         if (!it->second->Finished()) {
           ++it;
           continue;
         }
-        const int node = s->graph->Find(s->graph->instants()[it->first] + "/surface");
-        std::unique_ptr<SurfaceStream> stream = std::move(it->second);
-        it = s->surface.erase(it);
-        if (s->state != "running") continue;
+        const int node = s->graph->NodeOf(it->first.first, it->first.second, 0);
+        std::unique_ptr<pipeline::MasterStageRun> run = std::move(it->second);
+        it = s->master_runs.erase(it);
+        if (!s->running()) continue;
         try {
-          const runtime::BlobRef mesh = stream->Result();
-          Completed(s, node, {mesh}, stream->busy_seconds());
+          Completed(s, node, run->Result(), run->busy_seconds());
         } catch (const std::exception& e) {
-          Fail(s, "surface of " + s->graph->node(node).key + ": " + e.what());
+          Fail(s, stages.stages[s->graph->node(node).stage].name + " of " +
+                      s->graph->node(node).key + ": " + e.what());
         }
       }
     }
   }
 
-  // Stops the surface streams of a session that ended early (their slabs never come).
-  static void AbortSurfaces(SessionRec* s) {
-    for (auto& [instant, stream] : s->surface) stream->Abort();
+  // Stops the master stages of a session that ended early (their inputs never come).
+  static void AbortMasterStages(SessionRec* s) {
+    for (auto& [key, run] : s->master_runs) run->Abort();
   }
 
   void Touch(SessionRec* s, int node) {
     const JobNode& n = s->graph->node(node);
     const double now = s->Now();
-    auto& st = s->stage_stats[int(n.stage)];
+    auto& st = s->stage_stats[n.stage];
     if (st.first_start < 0) st.first_start = now;
     auto& is = s->instant_stats[n.instant];
     if (is.first_start < 0) is.first_start = now;
     s->dispatched_at[node] = now;
   }
 
-  // A job's outputs are in their files: journal them, free what is no longer needed,
-  // feed a slab to its surface stream, and move the graph on.
+  // A job's outputs are in their files: journal them, hand them to the master stages
+  // that read them, free what is no longer needed, and move the graph on.
   void Completed(SessionRec* s, int node, const std::vector<runtime::BlobRef>& outs,
-                 double job_seconds, std::shared_ptr<const fusion::Slab> slab = nullptr) {
+                 double job_seconds, std::shared_ptr<const void> decoded = nullptr) {
     const JobNode& n = s->graph->node(node);
+    const StageDescriptor& d = stages.stages[n.stage];
     JournalEntry entry;
     for (const auto& o : outs) entry.outputs.emplace_back(o.name(), o.sha256());
     s->journal->RecordDone(n.key, entry);  // fsync'd with the loop turn's others
@@ -609,118 +477,43 @@ struct Master::Impl {
     s->running_on.erase(node);
     s->graph->MarkDone(node);
     const double now = s->Now();
-    auto& st = s->stage_stats[int(n.stage)];
+    auto& st = s->stage_stats[n.stage];
     st.job_seconds += job_seconds > 0
                           ? job_seconds
                           : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
     st.last_done = now;
-    if (n.stage == Stage::kFusion) FeedSurface(s, n.instant, n.part, outs.at(0), std::move(slab));
-    if (n.stage == Stage::kSurface) {
-      // The slabs are in the mesh now; the journal's surface record stands for them
-      // once it is on disk.
+    if (!outs.empty()) FeedMasterStages(s, node, std::move(decoded));
+    if (d.consumes_inputs) {
+      // Its inputs are in its outputs now; its journal record stands for theirs once it
+      // is on disk.
       s->journal->Sync();
-      for (int k = 0; k < s->num_slabs; ++k) {
-        const int f =
-            s->graph->Find(s->graph->instants()[n.instant] + "/fusion/" + std::to_string(k));
-        for (const auto& b : s->outputs[f]) blobs.Drop(b.sha256());
-        s->outputs[f].clear();
+      for (const std::string& a : d.after) {
+        const int input = stages.Find(a);
+        for (int p = 0; p < int(s->graph->stages()[input].parts.size()); ++p) {
+          auto& in = s->outputs[s->graph->NodeOf(n.instant, input, p)];
+          for (const auto& b : in) blobs.Drop(b.sha256());
+          in.clear();
+        }
       }
     }
     if (s->graph->InstantDone(n.instant)) {
       s->instant_stats[n.instant].done = now;
-      spdlog::info("session {}: instant {} done ({:.2f} s)", s->id, s->graph->instants()[n.instant],
+      spdlog::info("session {}: instant {} done ({:.2f} s)", s->id, s->plan.instants[n.instant],
                    now - s->instant_stats[n.instant].first_start);
     }
-    Publish(*s, n.instant, n.stage, "");
+    Publish(*s, node, "");
     Advance(s);
   }
 
-  // Checks a finished job's outputs and writes what they make in OUT and the blob
-  // store; throws core::InputError on bad outputs. Runs beside the loop (Offload): it
-  // reads only what a session fixes at its submit, and the thread-safe blob store.
-  // A fusion result's slab, decoded to check it, goes to `slab` for the surface stream.
-  std::vector<runtime::BlobRef> StoreOutputs(const SessionRec& session, const JobNode& n,
-                                             const runtime::JobResult& r, const std::string& peer,
-                                             std::shared_ptr<const fusion::Slab>* slab) {
-    const SessionRec* s = &session;
-    const std::string& instant = s->graph->instants()[n.instant];
-    const fs::path dir = s->out() / instant;
-    auto find = [&](const std::string& name) -> const std::string& {
-      for (const auto& o : r.outputs()) {
-        if (o.name() == name) return o.data();
-      }
-      throw core::InputError(peer, "result of " + r.job_id() + " lacks output '" + name + "'");
-    };
-    std::vector<runtime::BlobRef> outs;
-    switch (n.stage) {
-      case Stage::kStereo: {
-        const std::string& bytes = find(pipeline::kStereoOutput);
-        stereo::StereoResult result = pipeline::DecodeStereoOutput(bytes, peer + " " + r.job_id());
-        core::Require(result.camera == s->cameras[n.part], peer,
-                      "result of " + r.job_id() + " is for camera '" + result.camera + "'");
-        // The worker encoded the files; checking them costs a fraction of encoding.
-        std::vector<stereo::StereoFile> files;
-        for (const auto& o : r.outputs()) {
-          if (o.name() != pipeline::kStereoOutput) files.push_back({o.name(), o.data()});
-        }
-        stereo::CheckStereoFiles(result, s->options.stereo.write_previews, files,
-                                 peer + " result of " + r.job_id());
-        stereo::WriteStereoFiles(files, instant, s->out());
-        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kStereoOutput));
-        break;
-      }
-      case Stage::kFusion: {
-        const std::string& bytes = find(pipeline::kSlabOutput);
-        auto decoded = std::make_shared<const fusion::Slab>(
-            fusion::DecodeSlab(bytes, peer + " " + r.job_id()));
-        core::Require(decoded->k0 == n.part * s->options.slab_planes &&
-                          decoded->nx == s->options.grid.nx && decoded->ny == s->options.grid.ny,
-                      peer, "result of " + r.job_id() + " is not the slab asked for");
-        *slab = std::move(decoded);
-        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kSlabOutput));
-        break;
-      }
-      case Stage::kDecimate: {
-        const std::string& bytes = find(pipeline::kDecimatedOutput);
-        io::ParsePly(bytes, peer + " " + r.job_id());
-        outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, pipeline::kDecimatedOutput));
-        break;
-      }
-      case Stage::kTexture: {
-        fs::create_directories(dir);
-        const std::string& ply = find(pipeline::kDecimatedOutput);
-        io::ParsePly(ply, peer + " " + r.job_id());
-        std::vector<std::string> names = {pipeline::kDecimatedOutput};
-        if (s->options.texture) {
-          for (const char* name : {pipeline::kTexturedObj, pipeline::kTexturedMtl,
-                                   pipeline::kTexturedPng, pipeline::kTexturedGlb}) {
-            names.push_back(name);
-          }
-        }
-        for (const std::string& name : names) {
-          const std::string& bytes = find(name);
-          io::WriteFileAtomically(dir / name, bytes);
-          outs.push_back(blobs.AddBytes(s->blob_dir(), bytes, name));
-        }
-        break;
-      }
-      case Stage::kNoop:
-        break;
-      case Stage::kSurface:
-        throw core::InputError(peer, "sent a result for the master's own stage " + r.job_id());
-    }
-    return outs;
-  }
-
   void Fail(SessionRec* s, const std::string& error) {
-    if (s->state != "running") return;
-    s->state = "failed";
+    if (!s->running()) return;
+    s->state = SessionState::kFailed;
     s->error = error;
     s->finished_s = s->Now();
     spdlog::error("session {} failed: {}", s->id, error);
     DropQueued(s);
-    AbortSurfaces(s);
-    Publish(*s, -1, Stage::kStereo, error);
+    AbortMasterStages(s);
+    Publish(*s, -1, error);
   }
 
   void DropQueued(SessionRec* s) {
@@ -732,75 +525,68 @@ struct Master::Impl {
   }
 
   void Finish(SessionRec* s) {
-    s->state = "done";
+    s->state = SessionState::kDone;
     s->finished_s = s->Now();
     s->journal->Sync();
     WriteReport(*s);
     spdlog::info(
         "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
         s->finished_s, s->graph->size(), s->requeued, s->duplicates);
-    Publish(*s, -1, Stage::kStereo, "done");
+    Publish(*s, -1, "done");
   }
 
   void WriteReport(const SessionRec& s) {
-    double worker_job_seconds = 0;  // the master's own surface stage is not a worker's
-    for (int k = 0; k < kNumStages; ++k) {
-      if (Stage(k) != Stage::kSurface) worker_job_seconds += s.stage_stats[k].job_seconds;
+    double worker_job_seconds = 0;  // the master's own stages are not a worker's
+    for (size_t k = 0; k < stages.stages.size(); ++k) {
+      if (!stages.stages[k].on_master()) worker_job_seconds += s.stage_stats[k].job_seconds;
     }
     const double loop_busy = loop_busy_s - s.loop_busy_at_start;
-    std::string j =
-        "{\n  \"session\": \"" + s.id + "\",\n  \"take\": \"" + s.spec.take() +
-        "\",\n  \"cameras\": " + std::to_string(s.cameras.size()) +
-        ",\n  \"instants\": " + std::to_string(s.graph->instants().size()) +
-        ",\n  \"slabs_per_instant\": " + std::to_string(s.num_slabs) +
-        ",\n  \"jobs\": " + std::to_string(s.graph->size()) +
-        ",\n  \"jobs_resumed_from_journal\": " + std::to_string(s.resumed) +
-        ",\n  \"jobs_requeued\": " + std::to_string(s.requeued) +
-        ",\n  \"duplicate_results_dropped\": " + std::to_string(s.duplicates) +
-        ",\n  \"bytes_to_workers\": " + std::to_string(s.bytes_to_workers) +
-        ",\n  \"bytes_from_workers\": " + std::to_string(s.bytes_from_workers) +
-        ",\n  \"seconds\": " + Num(s.finished_s) +
-        ",\n  \"seconds_per_instant\": " + Num(s.finished_s / double(s.graph->instants().size())) +
-        ",\n  \"worker_job_seconds\": " + Num(worker_job_seconds) +
-        ",\n  \"master_loop\": {\"busy_fraction\": " +
-        Num(s.finished_s > 0 ? loop_busy / s.finished_s : 0) +
-        ", \"longest_turn_s\": " + Num(s.loop_longest_turn_s) + "}" + ",\n  \"stages\": {";
-    bool first = true;
-    for (int k = 0; k < kNumStages; ++k) {
+    const int instants = int(s.plan.instants.size());
+    nlohmann::ordered_json j;
+    j["session"] = s.id;
+    j["take"] = s.plan.spec.take();
+    j["cameras"] = s.plan.cameras.size();
+    j["instants"] = instants;
+    j["slabs_per_instant"] = s.plan.num_slabs;
+    j["jobs"] = s.graph->size();
+    j["jobs_resumed_from_journal"] = s.resumed;
+    j["jobs_requeued"] = s.requeued;
+    j["duplicate_results_dropped"] = s.duplicates;
+    j["bytes_to_workers"] = s.bytes_to_workers;
+    j["bytes_from_workers"] = s.bytes_from_workers;
+    j["seconds"] = Number(s.finished_s);
+    j["seconds_per_instant"] = Number(s.finished_s / instants);
+    j["worker_job_seconds"] = Number(worker_job_seconds);
+    j["master_loop"] = {{"busy_fraction", Number(s.finished_s > 0 ? loop_busy / s.finished_s : 0)},
+                        {"longest_turn_s", Number(s.loop_longest_turn_s)}};
+    nlohmann::ordered_json by_stage = nlohmann::ordered_json::object();
+    for (size_t k = 0; k < stages.stages.size(); ++k) {
       int total = 0;
-      for (int t = 0; t < int(s.graph->instants().size()); ++t)
-        total += s.graph->Count(t, Stage(k)).total;
+      for (int t = 0; t < instants; ++t) total += s.graph->Count(t, int(k)).total;
       if (total == 0) continue;
       const auto& st = s.stage_stats[k];
-      j += std::string(first ? "" : ",") + "\n    \"" + StageName(Stage(k)) +
-           "\": {\"jobs\": " + std::to_string(total) + ", \"job_seconds\": " + Num(st.job_seconds) +
-           ", \"wall_seconds\": " +
-           Num(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0) +
-           ", \"bytes_to_workers\": " + std::to_string(st.bytes_to_workers) +
-           ", \"bytes_from_workers\": " + std::to_string(st.bytes_from_workers) + "}";
-      first = false;
+      by_stage[stages.stages[k].name] = {
+          {"jobs", total},
+          {"job_seconds", Number(st.job_seconds)},
+          {"wall_seconds",
+           Number(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0)},
+          {"bytes_to_workers", st.bytes_to_workers},
+          {"bytes_from_workers", st.bytes_from_workers}};
     }
-    j += "\n  },\n  \"jobs_by_worker\": {";
-    first = true;
-    for (const auto& [name, count] : s.jobs_by_worker) {
-      std::string quoted;
-      for (const char c : name) {
-        if (c == '"' || c == '\\') quoted += '\\';
-        if (static_cast<unsigned char>(c) >= 0x20) quoted += c;
-      }
-      j += std::string(first ? "" : ",") + "\n    \"" + quoted + "\": " + std::to_string(count);
-      first = false;
-    }
-    j += "\n  },\n  \"per_instant\": [";
-    for (int t = 0; t < int(s.graph->instants().size()); ++t) {
+    j["stages"] = by_stage;
+    j["jobs_by_worker"] = s.jobs_by_worker;
+    nlohmann::ordered_json per_instant = nlohmann::ordered_json::array();
+    for (int t = 0; t < instants; ++t) {
       const auto& is = s.instant_stats[t];
-      j += std::string(t ? "," : "") + "\n    {\"instant\": \"" + s.graph->instants()[t] +
-           "\", \"seconds\": " +
-           Num(is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0) +
-           ", \"done_at_seconds\": " + Num(is.done) + "}";
+      per_instant.push_back(
+          {{"instant", s.plan.instants[t]},
+           {"seconds", Number(is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
+           {"done_at_seconds", Number(is.done)}});
     }
-    j += "\n  ]\n}\n";
-    io::WriteFileAtomically(s.out() / "report.json", j);
+    j["per_instant"] = per_instant;
+    // Worker names are the workers' own text: replace what is not UTF-8.
+    io::WriteFileAtomically(s.out() / "report.json",
+                            j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 
   // ---- workers ------------------------------------------------------------------------
@@ -920,7 +706,7 @@ struct Master::Impl {
           if (found) {
             SessionRec* s = found->first;
             s->bytes_to_workers += int64_t(b->data().size());
-            s->stage_stats[int(s->graph->node(found->second).stage)].bytes_to_workers +=
+            s->stage_stats[s->graph->node(found->second).stage].bytes_to_workers +=
                 int64_t(b->data().size());
           }
         }
@@ -946,8 +732,9 @@ struct Master::Impl {
     }
     auto [s, node] = *found;
     const JobNode& n = s->graph->node(node);
-    if (s->state != "running") {
-      spdlog::info("{}: result for {} of {} session {} dropped", peer, r.job_id(), s->state, s->id);
+    if (!s->running()) {
+      spdlog::info("{}: result for {} of {} session {} dropped", peer, r.job_id(),
+                   StateName(s->state), s->id);
       return;
     }
     if (n.state == JobState::kDone) {
@@ -955,7 +742,7 @@ struct Master::Impl {
       spdlog::info("{}: late or duplicate result for {} dropped", peer, r.job_id());
       return;
     }
-    if (n.stage == Stage::kSurface || n.state == JobState::kWaiting) {
+    if (StageOf(*s, node).on_master() || n.state == JobState::kWaiting) {
       throw core::InputError(peer, "result for " + r.job_id() + ", which was never dispatched");
     }
     if (!r.ok()) {
@@ -964,24 +751,28 @@ struct Master::Impl {
       return;
     }
     // Checking, hashing and writing the outputs happens beside the loop; the worker is
-    // free for its next job meanwhile. Accepted() takes it from there.
+    // free for its next job meanwhile. Accepted() takes it from there. The work reads
+    // only what the session fixed at its submit (the plan) and the thread-safe store.
     const std::string name = w != workers.end() ? w->second.name : net::PeerName(id);
     auto result = std::make_shared<runtime::JobResult>(std::move(r));
-    JobNode job = n;  // what the work may read: the loop goes on changing the graph
-    job.dependents.clear();
-    offload.Post([this, s, node, id, peer, name, result, job]() -> std::function<void()> {
+    const pipeline::StoreContext ctx{s->plan,
+                                     n.instant,
+                                     n.part,
+                                     s->instant_dir(n.instant),
+                                     peer + " result of " + result->job_id(),
+                                     s->blobs.get()};
+    const StageDescriptor* stage = &StageOf(*s, node);
+    offload.Post([this, s, node, id, peer, name, result, ctx, stage]() -> std::function<void()> {
       try {
-        std::shared_ptr<const fusion::Slab> slab;
-        auto outs = std::make_shared<std::vector<runtime::BlobRef>>(
-            StoreOutputs(*s, job, *result, peer, &slab));
-        return [this, s, node, id, name, result, outs, slab] {
-          Accepted(s, node, id, name, *result, *outs, slab);
+        auto stored = std::make_shared<pipeline::StoredResult>(stage->store(ctx, *result));
+        return [this, s, node, id, name, result, stored] {
+          Accepted(s, node, id, name, *result, *stored);
         };
       } catch (const core::InputError& e) {
         return [this, s, node, id, peer, result, what = std::string(e.what())] {
           spdlog::warn("{}: bad result for {}: {}", peer, result->job_id(), what);
           const JobNode& n = s->graph->node(node);
-          if (s->state == "running" && n.state == JobState::kRunning && s->running_on.count(node) &&
+          if (s->running() && n.state == JobState::kRunning && s->running_on.count(node) &&
               s->running_on[node] == id) {
             s->running_on.erase(node);
             s->graph->Requeue(node);
@@ -995,20 +786,19 @@ struct Master::Impl {
 
   // A result whose outputs are stored (on the loop's thread again).
   void Accepted(SessionRec* s, int node, const std::string& id, const std::string& name,
-                const runtime::JobResult& r, const std::vector<runtime::BlobRef>& outs,
-                std::shared_ptr<const fusion::Slab> slab) {
+                const runtime::JobResult& r, const pipeline::StoredResult& stored) {
     const JobNode& n = s->graph->node(node);
-    if (s->state != "running") return;
+    if (!s->running()) return;
     if (n.state == JobState::kDone) {
       // Another worker's result for the same job was stored first.
       ++s->duplicates;
       spdlog::info("late or duplicate result for {} dropped", r.job_id());
       return;
     }
-    // Every output received (a stereo result's files too, which are written, not stored).
+    // Every output received (files a stage writes rather than stores too).
     for (const auto& o : r.outputs()) {
       s->bytes_from_workers += int64_t(o.data().size());
-      s->stage_stats[int(n.stage)].bytes_from_workers += int64_t(o.data().size());
+      s->stage_stats[n.stage].bytes_from_workers += int64_t(o.data().size());
     }
     if (n.state == JobState::kReady) {
       // Requeued after its worker was lost, and now the result came after all.
@@ -1018,12 +808,12 @@ struct Master::Impl {
       if (other != workers.end()) other->second.Forget(r.job_id());
     }
     ++s->jobs_by_worker[name];
-    Completed(s, node, outs, r.seconds(), std::move(slab));
+    Completed(s, node, stored.outputs, r.seconds(), stored.decoded);
   }
 
   // Idle workers first get the highest-priority ready jobs; then, while ready jobs are
-  // left over, busy workers get up to options.jobs_ahead more of the stages that come
-  // many to an instant (stereo, fusion), which they fetch the inputs of while they
+  // left over, busy workers get up to options.jobs_ahead more of the stages that may be
+  // sent ahead (many jobs an instant), which they fetch the inputs of while they
   // compute and start the moment their job ends. The long one-per-instant stages are
   // never sent ahead: one waiting behind another job could keep an idle worker idle.
   void Dispatch() {
@@ -1051,12 +841,11 @@ struct Master::Impl {
   bool NextJob(bool ahead, SessionRec** best, int* node) {
     for (const auto& sid : session_order) {
       SessionRec* s = sessions[sid].get();
-      if (s->state != "running") continue;
+      if (!s->running()) continue;
       for (int n : s->graph->ready()) {
-        const Stage stage = s->graph->node(n).stage;
-        if (stage == Stage::kSurface) continue;
-        if (ahead && !(stage == Stage::kStereo || stage == Stage::kFusion || stage == Stage::kNoop))
-          return false;
+        const StageDescriptor& d = StageOf(*s, n);
+        if (d.on_master()) continue;
+        if (ahead && !d.send_ahead) return false;
         *best = s;
         *node = n;
         return true;
@@ -1070,24 +859,24 @@ struct Master::Impl {
   runtime::SessionStatus Status(const SessionRec& s) const {
     runtime::SessionStatus st;
     st.set_id(s.id);
-    st.set_state(s.state);
-    st.set_take(s.spec.take());
-    st.set_out(s.spec.out());
+    st.set_state(StateName(s.state));
+    st.set_take(s.plan.spec.take());
+    st.set_out(s.plan.spec.out());
     st.set_error(s.error);
     st.set_elapsed_s(s.finished_s >= 0 ? s.finished_s : s.Now());
     st.set_workers(int(workers.size()));
     if (!s.graph) return st;
     st.set_jobs_done(s.graph->done());
     st.set_jobs_total(s.graph->size());
-    for (int t = 0; t < int(s.graph->instants().size()); ++t) {
+    for (int t = 0; t < int(s.plan.instants.size()); ++t) {
       auto* is = st.add_instants();
-      is->set_instant(s.graph->instants()[t]);
+      is->set_instant(s.plan.instants[t]);
       is->set_done(s.graph->InstantDone(t));
-      for (int k = 0; k < kNumStages; ++k) {
-        const StageCount c = s.graph->Count(t, Stage(k));
+      for (int k = 0; k < int(stages.stages.size()); ++k) {
+        const StageCount c = s.graph->Count(t, k);
         if (c.total == 0) continue;
         auto* sp = is->add_stages();
-        sp->set_stage(StageName(Stage(k)));
+        sp->set_stage(stages.stages[k].name);
         sp->set_done(c.done);
         sp->set_total(c.total);
       }
@@ -1115,16 +904,17 @@ struct Master::Impl {
           auto it = sessions.find(id);
           core::Require(it != sessions.end(), "session id",
                         "no session '" + id.substr(0, 100) + "'");
-          if (req.has_cancel() && it->second->state == "running") {
-            it->second->state = "cancelled";
-            it->second->finished_s = it->second->Now();
-            DropQueued(it->second.get());
-            AbortSurfaces(it->second.get());
+          SessionRec* s = it->second.get();
+          if (req.has_cancel() && s->running()) {
+            s->state = SessionState::kCancelled;
+            s->finished_s = s->Now();
+            DropQueued(s);
+            AbortMasterStages(s);
             spdlog::info("session {} cancelled", id);
-            Publish(*it->second, -1, Stage::kStereo, "cancelled");
+            Publish(*s, -1, "cancelled");
           }
           reply.set_session_id(id);
-          *reply.add_sessions() = Status(*it->second);
+          *reply.add_sessions() = Status(*s);
           break;
         }
         case runtime::ControlRequest::kList:
@@ -1233,7 +1023,7 @@ struct Master::Impl {
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
       if (capture_ingest && (items[2].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
       offload.Collect();
-      PollSurfaces();
+      PollMasterStages();
       const auto now = Clock::now();
       std::vector<std::string> expired;
       for (const auto& [id, w] : workers) {
@@ -1257,11 +1047,11 @@ struct Master::Impl {
       const double turn = Seconds(Clock::now() - turn_start);
       loop_busy_s += turn;
       for (auto& [id, s] : sessions) {
-        if (s->state == "running") s->loop_longest_turn_s = std::max(s->loop_longest_turn_s, turn);
+        if (s->running()) s->loop_longest_turn_s = std::max(s->loop_longest_turn_s, turn);
       }
     }
     SyncJournals();
-    StopSurfaces();
+    StopMasterStages();
   }
 
   void SyncJournals() {
@@ -1275,15 +1065,15 @@ struct Master::Impl {
     }
   }
 
-  // Stops every surface stream before the blob store they read goes away.
-  void StopSurfaces() {
+  // Stops every master stage's run before the blob store they read goes away.
+  void StopMasterStages() {
     for (auto& [id, s] : sessions) {
-      AbortSurfaces(s.get());
-      s->surface.clear();
+      AbortMasterStages(s.get());
+      s->master_runs.clear();
     }
   }
 
-  ~Impl() { StopSurfaces(); }
+  ~Impl() { StopMasterStages(); }
 };
 
 Master::Master(zmq::context_t* context, const MasterOptions& options)

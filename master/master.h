@@ -11,7 +11,8 @@
 //   control  ROUTER: clients (REQ) submit, ask status, cancel, list.
 //   events   PUB: a StatusEvent whenever a job finishes or a session changes state.
 //
-// Each session is a job graph (graph.h) with a journal in its output folder
+// Each session is a job graph (graph.h) built from the master's stages
+// (pipeline/stage.h: the master knows no stage by name) with a journal in its output folder
 // (journal.h); a restarted master given the same session resumes from it. A worker
 // silent for heartbeat_liveness intervals is dropped and its job re-queued; results
 // for finished jobs are dropped as duplicates; anything malformed is logged with the
@@ -23,7 +24,8 @@
 //   OUT/<instant>/mesh.ply            marching cubes, binary PLY, world mm
 //   OUT/<instant>/mesh_decimated.ply  decimated, per-vertex colours
 //   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
-//   OUT/report.json                   per-stage and per-instant seconds and counts,
+//   OUT/report.json                   per-stage and per-instant seconds and counts
+//                                     (JSON, written by nlohmann::json),
 //                                     bytes to and from workers per stage, results
 //                                     accepted per worker (jobs_by_worker), the
 //                                     workers' job seconds (worker_job_seconds), the
@@ -39,6 +41,7 @@
 #include <zmq.hpp>
 
 #include "net/wire.h"
+#include "pipeline/stage.h"
 
 namespace dome::scheduler {
 
@@ -50,8 +53,9 @@ struct MasterOptions {
   int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
   int max_job_losses = 5;      // a job lost with this many workers fails its session
   // Jobs sent to a busy worker beyond the one it runs (count), so that it fetches
-  // their inputs while it computes and starts the next without a round trip; only
-  // stereo and fusion jobs, and only while more are ready than idle workers take.
+  // their inputs while it computes and starts the next without a round trip; only jobs
+  // of stages that may be sent ahead (StageDescriptor::send_ahead: stereo, fusion), and
+  // only while more are ready than idle workers take.
   int jobs_ahead = 1;
   // Threads that check, hash and write results beside the loop (count): about 0.8 CPU
   // seconds per instant of the paper take, so with many workers one thread bounds the
@@ -62,6 +66,8 @@ struct MasterOptions {
   // capture_take (required with it).
   std::string capture_endpoint;
   std::string capture_take;
+  // The stages every session runs (the workers must run the same set).
+  std::shared_ptr<const pipeline::StageSet> stages = pipeline::DefaultStages();
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;

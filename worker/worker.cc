@@ -15,7 +15,6 @@
 #include "core/timer.h"
 #include "net/blob_cache.h"
 #include "net/content_hash.h"
-#include "pipeline/stages.h"
 
 namespace dome::worker {
 using Clock = std::chrono::steady_clock;
@@ -27,6 +26,7 @@ void WorkerOptions::Check() const {
   core::Require(heartbeat_liveness > 0, "--liveness", "must be positive");
   core::Require(reconnect_max_ms >= heartbeat_interval_ms, "--reconnect-max-ms",
                 "must be at least the heartbeat interval");
+  core::Require(stages != nullptr, "stages", "names no stage set");
   socket.Check();
 }
 
@@ -111,7 +111,9 @@ struct Worker::Impl {
       result.set_job_id(j.id());
       core::Stopwatch watch;
       try {
-        for (auto& o : pipeline::RunJob(j, held, &memo)) *result.add_outputs() = std::move(o);
+        for (auto& o : pipeline::RunJob(*options.stages, j, held, &memo)) {
+          *result.add_outputs() = std::move(o);
+        }
         result.set_ok(true);
       } catch (const std::exception& e) {
         result.set_ok(false);

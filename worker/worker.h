@@ -18,6 +18,7 @@
 #include <zmq.hpp>
 
 #include "net/wire.h"
+#include "pipeline/stage.h"
 
 namespace dome::worker {
 
@@ -30,6 +31,8 @@ struct WorkerOptions {
   int reconnect_max_ms = 32000;  // longest back-off between reconnects, ms
   std::string name;              // for the master's logs; default host:pid
   net::SocketOptions socket;
+  // The stages it runs jobs of (the master's set).
+  std::shared_ptr<const pipeline::StageSet> stages = pipeline::DefaultStages();
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;

@@ -177,7 +177,10 @@ int Memory(int cameras, int instants, int slabs) {
   std::vector<std::string> ids, times;
   for (int c = 0; c < cameras; ++c) ids.push_back("c" + std::to_string(c));
   for (int t = 0; t < instants; ++t) times.push_back("00-00-" + std::to_string(t));
-  scheduler::JobGraph graph(times, ids, slabs);
+  pipeline::SessionPlan plan;  // the default stages' graph of that many cameras and slabs
+  plan.cameras = ids;
+  plan.num_slabs = slabs;
+  scheduler::JobGraph graph(times, scheduler::GraphStages(*pipeline::DefaultStages(), plan));
   std::vector<std::vector<runtime::BlobRef>> frames(instants);
   for (int t = 0; t < instants; ++t) {
     for (int c = 0; c < cameras; ++c) {

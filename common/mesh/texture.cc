@@ -614,14 +614,12 @@ TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureVi
   return out;
 }
 
-void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh& t) {
-  const std::string stem = obj_path.stem().string();
-  const auto dir = obj_path.parent_path();
-  io::WriteImage(dir / (stem + ".png"), t.atlas);
-  io::WriteFileAtomically(
-      dir / (stem + ".mtl"),
-      "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem + ".png\n");
-  std::string obj = "# dome textured mesh, world frame, mm\nmtllib " + stem + ".mtl\nusemtl dome\n";
+TexturedObjFiles EncodeTexturedObj(const TexturedMesh& t, const std::string& stem) {
+  TexturedObjFiles files;
+  files.png = io::EncodePng(t.atlas);
+  files.mtl = "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem + ".png\n";
+  std::string& obj = files.obj;
+  obj = "# dome textured mesh, world frame, mm\nmtllib " + stem + ".mtl\nusemtl dome\n";
   obj.reserve(t.mesh.vertices.size() * 40 + t.uv.size() * 30 + t.mesh.faces.size() * 40);
   char buf[128];
   for (const auto& v : t.mesh.vertices) {
@@ -638,7 +636,16 @@ void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh&
                   3 * f + 2, face[2] + 1, 3 * f + 3);
     obj += buf;
   }
-  io::WriteFileAtomically(obj_path, obj);
+  return files;
+}
+
+void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh& t) {
+  const std::string stem = obj_path.stem().string();
+  const auto dir = obj_path.parent_path();
+  const TexturedObjFiles files = EncodeTexturedObj(t, stem);
+  io::WriteFileAtomically(dir / (stem + ".png"), files.png);
+  io::WriteFileAtomically(dir / (stem + ".mtl"), files.mtl);
+  io::WriteFileAtomically(obj_path, files.obj);
 }
 
 std::vector<TextureView> LoadTextureViews(const take::Take& take, const std::string& instant) {

@@ -71,6 +71,14 @@ struct TexturedMesh {
 TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
                                const TextureOptions& options);
 
+// The OBJ + MTL + PNG of a textured mesh whose files are named <stem>.obj, <stem>.mtl
+// and <stem>.png (the OBJ names the MTL, the MTL the PNG): world frame, mm; per-face
+// texture coordinates, OBJ convention.
+struct TexturedObjFiles {
+  std::string obj, mtl, png;
+};
+TexturedObjFiles EncodeTexturedObj(const TexturedMesh& textured, const std::string& stem);
+
 // Writes `obj_path` (.obj), the .mtl and the .png beside it (same stem), atomically.
 void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh& textured);
 

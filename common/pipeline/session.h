@@ -9,15 +9,14 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
 #include "mesh/smooth.h"
-#include "pipeline/coarse_to_fine.h"
 #include "runtime.pb.h"
-#include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
 
@@ -25,14 +24,14 @@ namespace dome::pipeline {
 
 struct SessionOptions {
   stereo::TakeStereoOptions stereo;  // write_previews: preview PNGs beside the depth maps
-  fusion::VolumeGrid grid;           // default: the seed's 6 m cube of 20 mm voxels
+  fusion::VolumeGrid grid;           // default: the seed's 6 m cube (pipeline/defaults.h)
   fusion::FusionOptions fusion;      // truncation and clamp default to 3 voxels, mm
   int slab_planes = 16;              // voxel planes per fusion job (count)
   double decimate_ratio = 0.1;       // fraction of triangles kept, (0, 1]; 1: not decimated
   bool texture = true;               // also write textured.obj/.mtl/.png
   mesh::SmoothOptions smooth;        // of the marching-cubes surface (mesh.ply); off
 
-  // Throws core::InputError naming "session: <field>" for the first bad option.
+  // Throws core::InputError naming the first bad option ("slab_planes").
   void Check() const;
 };
 
@@ -47,25 +46,29 @@ SessionOptions ResolveSessionOptions(const runtime::Session& session, const std:
 // every instant of the take, in time order.
 std::vector<std::string> SessionInstants(const runtime::Session& session, const take::Take& take);
 
-// Protobuf forms of resolved options, as jobs carry them (every field set). The stereo
-// ones are stereo::ToStereoSettings / FromStereoSettings (stereo/options_json.h).
-runtime::Volume ToVolume(const fusion::VolumeGrid& grid);
-fusion::VolumeGrid FromVolume(const runtime::Volume& volume, const std::string& where);
-runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& options);
-fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& settings,
-                                         double voxel_size_mm, const std::string& where);
+// A session as the master runs it, fixed at submit (pipeline/stage.h: what the stages
+// make their jobs from).
+struct SessionPlan {
+  runtime::Session spec;
+  SessionOptions options;
+  take::Take take;                                    // empty for no-op sessions
+  std::vector<std::string> instants;                  // in time order ("noop" for a no-op session)
+  std::vector<std::string> cameras;                   // rig order
+  int num_slabs = 0;                                  // fusion jobs per instant
+  runtime::BlobRef rig;                               // TAKE/rig.json
+  std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera], rig order
+};
 
-// The coarse-to-fine options of StereoSettings.coarse_to_fine, library defaults for
-// unset fields, checked with the clip box. Errors name "<where>: coarse_to_fine.<field>".
-CoarseToFineOptions FromCoarseToFineSettings(const runtime::CoarseToFineSettings& settings,
-                                             const std::string& where);
+// Resolves and checks the session, opens its take and checks every camera's stereo
+// cluster (a bad rig fails the submit, not a worker); the take's rig and frames become
+// blobs through `add_file(path, name)`. Throws core::InputError naming the session
+// field or the take's file.
+SessionPlan PlanSession(const runtime::Session& spec,
+                        const std::function<runtime::BlobRef(const std::filesystem::path&,
+                                                             const std::string&)>& add_file);
 
-// `options`' depth range (z along `camera`'s optical axis, mm) clipped to the nearest and
-// farthest corner of the settings' clip box, each widened by clip_pad_mm; unchanged
-// without a box. Throws core::InputError naming `where` and the camera when the
-// clipped range is empty (the box is behind the camera or outside the range).
-void ClipDepthRange(const runtime::CoarseToFineSettings& settings,
-                    const geometry::TsaiCamera& camera, const std::string& where,
-                    stereo::StereoOptions* options);
+// What a session's journal is keyed on (master/journal.h): the SHA-256 of its take
+// folder, instants and every resolved option (not its id, not its output folder).
+std::string SessionDigest(const SessionPlan& plan);
 
 }  // namespace dome::pipeline

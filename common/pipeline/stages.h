@@ -1,90 +1,119 @@
-// The pipeline's stages as pure functions of serialized inputs (SPEC.md "Pipeline"):
-// what a worker runs for a job (proto/runtime.proto Job) and what the master runs to
-// stitch slabs. No sockets, no file system: bytes and protos in, bytes and protos out,
-// calling the same library functions as `dome stereo` and `dome fuse`.
+// The pipeline's stages as plain functions (SPEC.md "Pipeline"): one function per
+// stage, called by the runtime's jobs (pipeline/jobs.cc), by `dome stereo`, `dome fuse`
+// and `dome mesh`, and by the benchmarks, so that every path computes the same bytes.
+// No sockets, no wire types: images, range images, slabs and meshes in and out.
 //
-// Blob formats (all content-addressed by the runtime):
-//   rig       TAKE/rig.json text (take/rig.h)
-//   frame     the take's PNG of one camera at one instant (take/take.h)
-//   stereo    runtime.StereoOutput: one range image (depth mm, reliability) per window
-//   slab      fusion/volume.h EncodeSlab
-//   mesh      binary little-endian PLY, world mm (io/ply.h)
-// Errors: core::InputError naming the job and the blob at fault.
+//   stereo    Stereo: one reference view and its cluster -> range images (depth mm)
+//   fusion    PrepareFusion once per instant, then FuseSlab per slab of planes
+//   surface   Surface: the slabs in plane order -> the marching-cubes mesh, smoothed
+//   decimate  Decimate: the surface -> the decimated mesh (ratio 1: unchanged)
+//   texture   Texture: per-vertex colours and, optionally, the texture atlas
+//
+// Meshes are in world mm (take/take.h); the files a stage writes are listed where it
+// writes them (stereo/take_stereo.h for range images, TexturedFiles below).
 #pragma once
 
-#include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "fusion/integrate.h"
 #include "fusion/volume.h"
 #include "io/mesh.h"
-#include "runtime.pb.h"
+#include "mesh/decimate.h"
+#include "mesh/smooth.h"
+#include "mesh/texture.h"
 #include "stereo/multi_baseline.h"
+#include "stereo/take_stereo.h"
+#include "take/take.h"
 
 namespace dome::pipeline {
 
-// Output names of the jobs (runtime.Output.name). A stereo job's result also carries
-// its output files, named by their paths under OUT/<instant>/ (stereo/take_stereo.h
-// EncodeStereoFiles): the workers encode them, so the master only checks and writes.
-inline constexpr const char* kStereoOutput = "stereo";
-inline constexpr const char* kSlabOutput = "slab";
-inline constexpr const char* kDecimatedOutput = "mesh_decimated.ply";
+// ---- stereo ---------------------------------------------------------------------------
+
+// The range images of `input`'s reference view: the full-range search, or, with
+// options.coarse_to_fine, coarse to fine with the reference camera's depth range
+// clipped to its box. result.camera is the reference camera's id. Errors name `where`.
+stereo::StereoResult Stereo(const stereo::StereoInput& input,
+                            const stereo::TakeStereoOptions& options, const std::string& where);
+
+// `dome stereo`: Stereo for every (instant, camera) asked for (empty = all) of the take
+// at `take_dir`, written under `out_dir` (stereo/take_stereo.h layout). Errors name the
+// camera, instant or file at fault.
+std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,
+                                                const std::string& camera_id,
+                                                const std::string& instant,
+                                                const std::filesystem::path& out_dir,
+                                                const stereo::TakeStereoOptions& options);
+
+// ---- fusion ---------------------------------------------------------------------------
+
+// The inputs of one instant's fusion, tabulated: what every slab of the instant shares
+// (building it costs about as much as fusing a slab).
+struct PreparedFusion {
+  std::vector<fusion::RangeImage> images;  // referenced by `integrator`
+  std::unique_ptr<fusion::Integrator> integrator;
+  fusion::Slab slab;  // the last slab's buffers, reused by the next slab of its size
+};
+
+// Range images in the order given: the accumulation order is fixed by it, so every run
+// gives the same bits.
+std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
+                                              std::vector<fusion::RangeImage> images,
+                                              const fusion::FusionOptions& options);
+// Fuses planes [k0, k1) into prepared->slab and returns it (valid until the next call).
+const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1);
+
+// The slabs of a volume of `slab_planes` planes each: how many, and slab s's planes.
+int SlabCount(const fusion::VolumeGrid& grid, int slab_planes);
+std::pair<int, int> SlabPlanes(const fusion::VolumeGrid& grid, int slab_planes, int s);
+
+// ---- surface --------------------------------------------------------------------------
+
+// The marching-cubes surface of the slabs, fetched one at a time in plane order by
+// `slab(index)` (index 0 = planes from 0) and stitched as they come (memory: one slab),
+// then Taubin-smoothed (mesh/smooth.h; off by default). Throws core::InputError when
+// the slabs do not cover the volume's planes.
+io::Mesh Surface(const fusion::VolumeGrid& grid, int num_slabs,
+                 const std::function<std::shared_ptr<const fusion::Slab>(int index)>& slab,
+                 const mesh::SmoothOptions& smooth);
+
+// ---- decimate -------------------------------------------------------------------------
+
+// `surface` decimated (mesh/decimate.h); a target ratio of 1 keeps it as it is.
+io::Mesh Decimate(const io::Mesh& surface, const mesh::DecimationOptions& options,
+                  mesh::DecimationSummary* summary = nullptr);
+
+// ---- texture --------------------------------------------------------------------------
+
+struct TextureResult {
+  io::Mesh coloured;                        // the mesh with per-vertex colours (mesh_decimated.ply)
+  std::optional<mesh::TexturedMesh> atlas;  // with `atlas`: the texture atlas
+};
+
+// Colours `decimated` from the views (mesh/texture.h) and, with `atlas`, builds its
+// texture atlas.
+TextureResult Texture(io::Mesh decimated, const std::vector<mesh::TextureView>& views,
+                      const mesh::TextureOptions& options, bool atlas);
+
+// A file a stage writes under OUT/<instant>/: its name and its bytes.
+struct NamedFile {
+  std::string name;
+  std::string bytes;
+};
+
+// The textured mesh's files: textured.obj, textured.mtl, textured.png (OBJ + MTL + PNG
+// atlas, naming each other) and textured.glb (the same mesh, one binary glTF).
+std::vector<NamedFile> TexturedFiles(const mesh::TexturedMesh& textured);
+inline constexpr const char* kMeshPly = "mesh.ply";
+inline constexpr const char* kDecimatedPly = "mesh_decimated.ply";
 inline constexpr const char* kTexturedObj = "textured.obj";
 inline constexpr const char* kTexturedMtl = "textured.mtl";
 inline constexpr const char* kTexturedPng = "textured.png";
-inline constexpr const char* kTexturedGlb = "textured.glb";  // the same mesh, one binary glTF
-
-// The bytes of a job's blobs, in the job's order (shared with a worker's blob cache).
-using JobBlobs = std::vector<std::shared_ptr<const std::string>>;
-
-struct PreparedFusion;
-
-// What a worker keeps from one job for the next, so that work shared by jobs is done
-// once: the decoded range images and fusion tables of the last instant fused (every
-// slab job of an instant needs the same ones; building them costs about as much as
-// fusing a slab). Keyed by the job's settings and input blob hashes, so a job's outputs
-// are the same bytes with or without a memo. One set is kept (tens of MB for the paper
-// rig). Not thread-safe: one job at a time.
-class JobMemo {
- public:
-  JobMemo();
-  ~JobMemo();
-  JobMemo(const JobMemo&) = delete;
-  JobMemo& operator=(const JobMemo&) = delete;
-
-  // The prepared fusion for `key`, built by `build` unless it is the one kept.
-  PreparedFusion* Fusion(const std::string& key,
-                         const std::function<std::unique_ptr<PreparedFusion>()>& build);
-  // How many times fusion inputs were prepared (a figure for tests and logs).
-  int64_t fusion_preparations() const { return fusion_preparations_; }
-
- private:
-  std::string fusion_key_;
-  std::unique_ptr<PreparedFusion> fusion_;
-  int64_t fusion_preparations_ = 0;
-};
-
-// Runs one job; `blobs` are the bytes of job.blobs, in the job's order. Returns its
-// outputs (names above). `memo` (optional) carries shared work between the jobs of
-// one worker. `threads` <= 0: all hardware threads.
-std::vector<runtime::Output> RunJob(const runtime::Job& job, const JobBlobs& blobs,
-                                    JobMemo* memo = nullptr);
-
-// Stereo results <-> the "stereo" blob.
-std::string EncodeStereoOutput(const stereo::StereoResult& result);
-stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::string& where);
-
-// Surface extraction (the master's stage): the slabs of one instant, fetched one at a
-// time in plane order by `slab(index)` (index 0 = planes from 0), stitched by
-// StreamingMarchingCubes; memory is bounded by one slab.
-io::Mesh ExtractSurface(const fusion::VolumeGrid& grid, int num_slabs,
-                        const std::function<std::string(int index)>& slab);
-// The same from slabs already decoded (fusion/volume.h DecodeSlab).
-io::Mesh ExtractSurfaceFromSlabs(
-    const fusion::VolumeGrid& grid, int num_slabs,
-    const std::function<std::shared_ptr<const fusion::Slab>(int index)>& slab);
+inline constexpr const char* kTexturedGlb = "textured.glb";
 
 // The PLY bytes dome writes for meshes (binary little-endian, "units mm").
 std::string EncodeMeshPly(const io::Mesh& mesh);

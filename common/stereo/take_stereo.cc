@@ -1,7 +1,5 @@
 #include "stereo/take_stereo.h"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
@@ -17,6 +15,7 @@ namespace fs = std::filesystem;
 void TakeStereoOptions::Check() const {
   stereo.Check();
   cluster.Check();
+  if (coarse_to_fine) coarse_to_fine->Check();
 }
 
 namespace {
@@ -142,38 +141,6 @@ std::vector<fs::path> WriteStereoFiles(const std::vector<StereoFile>& files,
 std::vector<fs::path> WriteStereoResult(const StereoResult& result, const std::string& instant,
                                         const fs::path& out_dir, bool write_previews) {
   return WriteStereoFiles(EncodeStereoFiles(result, write_previews), instant, out_dir);
-}
-
-std::vector<StereoResult> RunTakeStereo(const fs::path& take_dir, const std::string& camera_id,
-                                        const std::string& instant, const fs::path& out_dir,
-                                        const TakeStereoOptions& options) {
-  options.Check();
-  const take::Take take = take::OpenTake(take_dir);
-  std::vector<std::string> instants = take.instants;
-  if (!instant.empty()) {
-    core::Require(std::find(instants.begin(), instants.end(), instant) != instants.end(),
-                  "--instant", "'" + instant + "' is not an instant of " + take_dir.string());
-    instants = {instant};
-  }
-  std::vector<std::string> cameras;
-  if (!camera_id.empty()) {
-    core::Require(take.rig.Find(camera_id) >= 0, "--camera",
-                  "camera '" + camera_id + "' is not in the rig of " + take_dir.string());
-    cameras = {camera_id};
-  } else {
-    for (const auto& c : take.rig.cameras) cameras.push_back(c.model.id);
-  }
-  std::vector<StereoResult> results;
-  for (const auto& t : instants) {
-    for (const auto& cam : cameras) {
-      const StereoInput input = LoadStereoInput(take, t, cam, options.cluster);
-      StereoResult r = ComputeDepth(input, options.stereo);
-      WriteStereoResult(r, t, out_dir, options.write_previews);
-      spdlog::info("{} {}", t, r.BriefReport().substr(0, r.BriefReport().size() - 1));
-      results.push_back(std::move(r));
-    }
-  }
-  return results;
 }
 
 }  // namespace dome::stereo

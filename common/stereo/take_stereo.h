@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "runtime.pb.h"
 #include "stereo/cluster.h"
+#include "stereo/coarse_to_fine.h"
 #include "stereo/multi_baseline.h"
 #include "take/take.h"
 
@@ -30,11 +30,12 @@ namespace dome::stereo {
 struct TakeStereoOptions {
   StereoOptions stereo;
   ClusterOptions cluster;
-  bool write_previews = true;
-  // Present: coarse-to-fine stereo over tiles, as the pipeline's stereo stage runs it
-  // (pipeline/stages.h; checked there); RunTakeStereo does not use it.
-  std::optional<runtime::CoarseToFineSettings> coarse_to_fine;
+  bool write_previews = true;  // preview PNGs beside the depth maps
+  // Present: coarse-to-fine stereo over tiles (stereo/coarse_to_fine.h), each camera's
+  // range clipped to its box; absent: the full-range search (pipeline/stages.h Stereo).
+  std::optional<CoarseToFineOptions> coarse_to_fine;
 
+  // Throws core::InputError naming the first option out of range.
   void Check() const;
 };
 
@@ -72,12 +73,5 @@ std::vector<std::filesystem::path> WriteStereoResult(const StereoResult& result,
                                                      const std::string& instant,
                                                      const std::filesystem::path& out_dir,
                                                      bool write_previews);
-
-// Runs every requested job: `camera_id` empty = every camera, `instant` empty = every
-// instant. Throws core::InputError naming the camera / instant / file at fault.
-std::vector<StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,
-                                        const std::string& camera_id, const std::string& instant,
-                                        const std::filesystem::path& out_dir,
-                                        const TakeStereoOptions& options);
 
 }  // namespace dome::stereo

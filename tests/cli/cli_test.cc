@@ -112,7 +112,7 @@ TEST(Cli, SmoothingAndSpeckleFlagsNameTheField) {
     const char* message;
   } cases[] = {
       {"fuse /nonexistent --out /tmp/dome_never_written --smooth-iterations -2",
-       "--smooth-iterations: smooth_iterations: must be >= 0"},
+       "fuse: smooth_iterations: must be >= 0"},
       {"run /nonexistent --out /tmp/dome_never_written --smooth-iterations -1",
        "session: smooth_iterations: must be >= 0"},
       {"stereo /nonexistent --out /tmp/dome_never_written --speckle-area 100",

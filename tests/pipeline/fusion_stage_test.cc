@@ -1,4 +1,4 @@
-// The fusion job (pipeline/stages.h RunJob) with a worker's JobMemo: the slab jobs of
+// The fusion job (pipeline/jobs.h) with a worker's JobMemo: the slab jobs of
 // one instant prepare the range images and tables once, give the same bytes as jobs
 // run without a memo, and a job with other inputs is not served stale tables. The
 // decimation job with ratio 1 returns the surface as extracted.
@@ -9,12 +9,15 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "net/content_hash.h"
-#include "pipeline/session.h"
+#include "pipeline/jobs.h"
+#include "pipeline/settings.h"
 #include "pipeline/small_take_suite.h"
+#include "pipeline/stage.h"
 #include "pipeline/stages.h"
 #include "take/take.h"
 
@@ -55,17 +58,19 @@ class FusionStage : public SmallTakeSuite {
     runtime::Job job;
     job.set_id("s/i/fusion/" + std::to_string(k0));
     job.set_threads(2);
-    auto* fj = job.mutable_fusion();
-    fj->set_k0(k0);
-    fj->set_k1(k1);
-    *fj->mutable_volume() = ToVolume(grid);
-    *fj->mutable_fusion() = ToFusionSettings(options);
+    job.set_stage("fusion");
+    runtime::FusionJob fj;
+    fj.set_k0(k0);
+    fj.set_k1(k1);
+    *fj.mutable_volume() = ToVolume(grid);
+    *fj.mutable_fusion() = ToFusionSettings(options);
+    job.set_settings(fj.SerializeAsString());
     for (const auto& b : blobs) job.add_blobs()->set_sha256(net::Sha256Hex(*b));
     return job;
   }
 
   static std::string Slab(const JobBlobs& blobs, int k0, int k1, JobMemo* memo) {
-    const auto outputs = RunJob(Job(blobs, k0, k1), blobs, memo);
+    const auto outputs = RunJob(*DefaultStages(), Job(blobs, k0, k1), blobs, memo);
     EXPECT_EQ(outputs.size(), 1u);
     return outputs.at(0).data();
   }
@@ -85,7 +90,7 @@ TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
     for (float w : decoded.weight) weighted += w > 0;
     EXPECT_GT(weighted, 1000) << "slab " << s;
   }
-  EXPECT_EQ(memo.fusion_preparations(), 1);
+  EXPECT_EQ(memo.builds(), 1);
 }
 
 TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
@@ -93,11 +98,11 @@ TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   JobMemo memo;
   const std::string first = Slab(blobs, 10, 30, &memo);
   const std::string other = Slab(moved, 10, 30, &memo);
-  EXPECT_EQ(memo.fusion_preparations(), 2);
+  EXPECT_EQ(memo.builds(), 2);
   EXPECT_NE(first, other);
   EXPECT_EQ(other, Slab(moved, 10, 30, nullptr));
   EXPECT_EQ(first, Slab(blobs, 10, 30, &memo));
-  EXPECT_EQ(memo.fusion_preparations(), 3);
+  EXPECT_EQ(memo.builds(), 3);
 }
 
 TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
@@ -118,15 +123,35 @@ TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
   const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(grid))};
   runtime::Job job;
   job.set_id("s/i/decimate");
+  job.set_stage("decimate");
   job.add_blobs()->set_sha256(net::Sha256Hex(*blobs[0]));
-  job.mutable_decimate()->set_ratio(1.0);
-  const auto kept = RunJob(job, blobs);
+  runtime::DecimateJob dj;
+  dj.set_ratio(1.0);
+  job.set_settings(dj.SerializeAsString());
+  const auto kept = RunJob(*DefaultStages(), job, blobs);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_EQ(kept[0].data(), *blobs[0]);
-  job.mutable_decimate()->set_ratio(0.25);
-  const auto decimated = RunJob(job, blobs);
+  dj.set_ratio(0.25);
+  job.set_settings(dj.SerializeAsString());
+  const auto decimated = RunJob(*DefaultStages(), job, blobs);
   ASSERT_EQ(decimated.size(), 1u);
   EXPECT_EQ(io::ParsePly(decimated[0].data(), "decimated").faces.size(), 200u);
+}
+
+// A job names the stage that runs it; a name no stage has is refused, naming the job.
+TEST(RunJob, UnknownStageIsRefusedNamingTheJob) {
+  runtime::Job job;
+  job.set_id("s/i/sharpen");
+  job.set_stage("sharpen");
+  try {
+    RunJob(*DefaultStages(), job, {});
+    FAIL() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("job s/i/sharpen"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'sharpen'"), std::string::npos) << e.what();
+  }
+  job.set_stage("surface");  // the master's own stage: no worker runs it
+  EXPECT_THROW(RunJob(*DefaultStages(), job, {}), core::InputError);
 }
 
 }  // namespace

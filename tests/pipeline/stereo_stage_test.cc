@@ -1,4 +1,4 @@
-// The stereo job (pipeline/stages.h RunJob) with the session's opt-in coarse-to-fine
+// The stereo job (pipeline/jobs.h) with the session's opt-in coarse-to-fine
 // block (runtime.proto CoarseToFineSettings) on the small synthetic take: depths close
 // to the full-range search's, the clip box bounds each camera's depth range, and bad
 // fields are refused naming the field.
@@ -9,10 +9,12 @@
 #include <vector>
 
 #include "io/file_util.h"
+#include "pipeline/jobs.h"
 #include "pipeline/session.h"
+#include "pipeline/settings.h"
 #include "pipeline/small_take_suite.h"
+#include "pipeline/stage.h"
 #include "pipeline/stages.h"
-#include "stereo/options_json.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
 #include "testing/expect_error.h"
@@ -31,13 +33,15 @@ class StereoStage : public SmallTakeSuite {
   static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings) {
     const take::Take take = take::OpenTake(TakeDir());
     const std::string instant = take.instants.front();
-    const stereo::TakeStereoOptions options = stereo::FromStereoSettings(settings, "test");
+    const stereo::TakeStereoOptions options = FromStereoSettings(settings, "test");
     const stereo::StereoInput input = stereo::LoadStereoInput(take, instant, id, options.cluster);
     runtime::Job job;
     job.set_id("s/" + instant + "/stereo/" + id);
     job.set_instant(instant);
     job.set_threads(2);
-    auto* sj = job.mutable_stereo();
+    job.set_stage("stereo");
+    runtime::StereoJob stereo_job;
+    auto* sj = &stereo_job;
     sj->set_camera(id);
     *sj->mutable_stereo() = settings;
     JobBlobs blobs;
@@ -51,7 +55,8 @@ class StereoStage : public SmallTakeSuite {
       sj->add_neighbours(v.camera.id);
       add(take.FramePath(instant, v.camera.id));
     }
-    const auto outputs = RunJob(job, blobs);
+    job.set_settings(stereo_job.SerializeAsString());
+    const auto outputs = RunJob(*DefaultStages(), job, blobs);
     // The stereo blob, then the result's files (depth and reliability; no previews).
     EXPECT_EQ(outputs.size(), 3u);
     const stereo::StereoResult result = DecodeStereoOutput(outputs.at(0).data(), "test");
@@ -67,7 +72,7 @@ class StereoStage : public SmallTakeSuite {
   static runtime::StereoSettings DefaultSettings() {
     runtime::Session session;
     session.mutable_stereo()->add_window_sizes_px(7);
-    return stereo::ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
+    return ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
 };
 
@@ -84,8 +89,7 @@ TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
     block->add_clip_max_mm(50000);
   }
   // The block survives the master's round trip (session options -> job settings).
-  ASSERT_TRUE(
-      stereo::ToStereoSettings(stereo::FromStereoSettings(c2f, "test")).has_coarse_to_fine());
+  ASSERT_TRUE(ToStereoSettings(FromStereoSettings(c2f, "test")).has_coarse_to_fine());
 
   const cv::Mat a = RunStereoJob("c00", full);
   const cv::Mat b = RunStereoJob("c00", c2f);
@@ -128,19 +132,20 @@ TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
   stereo::StereoOptions o;
   o.z_min_mm = 100;
   o.z_max_mm = 10000;
-  ClipDepthRange(s, cam, "job", &o);
+  const stereo::CoarseToFineOptions c2f = FromCoarseToFineSettings(s, "job");
+  stereo::ClipDepthRange(c2f, cam, "job", &o);
   EXPECT_NEAR(o.z_min_mm, z - half - pad, 1e-6);
   EXPECT_NEAR(o.z_max_mm, z + half + pad, 1e-6);
   // Clipped, never widened.
   o.z_min_mm = 2950;
   o.z_max_mm = 10000;
-  ClipDepthRange(s, cam, "job", &o);
+  stereo::ClipDepthRange(c2f, cam, "job", &o);
   EXPECT_DOUBLE_EQ(o.z_min_mm, 2950);
   EXPECT_NEAR(o.z_max_mm, z + half + pad, 1e-6);
   // A range that misses the box.
   o.z_min_mm = 100;
   o.z_max_mm = 1000;
-  ExpectInputError([&] { ClipDepthRange(s, cam, "job", &o); },
+  ExpectInputError([&] { stereo::ClipDepthRange(c2f, cam, "job", &o); },
                    {"job: coarse_to_fine.clip_min_mm", "sees no depth of the clip box"});
 }
 
@@ -172,7 +177,7 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   const runtime::Session read = ReadSessionJson(dir / "session.json");
   EXPECT_EQ(read.stereo().coarse_to_fine().tile_px(), 48);
   EXPECT_EQ(FromCoarseToFineSettings(read.stereo().coarse_to_fine(), "s").fill_min_neighbours, 2);
-  EXPECT_EQ(CoarseToFineOptions{}.fill_min_neighbours, 0);  // off unless asked for
+  EXPECT_EQ(stereo::CoarseToFineOptions{}.fill_min_neighbours, 0);  // off unless asked for
   EXPECT_EQ(read.stereo().coarse_to_fine().clip_max_mm(2), 3.0);
 }
 

@@ -5,8 +5,20 @@
 namespace dome::scheduler {
 namespace {
 
+// The default stages' graph: stereo per camera, fusion per slab, then one surface,
+// decimate and texture part; stage indices in that order.
+enum Stage { kStereo, kFusion, kSurface, kDecimate, kTexture };
+
+JobGraph DefaultShape(const std::vector<std::string>& instants,
+                      const std::vector<std::string>& cameras, int slabs) {
+  pipeline::SessionPlan plan;
+  plan.cameras = cameras;
+  plan.num_slabs = slabs;
+  return JobGraph(instants, GraphStages(*pipeline::DefaultStages(), plan));
+}
+
 TEST(JobGraph, StereoFirstThenSlabsThenSurfaceDecimateTexture) {
-  JobGraph g({"00-00-00-00", "00-00-00-01"}, {"c0", "c1", "c2"}, 4);
+  JobGraph g = DefaultShape({"00-00-00-00", "00-00-00-01"}, {"c0", "c1", "c2"}, 4);
   // Per instant: 3 stereo + 4 fusion + surface + decimate + texture.
   ASSERT_EQ(g.size(), 2 * (3 + 4 + 3));
   // Only the stereo jobs are ready at first, instant 0 before instant 1.
@@ -28,8 +40,8 @@ TEST(JobGraph, StereoFirstThenSlabsThenSurfaceDecimateTexture) {
     EXPECT_EQ(g.node(fusion[k]).key, "00-00-00-00/fusion/" + std::to_string(k));
   // Instant 0's fusion outranks instant 1's stereo (earlier instants first).
   EXPECT_EQ(*g.ready().begin(), fusion[0]);
-  EXPECT_EQ(g.Count(0, Stage::kStereo).done, 3);
-  EXPECT_EQ(g.Count(0, Stage::kFusion).total, 4);
+  EXPECT_EQ(g.Count(0, kStereo).done, 3);
+  EXPECT_EQ(g.Count(0, kFusion).total, 4);
   // The surface waits for every slab.
   for (int k = 0; k < 3; ++k) EXPECT_TRUE(g.MarkDone(fusion[k]).empty());
   const std::vector<int> surface = g.MarkDone(fusion[3]);
@@ -37,7 +49,7 @@ TEST(JobGraph, StereoFirstThenSlabsThenSurfaceDecimateTexture) {
   EXPECT_EQ(g.node(surface[0]).key, "00-00-00-00/surface");
   const std::vector<int> decimate = g.MarkDone(surface[0]);
   ASSERT_EQ(decimate.size(), 1u);
-  EXPECT_EQ(g.node(decimate[0]).stage, Stage::kDecimate);
+  EXPECT_EQ(g.node(decimate[0]).stage, kDecimate);
   const std::vector<int> texture = g.MarkDone(decimate[0]);
   ASSERT_EQ(texture.size(), 1u);
   EXPECT_FALSE(g.InstantDone(0));
@@ -48,7 +60,7 @@ TEST(JobGraph, StereoFirstThenSlabsThenSurfaceDecimateTexture) {
 }
 
 TEST(JobGraph, RequeueAndDuplicateDone) {
-  JobGraph g({"t0"}, {"a", "b"}, 1);
+  JobGraph g = DefaultShape({"t0"}, {"a", "b"}, 1);
   const int a = g.Find("t0/stereo/a");
   g.MarkRunning(a);
   EXPECT_EQ(g.ready().count(a), 0u);
@@ -59,14 +71,14 @@ TEST(JobGraph, RequeueAndDuplicateDone) {
   // A second (late, duplicate) result changes nothing.
   EXPECT_TRUE(g.MarkDone(a).empty());
   EXPECT_EQ(g.done(), 1);
-  EXPECT_EQ(g.Count(0, Stage::kStereo).done, 1);
+  EXPECT_EQ(g.Count(0, kStereo).done, 1);
   EXPECT_EQ(g.Find("t0/stereo/zz"), -1);
 }
 
 TEST(JobGraph, DoneOutOfOrderFromAJournal) {
   // A resumed session marks jobs done in the journal's order; the later stages must
   // not become ready before all their inputs are done.
-  JobGraph g({"t0"}, {"a", "b"}, 2);
+  JobGraph g = DefaultShape({"t0"}, {"a", "b"}, 2);
   g.MarkDone(g.Find("t0/fusion/0"));
   g.MarkDone(g.Find("t0/stereo/a"));
   std::vector<std::string> ready;
@@ -75,6 +87,19 @@ TEST(JobGraph, DoneOutOfOrderFromAJournal) {
   const std::vector<int> now = g.MarkDone(g.Find("t0/stereo/b"));
   ASSERT_EQ(now.size(), 1u);
   EXPECT_EQ(g.node(now[0]).key, "t0/fusion/1");
+}
+
+// A stage with no parts in a session (the no-op stage of a reconstruction) is not in
+// the graph, and the stages after it do not wait for it.
+TEST(JobGraph, StagesWithoutPartsAreSkipped) {
+  JobGraph g({"t0"}, {{"a", {"0", "1"}, {}}, {"empty", {}, {}}, {"b", {""}, {0, 1}}});
+  EXPECT_EQ(g.size(), 3);
+  EXPECT_EQ(g.Count(0, 1).total, 0);
+  EXPECT_EQ(g.NodeOf(0, 2, 0), g.Find("t0/b"));
+  g.MarkDone(g.Find("t0/a/0"));
+  const std::vector<int> now = g.MarkDone(g.Find("t0/a/1"));
+  ASSERT_EQ(now.size(), 1u);
+  EXPECT_EQ(g.node(now[0]).key, "t0/b");
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
-// Coarse-to-fine stereo over tiles (pipeline/coarse_to_fine.h) on a rendered textured
+// Coarse-to-fine stereo over tiles (stereo/coarse_to_fine.h) on a rendered textured
 // plane: the depth of the full-range search, from far fewer levels per tile.
-#include "pipeline/coarse_to_fine.h"
+#include "stereo/coarse_to_fine.h"
 
 #include <gtest/gtest.h>
 
@@ -10,10 +10,10 @@
 #include "stereo/stereo_test_util.h"
 #include "testing/expect_error.h"
 
-namespace dome::pipeline {
+namespace dome::stereo {
 namespace {
 
-using stereo::testing::PlaneCamera;
+using testing::PlaneCamera;
 
 constexpr int kWidth = 320, kHeight = 240;
 constexpr double kFocalPx = 400.0;
@@ -228,4 +228,4 @@ TEST(CoarseToFine, BadOptionsAreNamed) {
 }
 
 }  // namespace
-}  // namespace dome::pipeline
+}  // namespace dome::stereo

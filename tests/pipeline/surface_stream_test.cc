@@ -1,9 +1,11 @@
-#include "master/surface_stream.h"
+#include "pipeline/surface_stream.h"
 
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <thread>
 
 #include "core/error.h"
@@ -11,14 +13,50 @@
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "mesh/smooth.h"
+#include "net/content_hash.h"
 #include "pipeline/stages.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
-namespace dome::scheduler {
+namespace dome::pipeline {
 namespace {
 
 using namespace std::chrono_literals;
+
+// The master's blobs, in memory: what a stream reads its slabs from and keeps its mesh in.
+class MemoryBlobs : public BlobAccess {
+ public:
+  std::optional<std::string> Read(const std::string& sha256) const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = blobs_.find(sha256);
+    if (it == blobs_.end()) return std::nullopt;
+    return it->second;
+  }
+  runtime::BlobRef Keep(const std::string& bytes, const std::string& name) override {
+    runtime::BlobRef ref;
+    ref.set_sha256(net::Sha256Hex(bytes));
+    ref.set_size(bytes.size());
+    ref.set_name(name);
+    std::lock_guard<std::mutex> lock(mutex_);
+    blobs_[ref.sha256()] = bytes;
+    return ref;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, std::string> blobs_;
+};
+
+// The surface of the slabs, stitched in order without a stream.
+io::Mesh OfflineSurface(const fusion::VolumeGrid& grid, const std::vector<std::string>& slabs,
+                        const mesh::SmoothOptions& smooth = {}) {
+  return Surface(
+      grid, int(slabs.size()),
+      [&](int k) {
+        return std::make_shared<const fusion::Slab>(fusion::DecodeSlab(slabs[k], "slab"));
+      },
+      smooth);
+}
 
 // A 24^3 grid of 10 mm voxels holding the signed distance to a sphere of radius 70 mm
 // at its centre, cut into slabs of 5 planes (the last one of 4).
@@ -56,15 +94,12 @@ bool WaitFinished(const SurfaceStream& stream) {
 TEST(SurfaceStream, SlabsFedOutOfOrderGiveTheMeshOfTheWholeVolume) {
   testing::TempDir dir;
   const Sphere sphere;
-  BlobStore store;
+  MemoryBlobs store;
   std::vector<runtime::BlobRef> refs;
-  for (const auto& bytes : sphere.slabs)
-    refs.push_back(store.AddBytes(dir.path() / "blobs", bytes, "slab"));
+  for (const auto& bytes : sphere.slabs) refs.push_back(store.Keep(bytes, "slab"));
   // The offline extraction of the same slabs: the stream must write the same bytes.
-  const std::string expected = pipeline::EncodeMeshPly(pipeline::ExtractSurface(
-      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; }));
-  SurfaceStream stream(sphere.grid, int(refs.size()), &store, dir.path() / "t0",
-                       dir.path() / "blobs");
+  const std::string expected = EncodeMeshPly(OfflineSurface(sphere.grid, sphere.slabs));
+  SurfaceStream stream(sphere.grid, int(refs.size()), &store, dir.path() / "t0");
   // Slab 0 last: nothing can be stitched before it, then everything at once.
   for (int k = int(refs.size()) - 1; k >= 1; --k) stream.Feed(k, refs[k].sha256());
   std::this_thread::sleep_for(50ms);
@@ -73,7 +108,7 @@ TEST(SurfaceStream, SlabsFedOutOfOrderGiveTheMeshOfTheWholeVolume) {
   stream.Feed(0, refs[0].sha256());
   EXPECT_TRUE(stream.Fed(0));
   ASSERT_TRUE(WaitFinished(stream));
-  const runtime::BlobRef mesh = stream.Result();
+  const runtime::BlobRef mesh = stream.Result().at(0);
   EXPECT_EQ(mesh.name(), "mesh.ply");
   const std::string written = io::ReadFileBytes(dir.path() / "t0" / "mesh.ply");
   EXPECT_TRUE(written == expected) << "the streamed mesh differs from the offline one";
@@ -89,32 +124,28 @@ TEST(SurfaceStream, SlabsFedOutOfOrderGiveTheMeshOfTheWholeVolume) {
 TEST(SurfaceStream, SmoothsTheWholeSurfaceBeforeWritingIt) {
   testing::TempDir dir;
   const Sphere sphere;
-  BlobStore store;
+  MemoryBlobs store;
   mesh::SmoothOptions smooth;
   smooth.iterations = 4;
-  io::Mesh expected = pipeline::ExtractSurface(
-      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; });
-  const std::string unsmoothed = pipeline::EncodeMeshPly(expected);
-  mesh::SmoothTaubin(smooth, &expected);
-  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
-                       dir.path() / "blobs", smooth);
+  const std::string unsmoothed = EncodeMeshPly(OfflineSurface(sphere.grid, sphere.slabs));
+  const io::Mesh expected = OfflineSurface(sphere.grid, sphere.slabs, smooth);
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0", smooth);
   for (int k = 0; k < int(sphere.slabs.size()); ++k) {
-    stream.Feed(k, store.AddBytes(dir.path() / "blobs", sphere.slabs[k], "slab").sha256());
+    stream.Feed(k, store.Keep(sphere.slabs[k], "slab").sha256());
   }
   ASSERT_TRUE(WaitFinished(stream));
   stream.Result();
   const std::string written = io::ReadFileBytes(dir.path() / "t0" / "mesh.ply");
-  EXPECT_TRUE(written == pipeline::EncodeMeshPly(expected));
+  EXPECT_TRUE(written == EncodeMeshPly(expected));
   EXPECT_FALSE(written == unsmoothed);
 }
 
 TEST(SurfaceStream, AbortEndsAStreamWaitingForSlabsWithAnError) {
   testing::TempDir dir;
   const Sphere sphere;
-  BlobStore store;
-  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
-                       dir.path() / "blobs");
-  stream.Feed(0, store.AddBytes(dir.path() / "blobs", sphere.slabs[0], "slab").sha256());
+  MemoryBlobs store;
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0");
+  stream.Feed(0, store.Keep(sphere.slabs[0], "slab").sha256());
   stream.Abort();
   ASSERT_TRUE(WaitFinished(stream));
   testing::ExpectInputError([&] { stream.Result(); },
@@ -125,9 +156,8 @@ TEST(SurfaceStream, AbortEndsAStreamWaitingForSlabsWithAnError) {
 TEST(SurfaceStream, ASlabMissingFromTheStoreFailsNamingIt) {
   testing::TempDir dir;
   const Sphere sphere;
-  BlobStore store;
-  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0",
-                       dir.path() / "blobs");
+  MemoryBlobs store;
+  SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "t0");
   stream.Feed(0, std::string(64, 'a'));
   ASSERT_TRUE(WaitFinished(stream));
   testing::ExpectInputError([&] { stream.Result(); }, {"slab 0", "not in the blob store"});
@@ -140,22 +170,19 @@ TEST(SurfaceStream, DecodedSlabsAreUsedWithoutReadingTheStore) {
   testing::TempDir dir;
   const Sphere sphere;
   ASSERT_GT(int(sphere.slabs.size()), SurfaceStream::kDecodedAhead);
-  const std::string expected = pipeline::EncodeMeshPly(pipeline::ExtractSurface(
-      sphere.grid, int(sphere.slabs.size()), [&](int k) { return sphere.slabs[k]; }));
+  const std::string expected = EncodeMeshPly(OfflineSurface(sphere.grid, sphere.slabs));
   auto decoded = [&](int k) {
     return std::make_shared<const fusion::Slab>(fusion::DecodeSlab(sphere.slabs[k], "slab"));
   };
   {
     // Every slab decoded; the first kDecodedAhead under addresses the store does not
     // hold (they can only come from the hand-over), the others stored as well.
-    BlobStore store;
-    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "a",
-                         dir.path() / "blobs");
+    MemoryBlobs store;
+    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "a");
     for (int k = 0; k < int(sphere.slabs.size()); ++k) {
-      const std::string sha =
-          k < SurfaceStream::kDecodedAhead
-              ? std::string(64, char('a' + k))
-              : store.AddBytes(dir.path() / "blobs", sphere.slabs[k], "slab").sha256();
+      const std::string sha = k < SurfaceStream::kDecodedAhead
+                                  ? std::string(64, char('a' + k))
+                                  : store.Keep(sphere.slabs[k], "slab").sha256();
       stream.Feed(k, sha, decoded(k));
     }
     ASSERT_TRUE(WaitFinished(stream));
@@ -164,9 +191,8 @@ TEST(SurfaceStream, DecodedSlabsAreUsedWithoutReadingTheStore) {
   {
     // Slab kDecodedAhead fed first, decoded but too far ahead: it is read from the
     // store (which lacks it) when its turn comes.
-    BlobStore store;
-    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "b",
-                         dir.path() / "blobs");
+    MemoryBlobs store;
+    SurfaceStream stream(sphere.grid, int(sphere.slabs.size()), &store, dir.path() / "b");
     const int far = SurfaceStream::kDecodedAhead;
     stream.Feed(far, std::string(64, 'f'), decoded(far));
     for (int k = 0; k < far; ++k) stream.Feed(k, std::string(64, char('a' + k)), decoded(k));
@@ -177,4 +203,4 @@ TEST(SurfaceStream, DecodedSlabsAreUsedWithoutReadingTheStore) {
 }
 
 }  // namespace
-}  // namespace dome::scheduler
+}  // namespace dome::pipeline

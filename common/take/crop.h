@@ -17,7 +17,7 @@
 
 #include "geometry/tsai_camera.h"
 
-namespace dome::pipeline {
+namespace dome::take {
 
 struct CropBox {
   Eigen::Vector3d min_mm = Eigen::Vector3d::Zero();  // world corner, mm
@@ -47,4 +47,4 @@ struct CropSummary {
 // ground-truth depth maps, whose size is the uncropped one.
 CropSummary CropTakeToBox(const std::filesystem::path& dir, const CropBox& box);
 
-}  // namespace dome::pipeline
+}  // namespace dome::take

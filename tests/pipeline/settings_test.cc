@@ -1,4 +1,4 @@
-#include "stereo/options_json.h"
+#include "pipeline/settings.h"
 
 #include <gtest/gtest.h>
 
@@ -7,16 +7,23 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "io/depth_tiff.h"
+#include "pipeline/stages.h"
+#include "stereo/take_stereo.h"
+#include "take/take.h"
 #include "testing/expect_error.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
 
-namespace dome::stereo {
+namespace dome::pipeline {
 namespace {
+
+using stereo::StereoOptions;
+using stereo::TakeStereoOptions;
 
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path) << text;
@@ -185,5 +192,102 @@ TEST(StereoOptionsJsonTest, CommandReadsOptionsFile) {
   EXPECT_GT(cv::norm(rooted, prewarped, cv::NORM_INF), 0.0);
 }
 
+// Each option is one row of its table: every field of the proto messages is bound to
+// an options field (the coarse-to-fine block and clip box are messages of their own),
+// and round trips through it.
+TEST(SettingTables, EveryProtoFieldHasItsRow) {
+  auto names = [](const auto& fields) {
+    std::set<std::string> n;
+    for (const auto& f : fields) n.insert(f.proto_name);
+    return n;
+  };
+  auto expect_all = [](const google::protobuf::Descriptor* d, const std::set<std::string>& rows,
+                       const std::set<std::string>& apart) {
+    for (int i = 0; i < d->field_count(); ++i) {
+      const std::string name = d->field(i)->name();
+      EXPECT_TRUE(rows.count(name) || apart.count(name)) << d->name() << "." << name;
+    }
+    EXPECT_EQ(rows.size() + apart.size(), size_t(d->field_count())) << d->name();
+  };
+  expect_all(runtime::StereoSettings::descriptor(), names(StereoSettingFields()),
+             {"coarse_to_fine"});
+  expect_all(runtime::CoarseToFineSettings::descriptor(), names(CoarseToFineSettingFields()),
+             {"clip_min_mm", "clip_max_mm"});
+  expect_all(runtime::FusionSettings::descriptor(), names(FusionSettingFields()), {});
+
+  fusion::FusionOptions f;
+  f.truncation_mm = 7;
+  f.front_clamp_mm = 8;
+  f.max_depth_jump_ratio = 0.2;
+  f.min_depth_mm = 3;
+  f.min_consistent_views = 2;
+  f.consistency_tolerance_mm = 9;
+  f.min_weight = 1.5;
+  const fusion::FusionOptions g = FromFusionSettings(ToFusionSettings(f), 50, "test");
+  EXPECT_EQ(g.truncation_mm, 7);
+  EXPECT_EQ(g.front_clamp_mm, 8);
+  EXPECT_EQ(g.max_depth_jump_ratio, 0.2);
+  EXPECT_EQ(g.min_depth_mm, 3);
+  EXPECT_EQ(g.min_consistent_views, 2);
+  EXPECT_EQ(g.consistency_tolerance_mm, 9);
+  EXPECT_EQ(g.min_weight, 1.5);
+  // Unset: the derived defaults of the voxel (pipeline/defaults.h).
+  const fusion::FusionOptions d = FromFusionSettings({}, 50, "test");
+  EXPECT_EQ(d.truncation_mm, 150);
+  EXPECT_EQ(d.front_clamp_mm, 150);
+  EXPECT_EQ(d.consistency_tolerance_mm, 50);
+
+  stereo::CoarseToFineOptions c;
+  c.tile_px = 48;
+  c.clip = true;
+  c.clip_min_mm = Eigen::Vector3d(-1, -2, -3);
+  c.clip_max_mm = Eigen::Vector3d(1, 2, 3);
+  c.clip_pad_mm = 4;
+  const stereo::CoarseToFineOptions back =
+      FromCoarseToFineSettings(ToCoarseToFineSettings(c), "test");
+  EXPECT_EQ(back.tile_px, 48);
+  EXPECT_TRUE(back.clip);
+  EXPECT_EQ(back.clip_max_mm, c.clip_max_mm);
+  EXPECT_EQ(back.clip_pad_mm, 4);
+  EXPECT_FALSE(FromCoarseToFineSettings(ToCoarseToFineSettings({}), "test").clip);
+}
+
+// `dome stereo --options F` with a "coarse_to_fine" block runs coarse to fine: the depth
+// map it writes is the coarse-to-fine stage's on the same inputs, not the full range's.
+TEST(StereoOptionsJsonTest, CommandRunsCoarseToFineFromTheOptionsFile) {
+  dome::testing::TempDir dir;
+  const std::string take = dir.File("take");
+  ASSERT_EQ(dome::testing::RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib "
+                                         "--threads 2 --out " +
+                                         take)
+                .exit_code,
+            0);
+  // Around the batter (synth/batter.h), and a coarse pass at half resolution.
+  const std::string block =
+      R"({"window_sizes_px": [7], "coarse_to_fine": {"coarse_factor": 2, "tile_px": 32,)"
+      R"( "clip_min_mm": [-800, -800, 0], "clip_max_mm": [800, 800, 2200]}})";
+  WriteText(dir / "c2f.json", block);
+  const std::string common = "stereo " + take + " --camera c00 --threads 2 --no-preview";
+  const auto c2f = dome::testing::RunDomeBinary(common + " --options " + dir.File("c2f.json") +
+                                                " --out " + dir.File("c2f"));
+  ASSERT_EQ(c2f.exit_code, 0) << c2f.output;
+  const auto full = dome::testing::RunDomeBinary(common + " --windows 7 --out " + dir.File("full"));
+  ASSERT_EQ(full.exit_code, 0) << full.output;
+
+  const TakeStereoOptions options = ParseStereoOptionsJson(block, "test");
+  ASSERT_TRUE(options.coarse_to_fine);
+  const take::Take t = take::OpenTake(take);
+  const stereo::StereoInput input =
+      stereo::LoadStereoInput(t, t.instants.front(), "c00", options.cluster);
+  TakeStereoOptions threads = options;
+  threads.stereo.num_threads = 2;
+  const cv::Mat expected = Stereo(input, threads, "test").range_images.at(0).depth_mm;
+  const cv::Mat written = ReadC00Depth(dir.File("c2f"));
+  ASSERT_EQ(written.size(), expected.size());
+  EXPECT_EQ(cv::norm(written, expected, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::countNonZero(written > 0), written.total() / 20);
+  EXPECT_GT(cv::norm(written, ReadC00Depth(dir.File("full")), cv::NORM_INF), 0.0);
+}
+
 }  // namespace
-}  // namespace dome::stereo
+}  // namespace dome::pipeline

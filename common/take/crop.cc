@@ -1,4 +1,4 @@
-#include "pipeline/take_crop.h"
+#include "take/crop.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include "schema/rig_json.h"
 #include "take/take.h"
 
-namespace dome::pipeline {
+namespace dome::take {
 
 void CropBox::Check(const std::string& where) const {
   core::Require(min_mm.allFinite() && max_mm.allFinite(), where, "box corners must be finite");
@@ -100,4 +100,4 @@ CropSummary CropTakeToBox(const std::filesystem::path& dir, const CropBox& box) 
   return summary;
 }
 
-}  // namespace dome::pipeline
+}  // namespace dome::take

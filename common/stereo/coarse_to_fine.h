@@ -19,7 +19,7 @@
 //      bounds), so the cost of a tile is its pixels x its own levels. Tiles run in
 //      parallel (options.num_threads, one thread per tile); the result does not depend
 //      on the thread count.
-// The grey mapping (contrast normalisation, square roots; stereo::GreyImage) is applied
+// The grey mapping (contrast normalisation, square roots; GreyImage) is applied
 // once to each whole image before cutting, with the same percentile stretch as
 // ComputeDepth, so that every tile sees the greys a single full-image run would.
 //
@@ -29,9 +29,12 @@
 // range would have rejected as not unique.
 #pragma once
 
+#include <Eigen/Core>
+#include <string>
+
 #include "stereo/multi_baseline.h"
 
-namespace dome::pipeline {
+namespace dome::stereo {
 
 struct CoarseToFineOptions {
   int coarse_factor = 4;        // image reduction of the coarse pass (>= 2)
@@ -49,10 +52,24 @@ struct CoarseToFineOptions {
   // quarter of the resolution and a strict uniqueness, leaves dim or slanted parts of an
   // object without coarse depths). Filled tiles do not fill others. 0..8; 0: no filling.
   int fill_min_neighbours = 0;
+  // A clip box, world frame, mm (clip = true): each reference camera searches only the
+  // depths of the box, its range clipped to the nearest and farthest box corner (z along
+  // its optical axis) widened by clip_pad_mm on each end (ClipDepthRange).
+  bool clip = false;
+  Eigen::Vector3d clip_min_mm = Eigen::Vector3d::Zero();  // min corner x y z, mm
+  Eigen::Vector3d clip_max_mm = Eigen::Vector3d::Zero();  // max corner x y z, mm
+  double clip_pad_mm = 2.0;  // added to each end of a clipped range, mm
 
   // Throws core::InputError naming the field ("coarse_to_fine.tile_px") when out of range.
   void Check() const;
 };
+
+// `options`' depth range (z along `camera`'s optical axis, mm) clipped to the nearest and
+// farthest corner of c2f's clip box, each widened by clip_pad_mm; unchanged without a
+// box. Throws core::InputError naming `where` and the camera when the clipped range is
+// empty (the box is behind the camera or outside the range).
+void ClipDepthRange(const CoarseToFineOptions& c2f, const geometry::TsaiCamera& camera,
+                    const std::string& where, StereoOptions* options);
 
 // The camera of an image reduced by `factor` (pixel (i, j) averaging the factor x factor
 // block from (factor i, factor j)): pitch times factor, centre moved to match, size
@@ -72,9 +89,8 @@ struct CoarseToFineStats {
 
 // Stereo as ComputeDepth(input, options), coarse to fine (above). result.num_levels is
 // the most levels any fine tile searched.
-stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
-                                              const stereo::StereoOptions& options,
-                                              const CoarseToFineOptions& c2f,
-                                              CoarseToFineStats* stats = nullptr);
+StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOptions& options,
+                                      const CoarseToFineOptions& c2f,
+                                      CoarseToFineStats* stats = nullptr);
 
-}  // namespace dome::pipeline
+}  // namespace dome::stereo

@@ -1,6 +1,6 @@
-// Cropping a take to a world box (pipeline/take_crop.h): every box point keeps its
+// Cropping a take to a world box (take/crop.h): every box point keeps its
 // image content, the frames shrink, bad boxes and takes with truth are refused.
-#include "pipeline/take_crop.h"
+#include "take/crop.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
-namespace dome::pipeline {
+namespace dome::take {
 namespace {
 
 using dome::testing::ExpectInputError;
@@ -109,4 +109,4 @@ TEST(TakeCrop, BadInputIsRefused) {
 }
 
 }  // namespace
-}  // namespace dome::pipeline
+}  // namespace dome::take

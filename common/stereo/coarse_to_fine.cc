@@ -1,4 +1,4 @@
-#include "pipeline/coarse_to_fine.h"
+#include "stereo/coarse_to_fine.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,9 +10,9 @@
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
-#include "pipeline/take_crop.h"
+#include "take/crop.h"
 
-namespace dome::pipeline {
+namespace dome::stereo {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -86,6 +86,40 @@ void CoarseToFineOptions::Check() const {
   core::Require(fill_min_neighbours >= 0 && fill_min_neighbours <= 8,
                 "coarse_to_fine.fill_min_neighbours",
                 "must be in 0..8 (0: no filling), got " + std::to_string(fill_min_neighbours));
+  if (clip) {
+    for (int i = 0; i < 3; ++i) {
+      core::Require(std::isfinite(clip_min_mm[i]) && std::isfinite(clip_max_mm[i]) &&
+                        clip_min_mm[i] < clip_max_mm[i],
+                    "coarse_to_fine.clip_max_mm",
+                    "each coordinate must exceed clip_min_mm's, got " +
+                        std::to_string(clip_max_mm[i]) + " <= " + std::to_string(clip_min_mm[i]) +
+                        " (axis " + std::to_string(i) + ")");
+    }
+  }
+  core::Require(std::isfinite(clip_pad_mm) && clip_pad_mm >= 0, "coarse_to_fine.clip_pad_mm",
+                "must be >= 0 mm, got " + std::to_string(clip_pad_mm));
+}
+
+void ClipDepthRange(const CoarseToFineOptions& c2f, const geometry::TsaiCamera& camera,
+                    const std::string& where, StereoOptions* o) {
+  if (!c2f.clip) return;
+  double z_lo = std::numeric_limits<double>::infinity();
+  double z_hi = -std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d p(c & 1 ? c2f.clip_max_mm(0) : c2f.clip_min_mm(0),
+                            c & 2 ? c2f.clip_max_mm(1) : c2f.clip_min_mm(1),
+                            c & 4 ? c2f.clip_max_mm(2) : c2f.clip_min_mm(2));
+    const double z = camera.WorldToCamera(p).z();
+    z_lo = std::min(z_lo, z);
+    z_hi = std::max(z_hi, z);
+  }
+  const double z_min = std::max(o->z_min_mm, z_lo - c2f.clip_pad_mm);
+  const double z_max = std::min(o->z_max_mm, z_hi + c2f.clip_pad_mm);
+  core::Require(z_min < z_max, where + ": coarse_to_fine.clip_min_mm",
+                "camera '" + camera.id + "' sees no depth of the clip box within [" +
+                    std::to_string(o->z_min_mm) + ", " + std::to_string(o->z_max_mm) + "] mm");
+  o->z_min_mm = z_min;
+  o->z_max_mm = z_max;
 }
 
 geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor) {
@@ -100,10 +134,8 @@ geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int facto
   return c;
 }
 
-stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
-                                              const stereo::StereoOptions& options,
-                                              const CoarseToFineOptions& c2f,
-                                              CoarseToFineStats* stats) {
+StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOptions& options,
+                                      const CoarseToFineOptions& c2f, CoarseToFineStats* stats) {
   core::Stopwatch watch;
   CoarseToFineStats st;
   options.Check();
@@ -118,30 +150,30 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
                 "image too small for a coarse pass reduced " + std::to_string(f) + " times");
 
   // Greys once per image, stretched over the whole image.
-  std::vector<const stereo::StereoView*> views = {&input.reference};
+  std::vector<const StereoView*> views = {&input.reference};
   for (const auto& v : input.neighbours) views.push_back(&v);
   std::vector<cv::Mat> greys;
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
     greys.push_back(
-        stereo::GreyImage(*views[i], options, /*undistort=*/false,
-                          (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
+        GreyImage(*views[i], options, /*undistort=*/false,
+                  (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
   }
 
   // 1. Coarse pass over the whole range.
-  stereo::StereoInput coarse;
+  StereoInput coarse;
   coarse.reference = {ReducedCamera(ref_cam, f), Reduce(greys[0], f)};
   for (size_t i = 1; i < views.size(); ++i) {
     coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), Reduce(greys[i], f)});
   }
-  stereo::StereoOptions coarse_options = options;
+  StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;  // the greys above are mapped already
   coarse_options.sqrt_greys = false;
   coarse_options.window_sizes_px = {c2f.coarse_window_px};
   coarse_options.speckle = {};  // stray coarse depths are trimmed per tile instead
   if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
   if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
-  const stereo::StereoResult coarse_result = stereo::ComputeDepth(coarse, coarse_options);
+  const StereoResult coarse_result = ComputeDepth(coarse, coarse_options);
   const cv::Mat& coarse_depth = coarse_result.range_images[0].depth_mm;
   // Inverse depth per coarse level, 1/mm.
   const double coarse_w_step =
@@ -152,11 +184,11 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   watch.Restart();
 
   // 2. Fine pass per tile.
-  stereo::StereoResult result;
+  StereoResult result;
   result.camera = ref_cam.id;
   const int width = ref_cam.width_px, height = ref_cam.height_px;
   for (int w : options.window_sizes_px) {
-    stereo::RangeImage ri;
+    RangeImage ri;
     ri.window_px = w;
     ri.depth_mm = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
     ri.reliability = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
@@ -257,14 +289,14 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
             cv::Rect(job.tile.x - half - 1, job.tile.y - half - 1, job.tile.width + 2 * half + 2,
                      job.tile.height + 2 * half + 2) &
             image;
-        stereo::StereoInput in;
-        in.reference = {CropCamera(ref_cam, ref_rect), greys[0](ref_rect).clone()};
+        StereoInput in;
+        in.reference = {take::CropCamera(ref_cam, ref_rect), greys[0](ref_rect).clone()};
         for (size_t i = 1; i < views.size(); ++i) {
           const cv::Rect r =
               NeighbourRect(ref_cam, views[i]->camera, ref_rect, job.z_lo, job.z_hi, 4);
-          in.neighbours.push_back({CropCamera(views[i]->camera, r), greys[i](r).clone()});
+          in.neighbours.push_back({take::CropCamera(views[i]->camera, r), greys[i](r).clone()});
         }
-        stereo::StereoOptions o = options;
+        StereoOptions o = options;
         o.normalize_contrast = false;
         o.sqrt_greys = false;
         o.num_threads = 1;
@@ -279,13 +311,13 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
           std::vector<geometry::TsaiCamera> nb;
           for (const auto& v : in.neighbours) nb.push_back(v.camera);
           try {
-            o.num_levels = std::max(5, stereo::CountDepthLevels(in.reference.camera, nb, job.z_lo,
-                                                                job.z_hi, options.level_step_px));
+            o.num_levels = std::max(5, CountDepthLevels(in.reference.camera, nb, job.z_lo, job.z_hi,
+                                                        options.level_step_px));
           } catch (const core::InputError&) {
             continue;  // no neighbour sees this tile: nothing to match
           }
         }
-        const stereo::StereoResult r = stereo::ComputeDepth(in, o);
+        const StereoResult r = ComputeDepth(in, o);
         ++ss.matched;
         ss.max_levels = std::max(ss.max_levels, r.num_levels);
         ss.level_sum += r.num_levels;
@@ -311,10 +343,10 @@ stereo::StereoResult ComputeDepthCoarseToFine(const stereo::StereoInput& input,
   if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
   if (stats) *stats = st;
   for (auto& ri : result.range_images) {
-    stereo::RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
+    RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
     ri.density = double(cv::countNonZero(ri.depth_mm)) / (double(width) * height);
   }
   return result;
 }
 
-}  // namespace dome::pipeline
+}  // namespace dome::stereo

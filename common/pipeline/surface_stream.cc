@@ -1,4 +1,4 @@
-#include "master/surface_stream.h"
+#include "pipeline/surface_stream.h"
 
 #include <chrono>
 
@@ -7,18 +7,16 @@
 #include "io/file_util.h"
 #include "pipeline/stages.h"
 
-namespace dome::scheduler {
+namespace dome::pipeline {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-SurfaceStream::SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobStore* store,
-                             const fs::path& dir, const fs::path& blob_dir,
-                             const mesh::SmoothOptions& smooth)
+SurfaceStream::SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobAccess* blobs,
+                             const fs::path& dir, const mesh::SmoothOptions& smooth)
     : grid_(grid),
       smooth_(smooth),
-      store_(store),
+      blobs_(blobs),
       dir_(dir),
-      blob_dir_(blob_dir),
       slabs_(size_t(std::max(num_slabs, 0))),
       decoded_(slabs_.size()),
       thread_([this] { Run(); }) {}
@@ -39,6 +37,12 @@ void SurfaceStream::Feed(int index, const std::string& sha256,
   fed_cv_.notify_all();
 }
 
+void SurfaceStream::Feed(int index, const std::vector<runtime::BlobRef>& outputs,
+                         std::shared_ptr<const void> decoded) {
+  DOME_CHECK(!outputs.empty(), "a slab job has its output");
+  Feed(index, outputs[0].sha256(), std::static_pointer_cast<const fusion::Slab>(decoded));
+}
+
 bool SurfaceStream::Fed(int index) const {
   std::lock_guard<std::mutex> lock(mutex_);
   return index >= 0 && index < int(slabs_.size()) && !slabs_[index].empty();
@@ -55,11 +59,11 @@ bool SurfaceStream::Finished() const {
   return finished_;
 }
 
-runtime::BlobRef SurfaceStream::Result() {
+std::vector<runtime::BlobRef> SurfaceStream::Result() {
   std::lock_guard<std::mutex> lock(mutex_);
   DOME_CHECK(finished_, "the surface stream has not finished");
   if (!mesh_) throw core::InputError("instant " + dir_.filename().string(), error_);
-  return *mesh_;
+  return {*mesh_};
 }
 
 double SurfaceStream::busy_seconds() const {
@@ -84,7 +88,7 @@ std::shared_ptr<const fusion::Slab> SurfaceStream::TakeSlab(int index) {
     if (decoded_[index]) return std::move(decoded_[index]);
     sha = slabs_[index];
   }
-  auto bytes = store_->Read(sha);
+  auto bytes = blobs_->Read(sha);
   core::Require(bytes.has_value(), "slab " + std::to_string(index),
                 "is not in the blob store (" + sha + ")");
   return std::make_shared<const fusion::Slab>(
@@ -103,19 +107,19 @@ void SurfaceStream::Run() {
   std::optional<runtime::BlobRef> mesh;
   std::string error;
   try {
-    io::Mesh surface =
-        pipeline::ExtractSurfaceFromSlabs(grid_, int(slabs_.size()), [&](int index) {
+    const io::Mesh surface = Surface(
+        grid_, int(slabs_.size()),
+        [&](int index) {
           add_busy();
           WaitForSlab(index);
           since = Clock::now();  // the wait was not work
           return TakeSlab(index);
-        });
-    mesh::SmoothTaubin(smooth_, &surface);
-    const std::string ply = pipeline::EncodeMeshPly(surface);
+        },
+        smooth_);
+    const std::string ply = EncodeMeshPly(surface);
     fs::create_directories(dir_);
-    io::WriteFileAtomically(dir_ / "mesh.ply", ply);
-    mesh = store_->AddBytes(blob_dir_, ply, "mesh.ply");
-    mesh->set_name("mesh.ply");
+    io::WriteFileAtomically(dir_ / kMeshPly, ply);
+    mesh = blobs_->Keep(ply, kMeshPly);
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -126,4 +130,4 @@ void SurfaceStream::Run() {
   finished_ = true;
 }
 
-}  // namespace dome::scheduler
+}  // namespace dome::pipeline

@@ -1,0 +1,437 @@
+#include "pipeline/jobs.h"
+
+#include <cstring>
+
+#include "core/error.h"
+#include "fusion/volume.h"
+#include "io/file_util.h"
+#include "io/image_io.h"
+#include "io/ply.h"
+#include "pipeline/settings.h"
+#include "pipeline/stage.h"
+#include "pipeline/stages.h"
+#include "pipeline/surface_stream.h"
+#include "schema/rig_json.h"
+#include "stereo/cluster.h"
+
+namespace dome::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---- helpers shared by the stages -------------------------------------------------------
+
+runtime::FloatImage EncodeFloatImage(const cv::Mat& m) {
+  DOME_CHECK(m.empty() || m.type() == CV_32FC1, "float image expected");
+  runtime::FloatImage f;
+  f.set_rows(m.rows);
+  f.set_cols(m.cols);
+  std::string data(size_t(m.rows) * m.cols * sizeof(float), '\0');
+  for (int r = 0; r < m.rows; ++r) {
+    std::memcpy(data.data() + size_t(r) * m.cols * sizeof(float), m.ptr<float>(r),
+                size_t(m.cols) * sizeof(float));
+  }
+  f.set_data(std::move(data));
+  return f;
+}
+
+cv::Mat DecodeFloatImage(const runtime::FloatImage& f, const std::string& where) {
+  core::Require(f.rows() >= 0 && f.cols() >= 0 &&
+                    f.data().size() == size_t(f.rows()) * size_t(f.cols()) * sizeof(float),
+                where,
+                "float image of " + std::to_string(f.rows()) + "x" + std::to_string(f.cols()) +
+                    " does not hold that many floats");
+  cv::Mat m(f.rows(), f.cols(), CV_32FC1);
+  if (!f.data().empty()) std::memcpy(m.data, f.data().data(), f.data().size());
+  return m;
+}
+
+std::string JobWhere(const runtime::Job& job) { return "job " + job.id(); }
+
+std::string BlobName(const runtime::Job& job, size_t i) {
+  return JobWhere(job) + " blob " +
+         (i < size_t(job.blobs_size()) ? job.blobs(int(i)).name() : std::to_string(i));
+}
+
+// The job's settings message (its stage's own), parsed.
+template <class Settings>
+Settings JobSettings(const runtime::Job& job) {
+  Settings s;
+  core::Require(s.ParseFromString(job.settings()), JobWhere(job),
+                "settings are not a " + s.GetTypeName() + " message");
+  return s;
+}
+
+void RequireBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t n) {
+  core::Require(
+      blobs.size() == size_t(job.blobs_size()) && blobs.size() >= n, JobWhere(job),
+      "expected " + std::to_string(n) + " input blobs, got " + std::to_string(blobs.size()));
+}
+
+geometry::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs) {
+  return schema::ParseRigJson(*blobs[0], BlobName(job, 0));
+}
+
+cv::Mat FrameBlob(const runtime::Job& job, const JobBlobs& blobs, size_t i, io::ImageMode mode) {
+  return io::DecodeImage(*blobs[i], mode, BlobName(job, i));
+}
+
+const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::string& id,
+                                        const runtime::Job& job) {
+  const int k = rig.Find(id);
+  core::Require(k >= 0, JobWhere(job), "camera '" + id + "' is not in the rig");
+  return rig.cameras[k].model;
+}
+
+// Every default stage but noop reconstructs a take; a no-op session runs only noop.
+bool Reconstructs(const SessionPlan& plan) { return plan.spec.noop_jobs() <= 0; }
+
+std::vector<std::string> OnePart(const SessionPlan& plan) {
+  return Reconstructs(plan) ? std::vector<std::string>{""} : std::vector<std::string>{};
+}
+
+// ---- stereo ---------------------------------------------------------------------------
+
+StageDescriptor StereoStage() {
+  StageDescriptor d;
+  d.name = "stereo";
+  d.send_ahead = true;
+  d.parts = [](const SessionPlan& plan) {
+    return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
+  };
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    const SessionPlan& plan = ctx.plan;
+    runtime::StereoJob sj;
+    sj.set_camera(plan.cameras[ctx.part]);
+    *sj.mutable_stereo() = ToStereoSettings(plan.options.stereo);
+    sj.set_write_previews(plan.options.stereo.write_previews);
+    const auto& frames = plan.frames[ctx.instant];
+    *job->add_blobs() = plan.rig;
+    *job->add_blobs() = frames[ctx.part];
+    for (int j : stereo::SelectCluster(plan.take.rig, sj.camera(), plan.options.stereo.cluster)) {
+      sj.add_neighbours(plan.cameras[j]);
+      *job->add_blobs() = frames[j];
+    }
+    job->set_settings(sj.SerializeAsString());
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+    const auto sj = JobSettings<runtime::StereoJob>(job);
+    RequireBlobs(job, blobs, 2 + sj.neighbours_size());
+    const geometry::Rig rig = RigBlob(job, blobs);
+    stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
+    options.stereo.num_threads = job.threads();
+    stereo::StereoInput input;
+    input.reference.camera = RigCameraOf(rig, sj.camera(), job);
+    input.reference.image = FrameBlob(job, blobs, 1, io::ImageMode::kUnchanged);
+    for (int n = 0; n < sj.neighbours_size(); ++n) {
+      input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job),
+                                  FrameBlob(job, blobs, 2 + n, io::ImageMode::kUnchanged)});
+    }
+    const stereo::StereoResult result = Stereo(input, options, JobWhere(job));
+    std::vector<runtime::Output> outputs(1);
+    outputs[0].set_name(kStereoOutput);
+    outputs[0].set_data(EncodeStereoOutput(result));
+    // The workers encode the files; the master only checks and writes them.
+    for (stereo::StereoFile& f : stereo::EncodeStereoFiles(result, sj.write_previews())) {
+      runtime::Output& o = outputs.emplace_back();
+      o.set_name(std::move(f.path));
+      o.set_data(std::move(f.bytes));
+    }
+    return outputs;
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    const std::string& bytes = OutputBytes(r, kStereoOutput, ctx.where);
+    const stereo::StereoResult result = DecodeStereoOutput(bytes, ctx.where);
+    const std::string& camera = ctx.plan.cameras[ctx.part];
+    core::Require(result.camera == camera, ctx.where, "is for camera '" + result.camera + "'");
+    // Checking the files the worker encoded costs a fraction of encoding them.
+    std::vector<stereo::StereoFile> files;
+    for (const auto& o : r.outputs()) {
+      if (o.name() != kStereoOutput) files.push_back({o.name(), o.data()});
+    }
+    stereo::CheckStereoFiles(result, ctx.plan.options.stereo.write_previews, files, ctx.where);
+    stereo::WriteStereoFiles(files, ctx.plan.instants[ctx.instant], ctx.dir.parent_path());
+    return StoredResult{{ctx.blobs->Keep(bytes, kStereoOutput)}, nullptr};
+  };
+  return d;
+}
+
+// ---- fusion ---------------------------------------------------------------------------
+
+StageDescriptor FusionStage() {
+  StageDescriptor d;
+  d.name = "fusion";
+  d.after = {"stereo"};
+  d.send_ahead = true;
+  d.parts = [](const SessionPlan& plan) {
+    std::vector<std::string> parts;
+    for (int s = 0; Reconstructs(plan) && s < plan.num_slabs; ++s)
+      parts.push_back(std::to_string(s));
+    return parts;
+  };
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    const SessionOptions& o = ctx.plan.options;
+    runtime::FusionJob fj;
+    const auto [k0, k1] = SlabPlanes(o.grid, o.slab_planes, ctx.part);
+    fj.set_k0(k0);
+    fj.set_k1(k1);
+    *fj.mutable_volume() = ToVolume(o.grid);
+    *fj.mutable_fusion() = ToFusionSettings(o.fusion);
+    *job->add_blobs() = ctx.plan.rig;
+    for (int c = 0; c < int(ctx.plan.cameras.size()); ++c) {
+      *job->add_blobs() = ctx.outputs("stereo", c).at(0);
+    }
+    job->set_settings(fj.SerializeAsString());
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
+    const auto fj = JobSettings<runtime::FusionJob>(job);
+    RequireBlobs(job, blobs, 2);
+    const std::string where = JobWhere(job);
+    const fusion::VolumeGrid grid = FromVolume(fj.volume(), where);
+    grid.CheckSlab(fj.k0(), fj.k1(), where);
+    // Every slab job of an instant shares its decoded range images and tables: the
+    // memo keeps them, keyed by everything in the job but its planes.
+    auto build = [&]() {
+      const geometry::Rig rig = RigBlob(job, blobs);
+      fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
+      options.num_threads = job.threads();
+      core::Require(blobs.size() == rig.cameras.size() + 1, where,
+                    "expected one stereo output per rig camera (" +
+                        std::to_string(rig.cameras.size()) + "), got " +
+                        std::to_string(blobs.size() - 1));
+      // Cameras in rig order, windows in the options' order.
+      std::vector<fusion::RangeImage> images;
+      for (size_t c = 0; c < rig.cameras.size(); ++c) {
+        const stereo::StereoResult r = DecodeStereoOutput(*blobs[c + 1], BlobName(job, c + 1));
+        core::Require(r.camera == rig.cameras[c].model.id, BlobName(job, c + 1),
+                      "expected the stereo output of camera '" + rig.cameras[c].model.id +
+                          "', got '" + r.camera + "'");
+        for (const auto& ri : r.range_images) {
+          images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
+        }
+      }
+      return PrepareFusion(grid, std::move(images), options);
+    };
+    runtime::FusionJob shared = fj;
+    shared.clear_k0();
+    shared.clear_k1();
+    std::string key =
+        "fusion\n" + shared.SerializeAsString() + '\n' + std::to_string(job.threads());
+    for (const auto& b : job.blobs()) key += '\n' + b.sha256();
+    std::unique_ptr<PreparedFusion> own;
+    PreparedFusion* prepared = memo ? memo->Get<PreparedFusion>(key, build) : (own = build()).get();
+    runtime::Output out;
+    out.set_name(kSlabOutput);
+    out.set_data(fusion::EncodeSlab(FuseSlab(prepared, fj.k0(), fj.k1())));
+    return std::vector<runtime::Output>{out};
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    const std::string& bytes = OutputBytes(r, kSlabOutput, ctx.where);
+    auto slab = std::make_shared<const fusion::Slab>(fusion::DecodeSlab(bytes, ctx.where));
+    const SessionOptions& o = ctx.plan.options;
+    core::Require(slab->k0 == SlabPlanes(o.grid, o.slab_planes, ctx.part).first &&
+                      slab->nx == o.grid.nx && slab->ny == o.grid.ny,
+                  ctx.where, "is not the slab asked for");
+    return StoredResult{{ctx.blobs->Keep(bytes, kSlabOutput)}, std::move(slab)};
+  };
+  return d;
+}
+
+// ---- surface (the master's) -------------------------------------------------------------
+
+StageDescriptor SurfaceStage() {
+  StageDescriptor d;
+  d.name = "surface";
+  d.after = {"fusion"};
+  d.parts = OnePart;
+  d.consumes_inputs = true;  // the slabs are in the mesh
+  d.start_on_master = [](const MasterStageContext& ctx) -> std::unique_ptr<MasterStageRun> {
+    const SessionOptions& o = ctx.plan.options;
+    return std::make_unique<SurfaceStream>(o.grid, ctx.plan.num_slabs, ctx.blobs, ctx.dir,
+                                           o.smooth);
+  };
+  return d;
+}
+
+// ---- decimate ---------------------------------------------------------------------------
+
+StageDescriptor DecimateStage() {
+  StageDescriptor d;
+  d.name = "decimate";
+  d.after = {"surface"};
+  d.parts = OnePart;
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    runtime::DecimateJob dj;
+    dj.set_ratio(ctx.plan.options.decimate_ratio);
+    *job->add_blobs() = ctx.outputs("surface", 0).at(0);
+    job->set_settings(dj.SerializeAsString());
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+    const auto dj = JobSettings<runtime::DecimateJob>(job);
+    RequireBlobs(job, blobs, 1);
+    mesh::DecimationOptions options;
+    options.target_ratio = dj.ratio();
+    runtime::Output out;
+    out.set_name(kDecimatedPly);
+    // Ratio 1 keeps the surface as extracted: its blob is already EncodeMeshPly bytes.
+    out.set_data(options.target_ratio == 1.0
+                     ? *blobs[0]
+                     : EncodeMeshPly(
+                           pipeline::Decimate(io::ParsePly(*blobs[0], BlobName(job, 0)), options)));
+    return std::vector<runtime::Output>{out};
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    const std::string& bytes = OutputBytes(r, kDecimatedPly, ctx.where);
+    io::ParsePly(bytes, ctx.where);
+    return StoredResult{{ctx.blobs->Keep(bytes, kDecimatedPly)}, nullptr};
+  };
+  return d;
+}
+
+// ---- texture ----------------------------------------------------------------------------
+
+StageDescriptor TextureStage() {
+  StageDescriptor d;
+  d.name = "texture";
+  d.after = {"decimate"};
+  d.parts = OnePart;
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    runtime::TextureJob tj;
+    tj.set_atlas(ctx.plan.options.texture);
+    *job->add_blobs() = ctx.plan.rig;
+    *job->add_blobs() = ctx.outputs("decimate", 0).at(0);
+    for (const auto& f : ctx.plan.frames[ctx.instant]) *job->add_blobs() = f;
+    job->set_settings(tj.SerializeAsString());
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+    const auto tj = JobSettings<runtime::TextureJob>(job);
+    RequireBlobs(job, blobs, 2);
+    const geometry::Rig rig = RigBlob(job, blobs);
+    io::Mesh decimated = io::ParsePly(*blobs[1], BlobName(job, 1));
+    core::Require(blobs.size() == rig.cameras.size() + 2, JobWhere(job),
+                  "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +
+                      "), got " + std::to_string(blobs.size() - 2));
+    std::vector<mesh::TextureView> views;
+    for (size_t c = 0; c < rig.cameras.size(); ++c) {
+      views.push_back({rig.cameras[c].model, FrameBlob(job, blobs, c + 2, io::ImageMode::kBgr8),
+                       BlobName(job, c + 2)});
+    }
+    mesh::TextureOptions options;
+    options.num_threads = job.threads();
+    const TextureResult textured = Texture(std::move(decimated), views, options, tj.atlas());
+    std::vector<runtime::Output> outputs(1);
+    outputs[0].set_name(kDecimatedPly);
+    outputs[0].set_data(EncodeMeshPly(textured.coloured));
+    if (textured.atlas) {
+      for (NamedFile& f : TexturedFiles(*textured.atlas)) {
+        runtime::Output& o = outputs.emplace_back();
+        o.set_name(std::move(f.name));
+        o.set_data(std::move(f.bytes));
+      }
+    }
+    return outputs;
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    fs::create_directories(ctx.dir);
+    io::ParsePly(OutputBytes(r, kDecimatedPly, ctx.where), ctx.where);
+    std::vector<std::string> names = {kDecimatedPly};
+    if (ctx.plan.options.texture) {
+      names.insert(names.end(), {kTexturedObj, kTexturedMtl, kTexturedPng, kTexturedGlb});
+    }
+    StoredResult stored;
+    for (const std::string& name : names) {
+      const std::string& bytes = OutputBytes(r, name, ctx.where);
+      io::WriteFileAtomically(ctx.dir / name, bytes);
+      stored.outputs.push_back(ctx.blobs->Keep(bytes, name));
+    }
+    return stored;
+  };
+  return d;
+}
+
+// ---- noop -------------------------------------------------------------------------------
+
+StageDescriptor NoopStage() {
+  StageDescriptor d;
+  d.name = "noop";
+  d.send_ahead = true;
+  d.parts = [](const SessionPlan& plan) {
+    std::vector<std::string> parts;
+    for (int i = 0; i < plan.spec.noop_jobs(); ++i) parts.push_back(std::to_string(i));
+    return parts;
+  };
+  d.make_job = [](const JobContext&, runtime::Job*) {};
+  d.run = [](const runtime::Job&, const JobBlobs&, JobMemo*) {
+    return std::vector<runtime::Output>{};
+  };
+  d.store = [](const StoreContext&, const runtime::JobResult&) { return StoredResult{}; };
+  return d;
+}
+
+}  // namespace
+
+std::string EncodeStereoOutput(const stereo::StereoResult& result) {
+  runtime::StereoOutput out;
+  out.set_camera(result.camera);
+  out.set_num_levels(result.num_levels);
+  for (const auto& r : result.range_images) {
+    auto* ri = out.add_range_images();
+    ri->set_window_px(r.window_px);
+    *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm);
+    *ri->mutable_reliability() = EncodeFloatImage(r.reliability);
+    ri->set_density(r.density);
+  }
+  std::string bytes;
+  out.SerializeToString(&bytes);
+  return bytes;
+}
+
+stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::string& where) {
+  runtime::StereoOutput out;
+  core::Require(out.ParseFromString(bytes), where, "not a stereo output (StereoOutput protobuf)");
+  stereo::StereoResult result;
+  result.camera = out.camera();
+  result.num_levels = out.num_levels();
+  for (const auto& ri : out.range_images()) {
+    stereo::RangeImage r;
+    r.window_px = ri.window_px();
+    r.depth_mm = DecodeFloatImage(ri.depth_mm(), where + ": depth_mm");
+    r.reliability = DecodeFloatImage(ri.reliability(), where + ": reliability");
+    r.density = ri.density();
+    result.range_images.push_back(std::move(r));
+  }
+  core::Require(!result.range_images.empty(), where, "stereo output without a range image");
+  return result;
+}
+
+std::shared_ptr<const StageSet> DefaultStages() {
+  static const auto stages =
+      std::make_shared<const StageSet>(StageSet{{StereoStage(), FusionStage(), SurfaceStage(),
+                                                 DecimateStage(), TextureStage(), NoopStage()}});
+  return stages;
+}
+
+int StageSet::Find(const std::string& name) const {
+  for (size_t i = 0; i < stages.size(); ++i) {
+    if (stages[i].name == name) return int(i);
+  }
+  return -1;
+}
+
+std::vector<runtime::Output> RunJob(const StageSet& stages, const runtime::Job& job,
+                                    const JobBlobs& blobs, JobMemo* memo) {
+  const int s = stages.Find(job.stage());
+  core::Require(s >= 0 && stages.stages[s].run, JobWhere(job),
+                "names no stage a worker runs ('" + job.stage().substr(0, 100) + "')");
+  return stages.stages[s].run(job, blobs, memo);
+}
+
+const std::string& OutputBytes(const runtime::JobResult& result, const std::string& name,
+                               const std::string& where) {
+  for (const auto& o : result.outputs()) {
+    if (o.name() == name) return o.data();
+  }
+  throw core::InputError(where, "lacks output '" + name + "'");
+}
+
+}  // namespace dome::pipeline
