@@ -20,18 +20,15 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/parallel_for.h"
 #include "core/timer.h"
-#include "fusion/integrate.h"
 #include "fusion/take_inputs.h"
 #include "io/file_util.h"
-#include "io/image_io.h"
 #include "io/ply.h"
-#include "mesh/decimate.h"
-#include "mesh/marching_cubes.h"
-#include "mesh/texture.h"
+#include "pipeline/defaults.h"
+#include "pipeline/stages.h"
 
 using namespace dome;
 
@@ -68,97 +65,100 @@ int main(int argc, char** argv) {
     fusion::TruthDepthOptions truth;
     truth.noise_sigma_mm = noise;
     const auto images = fusion::LoadTruthRangeImages(take, instant, truth);
-    std::string cams = "[";
+    nlohmann::ordered_json cams = nlohmann::ordered_json::array();
     for (const auto& im : images) {
       io::WriteFileAtomically(out / "depth" / (im.camera.id + ".f32"),
                               std::string(reinterpret_cast<const char*>(im.depth_mm.ptr<float>(0)),
                                           im.depth_mm.total() * 4));
       const Eigen::Matrix3d K = im.camera.K();
-      char buf[1024];
-      std::snprintf(
-          buf, sizeof buf,
-          "%s{\"id\": \"%s\", \"width\": %d, \"height\": %d, \"fx\": %.17g, \"fy\": %.17g, "
-          "\"cx\": %.17g, \"cy\": %.17g, \"R\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g, "
-          "%.17g, %.17g, %.17g], \"t\": [%.17g, %.17g, %.17g]}",
-          cams.size() > 1 ? ", " : "", im.camera.id.c_str(), im.camera.width_px,
-          im.camera.height_px, K(0, 0), K(1, 1), K(0, 2), K(1, 2), im.camera.rotation(0, 0),
-          im.camera.rotation(0, 1), im.camera.rotation(0, 2), im.camera.rotation(1, 0),
-          im.camera.rotation(1, 1), im.camera.rotation(1, 2), im.camera.rotation(2, 0),
-          im.camera.rotation(2, 1), im.camera.rotation(2, 2), im.camera.translation_mm.x(),
-          im.camera.translation_mm.y(), im.camera.translation_mm.z());
-      cams += buf;
+      const Eigen::Matrix3d& R = im.camera.rotation;
+      const Eigen::Vector3d& t = im.camera.translation_mm;
+      cams.push_back(
+          {{"id", im.camera.id},
+           {"width", im.camera.width_px},
+           {"height", im.camera.height_px},
+           {"fx", K(0, 0)},
+           {"fy", K(1, 1)},
+           {"cx", K(0, 2)},
+           {"cy", K(1, 2)},
+           {"R", {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)}},
+           {"t", {t.x(), t.y(), t.z()}}});
     }
-    io::WriteFileAtomically(out / "cameras.json", cams + "]\n");
+    io::WriteFileAtomically(out / "cameras.json", cams.dump() + "\n");
 
-    fusion::VolumeGrid grid;  // the seed's 6 m cube
-    grid.voxel_size_mm = voxel;
-    grid.nx = grid.ny = grid.nz = int(std::lround(6000.0 / voxel));
-    fusion::FusionOptions options;
+    // The volume and fusion options every dome command derives (pipeline/defaults.h).
+    const fusion::VolumeGrid grid = pipeline::DefaultVolume(voxel);
+    fusion::FusionOptions options = pipeline::DefaultFusionOptions(voxel);
     options.num_threads = threads;
-    options.truncation_mm = options.front_clamp_mm = 3 * voxel;
+    const int num_slabs = pipeline::SlabCount(grid, slab_planes);
 
     double best_fusion = 1e30, best_mc = 1e30, best_setup = 1e30, best_cpu = 1e30,
            best_setup_cpu = 1e30;
     io::Mesh mesh;
-    fusion::Slab slab;  // reused: no allocation per slab
     for (int r = 0; r < std::max(1, repeat); ++r) {
       const std::clock_t cpu0 = std::clock();
       core::Stopwatch setup;
-      fusion::Integrator integrator(grid, images, options);
+      auto prepared = pipeline::PrepareFusion(grid, images, options);
       const double t_setup = setup.ElapsedSeconds();
-      best_setup_cpu = std::min(best_setup_cpu, double(std::clock() - cpu0) / CLOCKS_PER_SEC);
-      mesh::StreamingMarchingCubes mc(grid);
-      double t_fusion = 0, t_mc = 0;
-      std::clock_t cpu_mc = 0, cpu_mc0 = 0;
-      for (int k0 = 0; k0 < grid.nz; k0 += slab_planes) {
-        core::Stopwatch w;
-        integrator.IntegrateSlab(k0, std::min(grid.nz, k0 + slab_planes), &slab);
-        t_fusion += w.ElapsedSeconds();
-        cpu_mc0 = std::clock();
-        w.Restart();
-        mc.AddSlab(slab);
-        t_mc += w.ElapsedSeconds();
-        cpu_mc += std::clock() - cpu_mc0;
-      }
-      mesh = mc.Finish();
+      const double setup_cpu = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
+      best_setup_cpu = std::min(best_setup_cpu, setup_cpu);
+      double t_fusion = 0;
+      std::clock_t cpu_fusion = 0;
+      core::Stopwatch surface;
+      mesh = pipeline::Surface(
+          grid, num_slabs,
+          [&](int s) {
+            const std::clock_t c0 = std::clock();
+            core::Stopwatch w;
+            const auto [k0, k1] = pipeline::SlabPlanes(grid, slab_planes, s);
+            const fusion::Slab& slab = pipeline::FuseSlab(prepared.get(), k0, k1);
+            t_fusion += w.ElapsedSeconds();
+            cpu_fusion += std::clock() - c0;
+            return std::shared_ptr<const fusion::Slab>(&slab, [](const fusion::Slab*) {});
+          },
+          {});
       best_setup = std::min(best_setup, t_setup);
       best_fusion = std::min(best_fusion, t_fusion + t_setup);
-      best_cpu = std::min(best_cpu, double(std::clock() - cpu0 - cpu_mc) / CLOCKS_PER_SEC);
-      best_mc = std::min(best_mc, t_mc);
+      // The process CPU time of the table build and the slabs, marching cubes excluded.
+      best_cpu = std::min(best_cpu, setup_cpu + double(cpu_fusion) / CLOCKS_PER_SEC);
+      best_mc = std::min(best_mc, surface.ElapsedSeconds() - t_fusion);
     }
+    nlohmann::ordered_json line = {{"cameras", images.size()},
+                                   {"threads", threads},
+                                   {"slab_planes", slab_planes},
+                                   {"fusion_s", best_fusion},
+                                   {"fusion_cpu_s", best_cpu},
+                                   {"fusion_setup_s", best_setup},
+                                   {"fusion_setup_cpu_s", best_setup_cpu},
+                                   {"marching_cubes_s", best_mc},
+                                   {"triangles", mesh.faces.size()}};
     if (fusion_only) {
-      std::printf(
-          "{\"cameras\": %zu, \"threads\": %d, \"slab_planes\": %d, \"fusion_s\": %.4f, "
-          "\"fusion_cpu_s\": %.4f, \"fusion_setup_s\": %.4f, \"fusion_setup_cpu_s\": %.4f, "
-          "\"marching_cubes_s\": %.4f, \"triangles\": %zu}\n",
-          images.size(), threads, slab_planes, best_fusion, best_cpu, best_setup, best_setup_cpu,
-          best_mc, mesh.faces.size());
+      std::printf("%s\n", line.dump().c_str());
       return 0;
     }
     io::WritePly(out / "mesh.ply", mesh);
     core::Stopwatch w;
     mesh::DecimationOptions dec;
     dec.target_ratio = 0.1;
-    const io::Mesh decimated = mesh::Decimate(mesh, dec);
+    const io::Mesh decimated = pipeline::Decimate(mesh, dec);
     const double t_dec = w.ElapsedSeconds();
     io::WritePly(out / "mesh_decimated.ply", decimated);
     const std::vector<mesh::TextureView> views = mesh::LoadTextureViews(take, instant);
     mesh::TextureOptions tex;
     tex.num_threads = threads;
-    io::Mesh coloured = decimated;
     w.Restart();
-    mesh::ColorVertices(&coloured, views, tex);
+    const pipeline::TextureResult coloured = pipeline::Texture(decimated, views, tex, false);
     const double t_tex = w.ElapsedSeconds();
-    io::WritePly(out / "mesh_decimated_colored.ply", coloured);
-    std::printf(
-        "{\"cameras\": %zu, \"image\": \"%dx%d\", \"voxels\": \"%dx%dx%d\", \"voxel_mm\": %g, "
-        "\"threads\": %d, \"slab_planes\": %d, \"fusion_s\": %.4f, \"fusion_cpu_s\": %.4f, "
-        "\"fusion_setup_s\": %.4f, \"fusion_setup_cpu_s\": %.4f, "
-        "\"marching_cubes_s\": %.4f, \"triangles\": %zu, \"decimation_s\": %.4f, "
-        "\"decimated_triangles\": %zu, \"texture_vertex_colour_s\": %.4f}\n",
-        images.size(), images[0].camera.width_px, images[0].camera.height_px, grid.nx, grid.ny,
-        grid.nz, voxel, threads, slab_planes, best_fusion, best_cpu, best_setup, best_setup_cpu,
-        best_mc, mesh.faces.size(), t_dec, decimated.faces.size(), t_tex);
+    io::WritePly(out / "mesh_decimated_colored.ply", coloured.coloured);
+    line["image"] = std::to_string(images[0].camera.width_px) + "x" +
+                    std::to_string(images[0].camera.height_px);
+    line["voxels"] =
+        std::to_string(grid.nx) + "x" + std::to_string(grid.ny) + "x" + std::to_string(grid.nz);
+    line["voxel_mm"] = voxel;
+    line["decimation_s"] = t_dec;
+    line["decimated_triangles"] = decimated.faces.size();
+    line["texture_vertex_colour_s"] = t_tex;
+    std::printf("%s\n", line.dump().c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fusion_bench: %s\n", e.what());
     return 1;

@@ -31,17 +31,17 @@
 #        with C2F=1 (default) the session's stereo.coarse_to_fine block holds the C2F_*
 #        values below and the volume box as clip box (each camera's depth range: its
 #        nearest and farthest box corner +-2 mm); C2F=0: the full-range search;
-#      * STEREO=c2f: bench/fusion/c2f_stereo.cc beside DOME, every camera in
-#        turn: depth range from its nearest and farthest box corner (+-2 mm), coarse to
-#        fine (pipeline/coarse_to_fine.h): images reduced C2F_FACTOR (4) times and
-#        matched with window C2F_WINDOW (7) and uniqueness C2F_UNIQ (0.5); tiles of
+#        (coarse to fine, stereo/coarse_to_fine.h: images reduced C2F_FACTOR (4) times
+#        and matched with window C2F_WINDOW (7) and uniqueness C2F_UNIQ (0.5); tiles of
 #        C2F_TILE (64) px with at least C2F_MIN_COARSE (8) coarse depths around them
 #        search those depths (C2F_TRIM (0.2) of them dropped at each end) +- C2F_MARGIN
-#        (2) coarse levels with the first window of WINDOWS, tiles with fewer but at
-#        least C2F_FILL (1) searched tiles around them the union of those tiles' depths
-#        (0: none); EXACT_WARP=1: no pre-warped
-#        neighbours. Then `dome fuse --depth-dir` with the session's volume and fusion
-#        options;
+#        (2) coarse levels, tiles with fewer but at least C2F_FILL (1) searched tiles
+#        around them the union of those tiles' depths (0: none); EXACT_WARP=1: no
+#        pre-warped neighbours);
+#      * STEREO=c2f: the same stereo options (OUT/SCENE/stereo.json, the session's
+#        "stereo" object) through `dome stereo --options`, then `dome fuse --depth-dir`
+#        with the session's volume and fusion options: the commands' path, which must
+#        give what dome run gives;
 #   5. ../shared/tools/eval_cloud.py --recon-unit 1 of OUT/SCENE/run/<instant>/mesh.ply
 #      against reference.ply.
 # Prints one JSON line per scene (OUT/SCENE/result.json) and a table of every scene under
@@ -148,9 +148,9 @@ s = {"take": take, "out": "",
 if int("$CONSISTENT") > 0: s["fusion"]["min_consistent_views"] = int("$CONSISTENT")
 if float("$CONSISTENCY_MM") > 0: s["fusion"]["consistency_tolerance_mm"] = float("$CONSISTENCY_MM")
 if float("$MIN_WEIGHT") > 0: s["fusion"]["min_weight"] = float("$MIN_WEIGHT")
-if "$STEREO" == "run" and "$C2F" == "1":
-    # Coarse to fine in dome run with the c2f path's values; each camera's depth range
-    # clipped to the volume box's corners (+-2 mm), as c2f_stereo does.
+if "$C2F" == "1":
+    # Coarse to fine; each camera's depth range clipped to the volume box's corners
+    # (+-2 mm).
     s["stereo"]["coarse_to_fine"] = {
         "coarse_factor": int("$C2F_FACTOR"), "coarse_window_px": int("$C2F_WINDOW"),
         "tile_px": int("$C2F_TILE"), "margin_levels": float("$C2F_MARGIN"),
@@ -161,11 +161,12 @@ if "$STEREO" == "run" and "$C2F" == "1":
         "clip_pad_mm": 2.0}
 if "$EXACT_WARP" != "": s["stereo"]["prewarp_neighbours"] = False  # EXACT_WARP=1
 json.dump(s, open(session, "w"), indent=1)
+json.dump(s["stereo"], open(session.replace("session.json", "stereo.json"), "w"), indent=1)
 PY
   t0=$(date +%s.%N)
   if [ "$STEREO" = c2f ]; then
-    # The same volume and fusion options through `dome fuse`, on the depth maps of
-    # bench/fusion/c2f_stereo.cc (per-camera depth range from the box, coarse to fine).
+    # The same stereo options through `dome stereo`, the same volume and fusion options
+    # through `dome fuse`.
     fuse_args=($(/usr/bin/python3 -c "
 import json; s = json.load(open('$dst/session.json')); v = s['volume']; f = s['fusion']
 print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for x in v['origin_mm']]
@@ -176,19 +177,13 @@ print(' '.join(['--voxel-mm', str(v['voxel_size_mm']), '--origin'] + [str(x) for
                + ['--consistent-views', str(f.get('min_consistent_views', 0)),
                   '--consistency-mm', str(f.get('consistency_tolerance_mm', v['voxel_size_mm'])),
                   '--min-weight', str(f.get('min_weight', 0))]))"))
-    if ! /usr/bin/time -f "%U %S" -o "$dst/cpu_stereo.txt" "$(dirname "$DOME")/c2f_stereo" \
-        "$dst/take" "$dst/depth" --box $(cat "$dst/box.txt") --window "${WINDOWS%% *}" \
-        --uniqueness "$UNIQ" --neighbours "$NEIGHBOURS" --factor "$C2F_FACTOR" \
-        --coarse-window "$C2F_WINDOW" --tile "$C2F_TILE" --margin-levels "$C2F_MARGIN" \
-        --min-coarse "$C2F_MIN_COARSE" --trim "$C2F_TRIM" --coarse-uniqueness "$C2F_UNIQ" \
-        --fill "$C2F_FILL" \
-        --speckle-area "$SPECKLE_AREA" --speckle-step "$SPECKLE_STEP_MM" ${EXACT_WARP:+--exact-warp} \
-        $( [ "$SQRT_GREYS" = 1 ] && echo --sqrt-greys ) \
+    if ! /usr/bin/time -f "%U %S" -o "$dst/cpu_stereo.txt" "$DOME" stereo "$dst/take" \
+        --options "$dst/stereo.json" --threads "$THREADS" --no-preview --out "$dst/depth" \
         > "$dst/stereo.log" 2>&1 ||
       ! /usr/bin/time -f "%U %S" -o "$dst/cpu_fuse.txt" "$DOME" fuse "$dst/take" \
         --depth-dir "$dst/depth" --out "$dst/run" --threads "$THREADS" "${fuse_args[@]}" \
         > "$dst/run.log" 2>&1; then
-      echo "{\"scene\": \"$scene\", \"error\": \"c2f_stereo or dome fuse failed, see $dst\"}" |
+      echo "{\"scene\": \"$scene\", \"error\": \"dome stereo or dome fuse failed, see $dst\"}" |
         tee "$dst/result.json"
       continue
     fi
