@@ -31,10 +31,10 @@ struct AgentOptions {
   double drop_probability = 0.0;   // sim digitizer: chance of losing a frame it stores
   uint64_t seed = 1;               // sim digitizer: of the drops
   double sim_pace = 0.0;  // sim deck: signal seconds per wall second (1 = real time); 0 = unpaced
-  int ack_timeout_ms = 1000;            // resend frames not acknowledged within this, ms
-  int flush_timeout_ms = 60000;         // wait at the end for the last acknowledgements, ms
+  int ack_timeout_ms = 1000;       // resend frames not acknowledged within this, ms
+  int flush_timeout_ms = 60000;    // wait at the end for the last acknowledgements, ms
   int progress_interval_ms = 250;  // least time between progress messages within a pass, ms
-  net::SocketOptions socket;       // the publisher's socket: CURVE keys (net/security.h)
+  net::SocketOptions socket{};     // the publisher's socket: CURVE keys (net/security.h)
 
   // Throws core::InputError naming the first option out of range ("deck", "range", ...).
   void Check() const;

@@ -63,17 +63,8 @@ std::string NewSessionId() {
 enum class SessionState { kRunning, kDone, kFailed, kCancelled };
 
 const char* StateName(SessionState state) {
-  switch (state) {
-    case SessionState::kRunning:
-      return "running";
-    case SessionState::kDone:
-      return "done";
-    case SessionState::kFailed:
-      return "failed";
-    case SessionState::kCancelled:
-      return "cancelled";
-  }
-  return "?";
+  static constexpr const char* kNames[] = {"running", "done", "failed", "cancelled"};
+  return kNames[static_cast<int>(state)];
 }
 
 // JSON has no NaN or infinity: such figures are written as null.
@@ -242,9 +233,10 @@ struct Master::Impl {
     }
   }
 
-  void Refuse(zmq::socket_t* s, const std::string& id, const std::string& reason, bool req) {
-    runtime::Envelope env;
-    env.mutable_refusal()->set_reason(reason);
+  // Sends `env` to peer `id` of a ROUTER socket; REQ peers get the empty delimiter
+  // frame they expect.
+  static void Reply(zmq::socket_t* s, const std::string& id, bool req,
+                    const runtime::Envelope& env) {
     const std::string bytes = net::EncodeEnvelope(env);
     try {
       if (req) {
@@ -253,7 +245,14 @@ struct Master::Impl {
         net::SendFrames(s, {id, bytes});
       }
     } catch (const zmq::error_t&) {
+      // The peer is gone; nothing waits for the answer.
     }
+  }
+
+  static void Refuse(zmq::socket_t* s, const std::string& id, const std::string& reason, bool req) {
+    runtime::Envelope env;
+    env.mutable_refusal()->set_reason(reason);
+    Reply(s, id, req, env);
   }
 
   // A status event of `s`; of one stage of one instant when `node` >= 0.
@@ -994,12 +993,7 @@ struct Master::Impl {
       }
       runtime::Envelope env;
       *env.mutable_control_reply() = reply;
-      const std::string bytes = net::EncodeEnvelope(env);
-      if (req) {
-        net::SendFrames(&control_socket, {id, "", bytes});
-      } else {
-        net::SendFrames(&control_socket, {id, bytes});
-      }
+      Reply(&control_socket, id, req, env);
     }
   }
 

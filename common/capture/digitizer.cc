@@ -51,8 +51,8 @@ bool OpenCvDigitizer::Keep(cv::Mat* stored) {
 }
 
 void SimDigitizerOptions::Check() const {
-  core::Require(keep_per_second >= 0.0, "--keep-per-second", "must be >= 0 (0 = every frame)");
-  core::Require(drop_probability >= 0.0 && drop_probability < 1.0, "--drop-probability",
+  core::Require(keep_per_second >= 0.0, "keep_per_second", "must be >= 0 (0 = every frame)");
+  core::Require(drop_probability >= 0.0 && drop_probability < 1.0, "drop_probability",
                 "must be in [0, 1)");
 }
 

@@ -18,6 +18,7 @@ struct FieldOptions {
   bool upper_field_first = true;
   // Check the first-in-time field's VITC field mark is 0 (it names the first field).
   bool check_field_mark = true;
+  // (Two switches: no value is out of range, so there is nothing to Check().)
 };
 
 // Rows r with r % 2 == parity, as a new image.

@@ -12,13 +12,13 @@ void CaptureOptions::Check() const {
   core::Require(
       IsValidLabel(range.first, layout.standard) && IsValidLabel(range.last, layout.standard) &&
           FrameNumber(range.first, layout.standard) <= FrameNumber(range.last, layout.standard),
-      "--range",
+      "range",
       "expected FIRST-LAST, valid labels on " + StandardName(layout.standard) +
           ", first not after last");
-  core::Require(every >= 1, "--every", "must be >= 1 (frames)");
-  core::Require(preroll_frames >= 0, "--preroll", "must be >= 0 (frames)");
+  core::Require(every >= 1, "every", "must be >= 1 (frames)");
+  core::Require(preroll_frames >= 0, "preroll_frames", "must be >= 0 (frames)");
   core::Require(overrun_frames >= 1, "overrun_frames", "must be >= 1 (frames)");
-  core::Require(max_passes >= 1, "--max-passes", "must be >= 1");
+  core::Require(max_passes >= 1, "max_passes", "must be >= 1");
   core::Require(max_idle_passes >= 1, "max_idle_passes", "must be >= 1");
   core::Require(max_deck_errors >= 1, "max_deck_errors", "must be >= 1");
   core::Require(cue_timeout_ms > 0, "cue_timeout_ms", "must be > 0 (milliseconds)");

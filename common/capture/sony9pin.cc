@@ -143,8 +143,22 @@ void SerialPort::Flush() { ::tcflush(fd_, TCIFLUSH); }
 
 // --- controller ----------------------------------------------------------------------
 
+void Sony9PinOptions::Check() const {
+  core::Require(reply_timeout_ms > 0, "reply_timeout_ms",
+                "must be positive, got " + std::to_string(reply_timeout_ms));
+  core::Require(retries >= 1, "retries", "must be at least 1, got " + std::to_string(retries));
+  core::Require(retry_delay_ms >= 0, "retry_delay_ms", "must not be negative");
+}
+
+void DeckEmulatorOptions::Check() const {
+  core::Require(nak_first >= 0, "nak_first",
+                "must not be negative, got " + std::to_string(nak_first));
+}
+
 Sony9PinDeck::Sony9PinDeck(const std::string& device, const Sony9PinOptions& options)
-    : port_(device), options_(options) {}
+    : port_(device), options_(options) {
+  options.Check();
+}
 
 std::optional<Sony9PinBlock> Sony9PinDeck::ReadReply(int timeout_ms) {
   const std::vector<uint8_t> head = port_.Read(2, timeout_ms);
@@ -242,6 +256,7 @@ DeckStatus Sony9PinDeck::Status() {
 
 DeckEmulator::DeckEmulator(Deck* deck, const DeckEmulatorOptions& options)
     : deck_(deck), options_(options) {
+  options.Check();
   master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
   core::Require(master_fd_ >= 0, "pseudo-terminal",
                 std::string("posix_openpt: ") + std::strerror(errno));

@@ -68,6 +68,9 @@ struct Sony9PinOptions {
   int retries = 3;             // tries per command on a time-out or a recoverable NAK
   int retry_delay_ms = 12;     // the protocol asks for 10 ms after a NAK
   bool drop_frame = false;     // cue-up time codes carry the drop-frame bit
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
 };
 
 // A deck on a serial port. Errors name "serial:<device>".
@@ -102,6 +105,9 @@ struct DeckEmulatorOptions {
   int nak_first = 0;            // answer the first n commands with NAK (checksum error)
   int silent_after = -1;        // stop answering after n commands (< 0: never)
   bool nak_everything = false;  // answer every command with NAK (undefined command)
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
 };
 
 // A deck at the far end of a serial line: speaks the protocol above over a file

@@ -11,6 +11,17 @@
 
 namespace dome::capture {
 
+void TapeLayout::Check() const {
+  core::Require(vbi_field_lines >= 1 && vbi_field_lines <= 64, "vbi_field_lines",
+                "must be in 1..64, got " + std::to_string(vbi_field_lines));
+  core::Require(!vitc_field_lines.empty(), "vitc_field_lines", "names no line");
+  for (int line : vitc_field_lines) {
+    core::Require(line >= 0 && line < vbi_field_lines, "vitc_field_lines",
+                  "line " + std::to_string(line) + " is outside the " +
+                      std::to_string(vbi_field_lines) + " vertical-interval lines");
+  }
+}
+
 VitcDecoderOptions TapeLayout::DecoderOptions() const {
   VitcDecoderOptions options;
   options.standard = standard;
@@ -20,6 +31,7 @@ VitcDecoderOptions TapeLayout::DecoderOptions() const {
 }
 
 cv::Mat ComposeTapeFrame(const cv::Mat& picture, VitcWord word, const TapeLayout& layout) {
+  layout.Check();
   DOME_CHECK(picture.type() == CV_8UC1 && picture.rows % 2 == 0, "interlaced 8-bit grey picture");
   cv::Mat frame(picture.rows + layout.VbiRows(), picture.cols, CV_8UC1,
                 cv::Scalar(layout.blanking_level));

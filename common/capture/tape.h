@@ -32,6 +32,8 @@ struct TapeLayout {
   uint8_t blanking_level = 16;              // grey level of the vertical interval
 
   int VbiRows() const { return 2 * vbi_field_lines; }
+  // Throws core::InputError naming the first field out of range ("vitc_field_lines").
+  void Check() const;
   // Decoder options that search exactly this layout's vertical interval.
   VitcDecoderOptions DecoderOptions() const;
 };

@@ -100,7 +100,25 @@ std::optional<VitcWord> DecodeVitcBits(const VitcBits& bits, VideoStandard stand
   return word;
 }
 
+void VitcLineOptions::Check() const {
+  core::Require(std::isfinite(cell_px) && cell_px >= 0, "cell_px", "must be >= 0 (0: width / 96)");
+  core::Require(std::isfinite(start_px), "start_px", "must be finite");
+  core::Require(white_level > black_level, "white_level",
+                "must be above black_level (" + std::to_string(black_level) + ")");
+}
+
+void VitcDecoderOptions::Check() const {
+  core::Require(nominal_cell_fraction > 0 && nominal_cell_fraction < 0.1, "nominal_cell_fraction",
+                "must be in (0, 0.1), got " + std::to_string(nominal_cell_fraction));
+  core::Require(scale_tolerance > 0 && scale_tolerance < 1, "scale_tolerance",
+                "must be in (0, 1), got " + std::to_string(scale_tolerance));
+  core::Require(min_swing >= 1 && min_swing <= 255, "min_swing", "must be in 1..255 grey levels");
+  core::Require(first_row >= 0 && first_row <= last_row, "first_row",
+                "must be in 0..last_row (" + std::to_string(last_row) + ")");
+}
+
 void DrawVitcLine(const VitcBits& bits, uint8_t* line, int width, const VitcLineOptions& options) {
+  options.Check();
   const double cell = options.cell_px > 0.0 ? options.cell_px : width / 96.0;
   const double start = options.start_px >= 0.0 ? options.start_px : 2.0 * cell;
   const double black = options.black_level, white = options.white_level;
@@ -119,7 +137,7 @@ void DrawVitcLine(const VitcBits& bits, uint8_t* line, int width, const VitcLine
   }
 }
 
-VitcDecoder::VitcDecoder(const VitcDecoderOptions& options) : options_(options) {}
+VitcDecoder::VitcDecoder(const VitcDecoderOptions& options) : options_(options) { options.Check(); }
 
 std::optional<VitcRead> VitcDecoder::ReadLine(const uint8_t* line, int width) const {
   if (width < 96) return std::nullopt;

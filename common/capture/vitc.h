@@ -67,6 +67,9 @@ struct VitcLineOptions {
   double start_px = -1.0;     // left edge of bit 0, pixels; < 0 = two cells from the left
   uint8_t black_level = 16;   // grey level of a 0 (blanking), 8-bit
   uint8_t white_level = 192;  // grey level of a 1 (about 80 IRE), 8-bit
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
 };
 
 // Draws the word on one 8-bit grey line of `width` pixels: each pixel is the level of
@@ -82,6 +85,9 @@ struct VitcDecoderOptions {
   int min_swing = 24;             // least white-minus-black difference, grey levels
   int first_row = 0;              // rows of a frame searched: [first_row, last_row]
   int last_row = 44;              // inclusive; clamped to the frame
+
+  // Throws core::InputError naming the first option out of range.
+  void Check() const;
 };
 
 // One word read from a frame.

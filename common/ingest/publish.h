@@ -1,5 +1,5 @@
-// Captured frames over the network (seed §2.1): the agent's side (FramePublisher, a ZeroMQ DEALER with a
-// local spool) and the receiving side (FrameIngest, a ROUTER that stores frames into a
+// Captured frames over the network (seed §2.1): the agent's side (FramePublisher, a ZeroMQ DEALER
+// with a local spool) and the receiving side (FrameIngest, a ROUTER that stores frames into a
 // take). The messages are proto/capture.proto's.
 //
 // Nothing is lost while the ingest is down: Publish() first writes the frame to the
@@ -51,7 +51,7 @@ struct PublisherOptions {
   std::filesystem::path spool_dir;    // created if missing
   int ack_timeout_ms = 1000;          // resend a frame not acknowledged within this, ms
   int max_in_flight = 16;             // frames sent and not yet acknowledged (count)
-  net::SocketOptions socket;          // CURVE keys (net/security.h); plaintext by default
+  net::SocketOptions socket{};        // CURVE keys (net/security.h); plaintext by default
   zmq::context_t* context = nullptr;  // optional; the publisher's own when null
 
   // Throws core::InputError naming the first option out of range ("endpoint").
@@ -129,8 +129,8 @@ struct IngestOptions {
   std::string bind;  // e.g. tcp://*:5570, tcp://127.0.0.1:* (port chosen)
   std::filesystem::path take_dir;
   size_t max_message_bytes = 64u << 20;  // larger messages are rejected unread, bytes
-  net::SocketOptions socket;  // CURVE server key (net/security.h); plaintext by default
-  zmq::context_t* context = nullptr;  // optional; the ingest's own when null
+  net::SocketOptions socket{};           // CURVE server key (net/security.h); plaintext by default
+  zmq::context_t* context = nullptr;     // optional; the ingest's own when null
   // Called from Poll() on every progress message (e.g. to republish it).
   std::function<void(const IngestProgress&)> on_progress{};
 

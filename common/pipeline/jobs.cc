@@ -83,6 +83,23 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
   return rig.cameras[k].model;
 }
 
+// A job's settings message (serialized) and its blobs, in the order its run reads them.
+void SetJob(const google::protobuf::Message& settings, std::vector<runtime::BlobRef> blobs,
+            runtime::Job* job) {
+  job->set_settings(settings.SerializeAsString());
+  for (auto& b : blobs) *job->add_blobs() = std::move(b);
+}
+
+using Parts = std::function<std::vector<std::string>(const SessionPlan&)>;
+
+StageDescriptor Descriptor(std::string name, std::vector<std::string> after, Parts parts) {
+  StageDescriptor d;
+  d.name = std::move(name);
+  d.after = std::move(after);
+  d.parts = std::move(parts);
+  return d;
+}
+
 // Every default stage but noop reconstructs a take; a no-op session runs only noop.
 bool Reconstructs(const SessionPlan& plan) { return plan.spec.noop_jobs() <= 0; }
 
@@ -93,12 +110,10 @@ std::vector<std::string> OnePart(const SessionPlan& plan) {
 // ---- stereo ---------------------------------------------------------------------------
 
 StageDescriptor StereoStage() {
-  StageDescriptor d;
-  d.name = "stereo";
-  d.send_ahead = true;
-  d.parts = [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("stereo", {}, [](const SessionPlan& plan) {
     return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
-  };
+  });
+  d.send_ahead = true;
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     const SessionPlan& plan = ctx.plan;
     runtime::StereoJob sj;
@@ -106,13 +121,12 @@ StageDescriptor StereoStage() {
     *sj.mutable_stereo() = ToStereoSettings(plan.options.stereo);
     sj.set_write_previews(plan.options.stereo.write_previews);
     const auto& frames = plan.frames[ctx.instant];
-    *job->add_blobs() = plan.rig;
-    *job->add_blobs() = frames[ctx.part];
+    std::vector<runtime::BlobRef> blobs = {plan.rig, frames[ctx.part]};
     for (int j : stereo::SelectCluster(plan.take.rig, sj.camera(), plan.options.stereo.cluster)) {
       sj.add_neighbours(plan.cameras[j]);
-      *job->add_blobs() = frames[j];
+      blobs.push_back(frames[j]);
     }
-    job->set_settings(sj.SerializeAsString());
+    SetJob(sj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
     const auto sj = JobSettings<runtime::StereoJob>(job);
@@ -159,16 +173,13 @@ StageDescriptor StereoStage() {
 // ---- fusion ---------------------------------------------------------------------------
 
 StageDescriptor FusionStage() {
-  StageDescriptor d;
-  d.name = "fusion";
-  d.after = {"stereo"};
-  d.send_ahead = true;
-  d.parts = [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("fusion", {"stereo"}, [](const SessionPlan& plan) {
     std::vector<std::string> parts;
     for (int s = 0; Reconstructs(plan) && s < plan.num_slabs; ++s)
       parts.push_back(std::to_string(s));
     return parts;
-  };
+  });
+  d.send_ahead = true;
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     const SessionOptions& o = ctx.plan.options;
     runtime::FusionJob fj;
@@ -177,11 +188,11 @@ StageDescriptor FusionStage() {
     fj.set_k1(k1);
     *fj.mutable_volume() = ToVolume(o.grid);
     *fj.mutable_fusion() = ToFusionSettings(o.fusion);
-    *job->add_blobs() = ctx.plan.rig;
+    std::vector<runtime::BlobRef> blobs = {ctx.plan.rig};
     for (int c = 0; c < int(ctx.plan.cameras.size()); ++c) {
-      *job->add_blobs() = ctx.outputs("stereo", c).at(0);
+      blobs.push_back(ctx.outputs("stereo", c).at(0));
     }
-    job->set_settings(fj.SerializeAsString());
+    SetJob(fj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto fj = JobSettings<runtime::FusionJob>(job);
@@ -240,10 +251,7 @@ StageDescriptor FusionStage() {
 // ---- surface (the master's) -------------------------------------------------------------
 
 StageDescriptor SurfaceStage() {
-  StageDescriptor d;
-  d.name = "surface";
-  d.after = {"fusion"};
-  d.parts = OnePart;
+  StageDescriptor d = Descriptor("surface", {"fusion"}, OnePart);
   d.consumes_inputs = true;  // the slabs are in the mesh
   d.start_on_master = [](const MasterStageContext& ctx) -> std::unique_ptr<MasterStageRun> {
     const SessionOptions& o = ctx.plan.options;
@@ -256,15 +264,11 @@ StageDescriptor SurfaceStage() {
 // ---- decimate ---------------------------------------------------------------------------
 
 StageDescriptor DecimateStage() {
-  StageDescriptor d;
-  d.name = "decimate";
-  d.after = {"surface"};
-  d.parts = OnePart;
+  StageDescriptor d = Descriptor("decimate", {"surface"}, OnePart);
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     runtime::DecimateJob dj;
     dj.set_ratio(ctx.plan.options.decimate_ratio);
-    *job->add_blobs() = ctx.outputs("surface", 0).at(0);
-    job->set_settings(dj.SerializeAsString());
+    SetJob(dj, {ctx.outputs("surface", 0).at(0)}, job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
     const auto dj = JobSettings<runtime::DecimateJob>(job);
@@ -291,17 +295,15 @@ StageDescriptor DecimateStage() {
 // ---- texture ----------------------------------------------------------------------------
 
 StageDescriptor TextureStage() {
-  StageDescriptor d;
-  d.name = "texture";
-  d.after = {"decimate"};
-  d.parts = OnePart;
+  StageDescriptor d = Descriptor("texture", {"decimate"}, OnePart);
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    // The rig, the decimated mesh, every camera's frame.
+    std::vector<runtime::BlobRef> blobs = {ctx.plan.rig, ctx.outputs("decimate", 0).at(0)};
+    const auto& frames = ctx.plan.frames[ctx.instant];
+    blobs.insert(blobs.end(), frames.begin(), frames.end());
     runtime::TextureJob tj;
     tj.set_atlas(ctx.plan.options.texture);
-    *job->add_blobs() = ctx.plan.rig;
-    *job->add_blobs() = ctx.outputs("decimate", 0).at(0);
-    for (const auto& f : ctx.plan.frames[ctx.instant]) *job->add_blobs() = f;
-    job->set_settings(tj.SerializeAsString());
+    SetJob(tj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
     const auto tj = JobSettings<runtime::TextureJob>(job);
@@ -352,14 +354,12 @@ StageDescriptor TextureStage() {
 // ---- noop -------------------------------------------------------------------------------
 
 StageDescriptor NoopStage() {
-  StageDescriptor d;
-  d.name = "noop";
-  d.send_ahead = true;
-  d.parts = [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("noop", {}, [](const SessionPlan& plan) {
     std::vector<std::string> parts;
     for (int i = 0; i < plan.spec.noop_jobs(); ++i) parts.push_back(std::to_string(i));
     return parts;
-  };
+  });
+  d.send_ahead = true;
   d.make_job = [](const JobContext&, runtime::Job*) {};
   d.run = [](const runtime::Job&, const JobBlobs&, JobMemo*) {
     return std::vector<runtime::Output>{};

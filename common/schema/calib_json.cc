@@ -22,12 +22,24 @@ int Target::Find(int id) const {
   return -1;
 }
 
-Target ReadTarget(const fs::path& path) {
-  proto::TargetPoints msg;
-  ParseJson(io::ReadFileBytes(path), path.string(), "invalid TargetPoints JSON", &msg);
-  const std::string where = path.string();
-  Require(msg.format_version() == 1, where + ": format_version",
+namespace {
+
+// The file's message, of format version 1.
+template <class Message>
+Message ReadVersion1(const fs::path& path) {
+  Message msg;
+  ParseJson(io::ReadFileBytes(path), path.string(),
+            "invalid " + Message::descriptor()->name() + " JSON", &msg);
+  Require(msg.format_version() == 1, path.string() + ": format_version",
           fmt::format("expected 1, got {}", msg.format_version()));
+  return msg;
+}
+
+}  // namespace
+
+Target ReadTarget(const fs::path& path) {
+  const auto msg = ReadVersion1<proto::TargetPoints>(path);
+  const std::string where = path.string();
   Target target;
   target.path = where;
   target.frame = msg.frame();
@@ -58,11 +70,8 @@ Target ReadTarget(const fs::path& path) {
 }
 
 CalibView ReadCalibView(const fs::path& path) {
-  proto::CalibView msg;
-  ParseJson(io::ReadFileBytes(path), path.string(), "invalid CalibView JSON", &msg);
+  const auto msg = ReadVersion1<proto::CalibView>(path);
   const std::string where = path.string();
-  Require(msg.format_version() == 1, where + ": format_version",
-          fmt::format("expected 1, got {}", msg.format_version()));
   Require(!msg.camera().empty(), where + ": camera", "expected a camera id");
   Require(!msg.image().empty(), where + ": image", "expected the image file name");
   CalibView view;

@@ -42,14 +42,7 @@ constexpr int kFramesPerInstant = 5;  // 6 Hz
 std::string TargetJson(const std::vector<TargetPoint>& points, const std::string& frame,
                        const std::string& description, double radius, double key_radius,
                        int grid_points = 0) {
-  schema::Target target;
-  target.points = points;
-  target.frame = frame;
-  target.description = description;
-  target.marker_radius_mm = radius;
-  target.key_marker_radius_mm = key_radius;
-  target.grid_points = grid_points;
-  return schema::TargetToJson(target);
+  return schema::TargetToJson({"", frame, description, radius, key_radius, points, grid_points});
 }
 
 // The true view of the target from `camera` (pose: target -> camera), image <name>.png.

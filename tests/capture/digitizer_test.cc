@@ -53,7 +53,7 @@ TEST(Digitizer, SimDigitizerKeepsAtMostItsBandwidth) {
   ASSERT_EQ(kept_at.size(), 30u);  // 3 s of 29.97 Hz signal at 10 frames/s
   for (size_t k = 1; k < kept_at.size(); ++k) EXPECT_EQ(kept_at[k] - kept_at[k - 1], 3);
   dome::testing::ExpectInputError([&] { SimDigitizer bad(&deck, {.drop_probability = 1.5}); },
-                                  {"--drop-probability", "[0, 1)"});
+                                  {"drop_probability", "[0, 1)"});
 }
 
 }  // namespace
