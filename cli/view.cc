@@ -7,7 +7,7 @@
 #include <string>
 
 #include "cli/commands.h"
-#include "eval/json_writer.h"
+#include "core/json.h"
 #include "view/assets.h"
 #include "view/export.h"
 #include "view/output_index.h"
@@ -44,11 +44,12 @@ void AddViewCommand(CLI::App* app, int* exit_code) {
       const view::ViewerIndex index = view::BuildIndex(a->out, take, a->server.index);
       const view::ExportSummary s = view::ExportStatic(index, assets, a->export_dir);
       // Unreadable meshes are not fatal: the page shows those instants as missing.
-      std::printf(
-          "{\"export\": %s, \"instants\": %zu, \"files\": %lld, \"bytes\": %lld, "
-          "\"unreadable\": %lld}\n",
-          eval::JsonQuote(a->export_dir).c_str(), index.instants.size(), (long long)s.files,
-          (long long)s.bytes, (long long)s.failed_derived);
+      const core::Json line = {{"export", a->export_dir},
+                               {"instants", index.instants.size()},
+                               {"files", s.files},
+                               {"bytes", s.bytes},
+                               {"unreadable", s.failed_derived}};
+      std::printf("%s\n", core::DumpJson(line).c_str());
       *exit_code = 0;
       return;
     }

@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <functional>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
 #include <set>
@@ -18,6 +17,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "io/file_util.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
@@ -65,11 +65,6 @@ enum class SessionState { kRunning, kDone, kFailed, kCancelled };
 const char* StateName(SessionState state) {
   static constexpr const char* kNames[] = {"running", "done", "failed", "cancelled"};
   return kNames[static_cast<int>(state)];
-}
-
-// JSON has no NaN or infinity: such figures are written as null.
-nlohmann::ordered_json Number(double v) {
-  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
 }
 
 struct WorkerRec {
@@ -541,7 +536,7 @@ struct Master::Impl {
     }
     const double loop_busy = loop_busy_s - s.loop_busy_at_start;
     const int instants = int(s.plan.instants.size());
-    nlohmann::ordered_json j;
+    core::Json j;
     j["session"] = s.id;
     j["take"] = s.plan.spec.take();
     j["cameras"] = s.plan.cameras.size();
@@ -553,12 +548,12 @@ struct Master::Impl {
     j["duplicate_results_dropped"] = s.duplicates;
     j["bytes_to_workers"] = s.bytes_to_workers;
     j["bytes_from_workers"] = s.bytes_from_workers;
-    j["seconds"] = Number(s.finished_s);
-    j["seconds_per_instant"] = Number(s.finished_s / instants);
-    j["worker_job_seconds"] = Number(worker_job_seconds);
-    j["master_loop"] = {{"busy_fraction", Number(s.finished_s > 0 ? loop_busy / s.finished_s : 0)},
-                        {"longest_turn_s", Number(s.loop_longest_turn_s)}};
-    nlohmann::ordered_json by_stage = nlohmann::ordered_json::object();
+    j["seconds"] = (s.finished_s);
+    j["seconds_per_instant"] = (s.finished_s / instants);
+    j["worker_job_seconds"] = (worker_job_seconds);
+    j["master_loop"] = {{"busy_fraction", (s.finished_s > 0 ? loop_busy / s.finished_s : 0)},
+                        {"longest_turn_s", (s.loop_longest_turn_s)}};
+    core::Json by_stage = core::Json::object();
     for (size_t k = 0; k < stages.stages.size(); ++k) {
       int total = 0;
       for (int t = 0; t < instants; ++t) total += s.graph->Count(t, int(k)).total;
@@ -566,26 +561,26 @@ struct Master::Impl {
       const auto& st = s.stage_stats[k];
       by_stage[stages.stages[k].name] = {
           {"jobs", total},
-          {"job_seconds", Number(st.job_seconds)},
+          {"job_seconds", (st.job_seconds)},
           {"wall_seconds",
-           Number(st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0)},
+           (st.last_done >= 0 && st.first_start >= 0 ? st.last_done - st.first_start : 0)},
           {"bytes_to_workers", st.bytes_to_workers},
           {"bytes_from_workers", st.bytes_from_workers}};
     }
     j["stages"] = by_stage;
     j["jobs_by_worker"] = s.jobs_by_worker;
-    nlohmann::ordered_json per_instant = nlohmann::ordered_json::array();
+    core::Json per_instant = core::Json::array();
     for (int t = 0; t < instants; ++t) {
       const auto& is = s.instant_stats[t];
       per_instant.push_back(
           {{"instant", s.plan.instants[t]},
-           {"seconds", Number(is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
-           {"done_at_seconds", Number(is.done)}});
+           {"seconds", (is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
+           {"done_at_seconds", (is.done)}});
     }
     j["per_instant"] = per_instant;
-    // Worker names are the workers' own text: replace what is not UTF-8.
-    io::WriteFileAtomically(s.out() / "report.json",
-                            j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    // NaN figures print as null; worker names and the take path are users' text, and
+    // what is not UTF-8 in them is replaced (core/json.h).
+    io::WriteFileAtomically(s.out() / "report.json", core::DumpJson(j, 2) + "\n");
   }
 
   // ---- workers ------------------------------------------------------------------------

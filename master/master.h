@@ -25,7 +25,7 @@
 //   OUT/<instant>/mesh_decimated.ply  decimated, per-vertex colours
 //   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
 //   OUT/report.json                   per-stage and per-instant seconds and counts
-//                                     (JSON, written by nlohmann::json),
+//                                     (JSON, written by core/json.h),
 //                                     bytes to and from workers per stage, results
 //                                     accepted per worker (jobs_by_worker), the
 //                                     workers' job seconds (worker_job_seconds), the

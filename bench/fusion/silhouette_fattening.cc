@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <string>
 
+#include "core/json.h"
 #include "io/depth_tiff.h"
 #include "io/ply.h"
 #include "mesh/preview.h"
@@ -84,17 +85,17 @@ int main(int argc, char** argv) {
       Tally(truth, io::ReadDepthMap(path), jump, &stereo);
       Tally(truth, mesh::RenderDepth(mesh, rc.model, threads), jump, &fused);
     }
-    auto src = [&](const char* name, const Count& c) {
-      char buf[300];
-      std::snprintf(buf, sizeof buf,
-                    "\"%s\": {\"fat_px\": %ld, \"valid_px\": %ld, \"fat_fraction\": %.5f, "
-                    "\"fattening_width_px\": %.4f}",
-                    name, c.fat, c.valid, c.valid ? double(c.fat) / c.valid : 0.0,
-                    contour ? double(c.fat) / contour : 0.0);
-      return std::string(buf);
+    auto src = [&](const Count& c) -> core::Json {
+      return {{"fat_px", c.fat},
+              {"valid_px", c.valid},
+              {"fat_fraction", c.valid ? double(c.fat) / c.valid : 0.0},
+              {"fattening_width_px", contour ? double(c.fat) / contour : 0.0}};
     };
-    std::printf("{\"cameras\": %d, \"jump_mm\": %g, \"contour_px\": %ld, %s, %s}\n", cameras, jump,
-                contour, src("range_images", stereo).c_str(), src("fused_mesh", fused).c_str());
+    core::PrintJsonLine({{"cameras", cameras},
+                         {"jump_mm", jump},
+                         {"contour_px", contour},
+                         {"range_images", src(stereo)},
+                         {"fused_mesh", src(fused)}});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "silhouette_fattening: %s\n", e.what());
     return 1;

@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "cli/client.h"
+#include "core/json.h"
 #include "core/memory.h"
 #include "io/file_util.h"
 #include "master/graph.h"
@@ -165,10 +166,13 @@ int Dispatch(const fs::path& out, int num_workers, int jobs, const fs::path& bin
       client::WaitForSession(&context, control, "", reply.session_id(), nullptr, 20);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf(
-      "{\"mode\": \"dispatch\", \"workers\": %d, \"workers_seen\": %d, \"jobs\": %d, \"state\": "
-      "\"%s\", \"seconds\": %.3f, \"jobs_per_s\": %.1f}\n",
-      num_workers, seen, jobs, status.state().c_str(), seconds, jobs / seconds);
+  core::PrintJsonLine({{"mode", "dispatch"},
+             {"workers", num_workers},
+             {"workers_seen", seen},
+             {"jobs", jobs},
+             {"state", status.state()},
+             {"seconds", seconds},
+             {"jobs_per_s", jobs / seconds}});
   return status.state() == "done" ? 0 : 1;
 }
 
@@ -192,20 +196,20 @@ int Memory(int cameras, int instants, int slabs) {
     }
   }
   const int64_t after = ResidentKiB();
-  std::printf(
-      "{\"mode\": \"memory\", \"cameras\": %d, \"instants\": %d, \"slabs\": %d, \"jobs\": %d, "
-      "\"master_bookkeeping_mib\": %.1f}\n",
-      cameras, instants, slabs, graph.size(), (after - before) / 1024.0);
+  core::PrintJsonLine({{"mode", "memory"},
+             {"cameras", cameras},
+             {"instants", instants},
+             {"slabs", slabs},
+             {"jobs", graph.size()},
+             {"master_bookkeeping_mib", (after - before) / 1024.0}});
   return 0;
 }
 
-std::string LoadAverage() {
+double LoadAverage() {
   std::ifstream in("/proc/loadavg");
   double one = 0;
   in >> one;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f", one);
-  return buf;
+  return one;
 }
 
 struct EndToEndFigures {
@@ -222,11 +226,12 @@ double ProcessCpuSeconds() {
          1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-// A number field of report.json ("key": value), or NaN.
-double ReportNumber(const std::string& report, const std::string& key) {
-  const auto p = report.find("\"" + key + "\": ");
-  if (p == std::string::npos) return std::nan("");
-  return std::strtod(report.c_str() + p + key.size() + 4, nullptr);
+// A number of report.json at `pointer` ("/master_loop/busy_fraction"), or NaN where it is
+// absent or null.
+double ReportNumber(const core::Json& report, const std::string& pointer) {
+  const core::Json::json_pointer p(pointer);
+  return report.contains(p) && report.at(p).is_number() ? report.at(p).get<double>()
+                                                        : std::nan("");
 }
 
 EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
@@ -240,36 +245,31 @@ EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
   client::EmbeddedOptions e;
   e.workers = workers;
   e.threads_per_worker = 1;
-  const std::string load_before = LoadAverage();
+  const double load_before = LoadAverage();
   const double cpu_before = ProcessCpuSeconds();
   const auto st = client::RunEmbedded(s, e, nullptr);
   const double cpu_seconds = ProcessCpuSeconds() - cpu_before;
-  const std::string load_after = LoadAverage();
-  const std::string report = io::ReadFileBytes(out / "report.json");
-  auto field = [&](const std::string& key) {
-    const auto p = report.find("\"" + key + "\": ");
-    return p == std::string::npos ? std::string("null")
-                                  : report.substr(p + key.size() + 4,
-                                                  report.find_first_of(",\n}", p + key.size() + 4) -
-                                                      (p + key.size() + 4));
-  };
+  const double load_after = LoadAverage();
+  const core::Json report = core::Json::parse(io::ReadFileBytes(out / "report.json"));
   EndToEndFigures f;
   f.done = st.state() == "done";
   f.cpu_seconds = cpu_seconds;
-  f.seconds = ReportNumber(report, "seconds");
-  f.worker_job_seconds = ReportNumber(report, "worker_job_seconds");
-  std::printf(
-      "{\"mode\": \"e2e\", \"workers\": %d, \"state\": \"%s\", \"instants\": %s, \"seconds\": %s, "
-      "\"seconds_per_instant\": %s, \"worker_job_seconds\": %s, \"utilisation\": %.3f, "
-      "\"master_loop_busy_fraction\": %s, \"master_loop_longest_turn_s\": %s, "
-      "\"bytes_to_workers\": %s, \"bytes_from_workers\": %s, \"cpu_seconds\": %.2f, "
-      "\"load_average\": [%s, %s]}\n",
-      workers, st.state().c_str(), field("instants").c_str(), field("seconds").c_str(),
-      field("seconds_per_instant").c_str(), field("worker_job_seconds").c_str(),
-      f.worker_job_seconds / (workers * f.seconds), field("busy_fraction").c_str(),
-      field("longest_turn_s").c_str(), field("bytes_to_workers").c_str(),
-      field("bytes_from_workers").c_str(), cpu_seconds, load_before.c_str(), load_after.c_str());
-  std::fflush(stdout);
+  f.seconds = ReportNumber(report, "/seconds");
+  f.worker_job_seconds = ReportNumber(report, "/worker_job_seconds");
+  core::PrintJsonLine({{"mode", "e2e"},
+             {"workers", workers},
+             {"state", st.state()},
+             {"instants", ReportNumber(report, "/instants")},
+             {"seconds", f.seconds},
+             {"seconds_per_instant", ReportNumber(report, "/seconds_per_instant")},
+             {"worker_job_seconds", f.worker_job_seconds},
+             {"utilisation", f.worker_job_seconds / (workers * f.seconds)},
+             {"master_loop_busy_fraction", ReportNumber(report, "/master_loop/busy_fraction")},
+             {"master_loop_longest_turn_s", ReportNumber(report, "/master_loop/longest_turn_s")},
+             {"bytes_to_workers", ReportNumber(report, "/bytes_to_workers")},
+             {"bytes_from_workers", ReportNumber(report, "/bytes_from_workers")},
+             {"cpu_seconds", cpu_seconds},
+             {"load_average", {load_before, load_after}}});
   return f;
 }
 
@@ -287,14 +287,17 @@ int Scaling(const fs::path& take, const fs::path& out, int workers,
   const EndToEndFigures one = EndToEnd(take, out / "w1", 1, instants);
   const EndToEndFigures many =
       EndToEnd(take, out / ("w" + std::to_string(workers)), workers, instants);
-  std::printf(
-      "{\"mode\": \"scaling\", \"workers\": %d, \"seconds_1\": %.3f, \"seconds_%d\": %.3f, "
-      "\"speedup\": %.3f, \"parallel_efficiency\": %.3f, \"utilisation_1\": %.3f, "
-      "\"utilisation_%d\": %.3f, \"cpu_seconds_1\": %.2f, \"cpu_seconds_%d\": %.2f}\n",
-      workers, one.seconds, workers, many.seconds, one.seconds / many.seconds,
-      one.seconds / (workers * many.seconds), one.worker_job_seconds / one.seconds, workers,
-      many.worker_job_seconds / (workers * many.seconds), one.cpu_seconds, workers,
-      many.cpu_seconds);
+  const std::string n = std::to_string(workers);
+  core::PrintJsonLine({{"mode", "scaling"},
+             {"workers", workers},
+             {"seconds_1", one.seconds},
+             {"seconds_" + n, many.seconds},
+             {"speedup", one.seconds / many.seconds},
+             {"parallel_efficiency", one.seconds / (workers * many.seconds)},
+             {"utilisation_1", one.worker_job_seconds / one.seconds},
+             {"utilisation_" + n, many.worker_job_seconds / (workers * many.seconds)},
+             {"cpu_seconds_1", one.cpu_seconds},
+             {"cpu_seconds_" + n, many.cpu_seconds}});
   return one.done && many.done ? 0 : 1;
 }
 

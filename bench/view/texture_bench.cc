@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "core/json.h"
 #include "core/timer.h"
 #include "io/image_io.h"
 #include "io/ply.h"
@@ -96,14 +97,19 @@ int main(int argc, char** argv) {
       std::filesystem::create_directories(out);
       mesh::WriteTexturedObj(std::filesystem::path(out) / "textured.obj", fast.textured);
     }
-    std::printf(
-        "{\"cameras\": %zu, \"image\": \"%dx%d\", \"vertices\": %zu, \"triangles\": %zu, "
-        "\"atlas\": \"%dx%d\", \"threads\": %d, \"vertex_colour_s\": %.4f, \"atlas_s\": %.4f, "
-        "\"vertex_colour_cpu_s\": %.4f, \"atlas_cpu_s\": %.4f",
-        views.size(), views.empty() ? 0 : views[0].camera.width_px,
-        views.empty() ? 0 : views[0].camera.height_px, m.vertices.size(), m.faces.size(),
-        fast.textured.atlas.cols, fast.textured.atlas.rows, threads, fast.vertex_s, fast.atlas_s,
-        fast.vertex_cpu_s, fast.atlas_cpu_s);
+    const auto size = [](int w, int h) { return std::to_string(w) + "x" + std::to_string(h); };
+    core::Json line = {
+        {"cameras", views.size()},
+        {"image", views.empty() ? "0x0"
+                                : size(views[0].camera.width_px, views[0].camera.height_px)},
+        {"vertices", m.vertices.size()},
+        {"triangles", m.faces.size()},
+        {"atlas", size(fast.textured.atlas.cols, fast.textured.atlas.rows)},
+        {"threads", threads},
+        {"vertex_colour_s", fast.vertex_s},
+        {"atlas_s", fast.atlas_s},
+        {"vertex_colour_cpu_s", fast.vertex_cpu_s},
+        {"atlas_cpu_s", fast.atlas_cpu_s}};
     if (reference) {
       mesh::TextureOptions ro = options;
       ro.exhaustive = true;
@@ -132,18 +138,19 @@ int main(int argc, char** argv) {
           texel_max = std::max(texel_max, d);
         }
       }
-      std::printf(
-          ", \"reference_vertex_colour_s\": %.4f, \"reference_atlas_s\": %.4f, "
-          "\"reference_vertex_colour_cpu_s\": %.4f, \"reference_atlas_cpu_s\": %.4f, "
-          "\"speedup\": %.2f, \"speedup_cpu\": %.2f, \"vertices_differing\": %d, "
-          "\"vertex_max_diff\": %d, "
-          "\"texels_differing\": %d, \"texel_max_diff\": %d",
-          ref.vertex_s, ref.atlas_s, ref.vertex_cpu_s, ref.atlas_cpu_s,
-          (ref.vertex_s + ref.atlas_s) / (fast.vertex_s + fast.atlas_s),
-          (ref.vertex_cpu_s + ref.atlas_cpu_s) / (fast.vertex_cpu_s + fast.atlas_cpu_s),
-          vertex_diff, vertex_max, texel_diff, texel_max);
+      line["reference_vertex_colour_s"] = ref.vertex_s;
+      line["reference_atlas_s"] = ref.atlas_s;
+      line["reference_vertex_colour_cpu_s"] = ref.vertex_cpu_s;
+      line["reference_atlas_cpu_s"] = ref.atlas_cpu_s;
+      line["speedup"] = (ref.vertex_s + ref.atlas_s) / (fast.vertex_s + fast.atlas_s);
+      line["speedup_cpu"] =
+          (ref.vertex_cpu_s + ref.atlas_cpu_s) / (fast.vertex_cpu_s + fast.atlas_cpu_s);
+      line["vertices_differing"] = vertex_diff;
+      line["vertex_max_diff"] = vertex_max;
+      line["texels_differing"] = texel_diff;
+      line["texel_max_diff"] = texel_max;
     }
-    std::printf("}\n");
+    core::PrintJsonLine(line);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "texture_bench: %s\n", e.what());
     return 1;

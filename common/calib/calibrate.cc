@@ -8,9 +8,9 @@
 
 #include "calib/target.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
-#include "eval/json_writer.h"
 #include "io/image_io.h"
 
 namespace dome::calib {
@@ -480,61 +480,50 @@ std::string CalibrationResult::BriefReport() const {
 }
 
 namespace {
-std::string IntList(const std::vector<int>& v) {
-  std::string s = "[";
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
-  return s + "]";
-}
-std::string StringList(const std::vector<std::string>& v) {
-  std::string s = "[";
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + eval::JsonQuote(v[i]);
-  return s + "]";
-}
-std::string StageJson(const StageReport& r) {
-  using eval::JsonNumber;
-  return fmt::format(
-      "{{\"views\": {}, \"points\": {}, \"detected\": {}, \"blobs\": {}, \"missing_ids\": {}, "
-      "\"rejected_ids\": {}, \"skipped_views\": {}, "
-      "\"rms_px\": {}, \"max_px\": {}, \"lm_iterations\": {}, \"lm_converged\": {}}}",
-      r.views, r.points, r.detected, r.blobs, IntList(r.missing_ids), IntList(r.rejected_ids),
-      StringList(r.skipped_views), JsonNumber(r.rms_px), JsonNumber(r.max_px), r.refine.iterations,
-      r.refine.converged ? "true" : "false");
+core::Json StageJson(const StageReport& r) {
+  return {{"views", r.views},
+          {"points", r.points},
+          {"detected", r.detected},
+          {"blobs", r.blobs},
+          {"missing_ids", r.missing_ids},
+          {"rejected_ids", r.rejected_ids},
+          {"skipped_views", r.skipped_views},
+          {"rms_px", r.rms_px},
+          {"max_px", r.max_px},
+          {"lm_iterations", r.refine.iterations},
+          {"lm_converged", r.refine.converged}};
 }
 }  // namespace
 
 std::string CalibrationResult::ReportJson() const {
-  using eval::JsonNumber;
-  using eval::JsonQuote;
-  std::string s = fmt::format("{{\"format_version\": 1, \"seconds\": {}, \"cameras\": [\n",
-                              JsonNumber(seconds));
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    const auto& c = cameras[i];
-    std::string worst = "[";
-    for (size_t w = 0; w < c.worst.size(); ++w) {
-      worst +=
-          fmt::format("{}{{\"stage\": {}, \"id\": {}, \"error_px\": {}}}", w ? ", " : "",
-                      JsonQuote(c.worst[w].stage), c.worst[w].id, JsonNumber(c.worst[w].error_px));
-    }
-    worst += "]";
+  core::Json list = core::Json::array();
+  for (const auto& c : cameras) {
+    core::Json worst = core::Json::array();
+    for (const auto& w : c.worst)
+      worst.push_back({{"stage", w.stage}, {"id", w.id}, {"error_px", w.error_px}});
     const auto& sg = c.sigma;
-    s += fmt::format(
-        "  {{\"id\": {}, \"rms_px\": {}, \"max_px\": {}, \"flagged\": {}, \"failed\": {}, "
-        "\"flag_reason\": {},\n"
-        "   \"stage1\": {},\n   \"stage2\": {},\n   \"worst_points\": {},\n"
-        "   \"sigma\": {{\"focal_mm\": {}, \"kappa1_per_mm2\": {}, \"cx_px\": {}, \"cy_px\": {}, "
-        "\"sx\": {}, "
-        "\"rotation_deg\": [{}, {}, {}], \"translation_mm\": [{}, {}, {}]}}}}{}\n",
-        JsonQuote(c.id), JsonNumber(c.rms_px), JsonNumber(c.max_px), c.flagged ? "true" : "false",
-        c.failed ? "true" : "false", JsonQuote(c.flag_reason), StageJson(c.stage1),
-        StageJson(c.stage2), worst, JsonNumber(sg.focal_mm), JsonNumber(sg.kappa1_per_mm2),
-        JsonNumber(sg.cx_px), JsonNumber(sg.cy_px), JsonNumber(sg.sx),
-        JsonNumber(sg.rotation_deg(0)), JsonNumber(sg.rotation_deg(1)),
-        JsonNumber(sg.rotation_deg(2)), JsonNumber(sg.translation_mm(0)),
-        JsonNumber(sg.translation_mm(1)), JsonNumber(sg.translation_mm(2)),
-        i + 1 < cameras.size() ? "," : "");
+    list.push_back(
+        {{"id", c.id},
+         {"rms_px", c.rms_px},
+         {"max_px", c.max_px},
+         {"flagged", c.flagged},
+         {"failed", c.failed},
+         {"flag_reason", c.flag_reason},
+         {"stage1", StageJson(c.stage1)},
+         {"stage2", StageJson(c.stage2)},
+         {"worst_points", std::move(worst)},
+         {"sigma",
+          {{"focal_mm", sg.focal_mm},
+           {"kappa1_per_mm2", sg.kappa1_per_mm2},
+           {"cx_px", sg.cx_px},
+           {"cy_px", sg.cy_px},
+           {"sx", sg.sx},
+           {"rotation_deg", {sg.rotation_deg(0), sg.rotation_deg(1), sg.rotation_deg(2)}},
+           {"translation_mm",
+            {sg.translation_mm(0), sg.translation_mm(1), sg.translation_mm(2)}}}}});
   }
-  s += "]}\n";
-  return s;
+  const core::Json j = {{"format_version", 1}, {"seconds", seconds}, {"cameras", std::move(list)}};
+  return core::DumpJson(j, 1) + "\n";
 }
 
 }  // namespace dome::calib

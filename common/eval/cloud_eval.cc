@@ -7,9 +7,9 @@
 #include <memory>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
-#include "eval/json_writer.h"
 #include "eval/kd_tree.h"
 #include "eval/statistics.h"
 #include "eval/surface_sampling.h"
@@ -274,38 +274,31 @@ std::string CloudEvalReport::BriefReport() const {
 }
 
 std::string ToJson(const CloudEvalReport& r) {
-  JsonObjectWriter json;
-  json.AddString("recon", r.recon)
-      .AddString("reference", r.reference)
-      .AddString("kind", r.kind)
-      .AddInt("n_recon_pts", r.n_recon_pts)
-      .AddInt("n_in_box", r.n_in_box)
-      .AddInt("n_outside_box", r.n_outside_box)
-      .AddNumber("frac_outside_box", r.frac_outside_box)
-      .AddNumber("box_margin", r.box_margin)
-      .AddInt("n_ref_pts", r.n_ref_pts);
-  if (r.kind == "mesh") {
-    json.AddInt("n_triangles", r.n_triangles);
-  }
-  json.AddNumber("ref_spacing_median_mm", r.ref_spacing_median_mm)
-      .AddNumber("acc_median_mm", r.acc_median_mm)
-      .AddNumber("acc_mean_mm", r.acc_mean_mm)
-      .AddNumber("acc_p90_mm", r.acc_p90_mm)
-      .AddNumber("comp_median_mm", r.comp_median_mm);
+  core::Json json = {{"recon", r.recon},
+                     {"reference", r.reference},
+                     {"kind", r.kind},
+                     {"n_recon_pts", r.n_recon_pts},
+                     {"n_in_box", r.n_in_box},
+                     {"n_outside_box", r.n_outside_box},
+                     {"frac_outside_box", r.frac_outside_box},
+                     {"box_margin", r.box_margin},
+                     {"n_ref_pts", r.n_ref_pts}};
+  if (r.kind == "mesh") json["n_triangles"] = r.n_triangles;
+  json["ref_spacing_median_mm"] = r.ref_spacing_median_mm;
+  json["acc_median_mm"] = r.acc_median_mm;
+  json["acc_mean_mm"] = r.acc_mean_mm;
+  json["acc_p90_mm"] = r.acc_p90_mm;
+  json["comp_median_mm"] = r.comp_median_mm;
   for (const ThresholdScores& s : r.scores) {
     const std::string t = FormatG(s.threshold_mm);
-    if (r.has_accuracy()) {
-      json.AddNumber("precision@" + t + "mm", s.precision);
-    } else {
-      json.AddNull("precision@" + t + "mm");
-    }
-    json.AddNumber("completeness@" + t + "mm", s.completeness);
-    json.AddNumber("fscore@" + t + "mm", s.fscore);
+    json["precision@" + t + "mm"] = r.has_accuracy() ? core::Json(s.precision) : core::Json();
+    json["completeness@" + t + "mm"] = s.completeness;
+    json["fscore@" + t + "mm"] = s.fscore;
   }
-  json.AddNumbers("box_min_mm", {r.box_min_mm.x(), r.box_min_mm.y(), r.box_min_mm.z()})
-      .AddNumbers("box_max_mm", {r.box_max_mm.x(), r.box_max_mm.y(), r.box_max_mm.z()})
-      .AddString("comp_method", r.completeness_method);
-  return json.str();
+  json["box_min_mm"] = {r.box_min_mm.x(), r.box_min_mm.y(), r.box_min_mm.z()};
+  json["box_max_mm"] = {r.box_max_mm.x(), r.box_max_mm.y(), r.box_max_mm.z()};
+  json["comp_method"] = r.completeness_method;
+  return core::DumpJson(json);
 }
 
 }  // namespace dome::eval

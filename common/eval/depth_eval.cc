@@ -5,7 +5,7 @@
 #include <limits>
 
 #include "core/error.h"
-#include "eval/json_writer.h"
+#include "core/json.h"
 #include "eval/statistics.h"
 #include "io/depth_tiff.h"
 #include "io/image_io.h"
@@ -119,24 +119,24 @@ std::string DepthEvalReport::BriefReport() const {
 }
 
 std::string ToJson(const DepthEvalReport& r) {
-  JsonObjectWriter json;
-  json.AddString("estimate", r.estimate)
-      .AddString("truth", r.truth)
-      .AddInt("n_pixels", r.n_pixels)
-      .AddInt("n_gt_valid", r.n_gt_valid)
-      .AddInt("n_compared", r.n_compared)
-      .AddInt("n_est_without_gt", r.n_est_without_gt)
-      .AddNumber("density", r.density)
-      .AddNumber("abs_err_median_mm", r.abs_err_median_mm)
-      .AddNumber("abs_err_mean_mm", r.abs_err_mean_mm)
-      .AddNumber("abs_err_p90_mm", r.abs_err_p90_mm)
-      .AddNumber("rmse_mm", r.rmse_mm)
-      .AddNumber("bias_mm", r.bias_mm);
+  core::Json json = {{"estimate", r.estimate},
+                     {"truth", r.truth},
+                     {"n_pixels", r.n_pixels},
+                     {"n_gt_valid", r.n_gt_valid},
+                     {"n_compared", r.n_compared},
+                     {"n_est_without_gt", r.n_est_without_gt},
+                     {"density", r.density},
+                     {"abs_err_median_mm", r.abs_err_median_mm},
+                     {"abs_err_mean_mm", r.abs_err_mean_mm},
+                     {"abs_err_p90_mm", r.abs_err_p90_mm},
+                     {"rmse_mm", r.rmse_mm},
+                     {"bias_mm", r.bias_mm}};
   for (const DepthToleranceScores& s : r.scores) {
     const std::string t = FormatG(s.tolerance_mm);
-    json.AddNumber("within@" + t + "mm", s.within).AddNumber("gt_within@" + t + "mm", s.gt_within);
+    json["within@" + t + "mm"] = s.within;
+    json["gt_within@" + t + "mm"] = s.gt_within;
   }
-  return json.str();
+  return core::DumpJson(json);
 }
 
 }  // namespace dome::eval

@@ -1,6 +1,7 @@
 #include "eval/statistics.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 
@@ -44,6 +45,12 @@ double FractionAtMost(const std::vector<double>& values, double threshold) {
     n += v <= threshold ? 1 : 0;
   }
   return static_cast<double>(n) / static_cast<double>(values.size());
+}
+
+std::string FormatG(double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%g", value);
+  return buf;
 }
 
 }  // namespace dome::eval

@@ -1,6 +1,7 @@
 // Order statistics used by the evaluation reports.
 #pragma once
 
+#include <string>
 #include <vector>
 
 namespace dome::eval {
@@ -15,5 +16,9 @@ double Mean(const std::vector<double>& values);
 
 // Fraction of values <= threshold; NaN for an empty vector.
 double FractionAtMost(const std::vector<double>& values, double threshold);
+
+// Python's '%g' of `value` (0.5 -> "0.5", 1.0 -> "1"): the threshold in report keys
+// such as "precision@1mm", spelled as the Python evaluator spells them.
+std::string FormatG(double value);
 
 }  // namespace dome::eval

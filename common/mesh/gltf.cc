@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <vector>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "io/file_util.h"
 
 namespace dome::mesh {
@@ -17,34 +17,36 @@ namespace {
 // The BIN chunk under construction and the JSON of its buffer views and accessors.
 class GlbBuilder {
  public:
-  // Appends `bytes` as a buffer view (4-byte aligned); returns its index.
-  int AddView(const void* bytes, size_t size, const char* target) {
+  // Appends `bytes` as a buffer view (4-byte aligned); returns its index. `target` is
+  // the view's bufferView.target, 0 for none (an image).
+  int AddView(const void* bytes, size_t size, int target) {
     while (bin_.size() % 4) bin_.push_back('\0');
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "%s{\"buffer\": 0, \"byteOffset\": %zu, \"byteLength\": %zu%s}",
-                  views_.empty() ? "" : ", ", bin_.size(), size, target);
-    views_ += buf;
+    core::Json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}};
+    if (target) view["target"] = target;
+    views_.push_back(std::move(view));
     bin_.append(static_cast<const char*>(bytes), size);
-    return view_count_++;
+    return int(views_.size()) - 1;
   }
-  // An accessor over a whole view; min/max are required for POSITION.
+  // An accessor over a whole view; min/max (an object with both) are required for POSITION.
   int AddAccessor(int view, int component_type, size_t count, const char* type, bool normalized,
-                  const std::string& min_max = "") {
-    char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "%s{\"bufferView\": %d, \"componentType\": %d, \"count\": %zu, \"type\": "
-                  "\"%s\"%s%s}",
-                  accessors_.empty() ? "" : ", ", view, component_type, count, type,
-                  normalized ? ", \"normalized\": true" : "", min_max.c_str());
-    accessors_ += buf;
-    return accessor_count_++;
+                  const core::Json& min_max = core::Json::object()) {
+    core::Json a = {
+        {"bufferView", view}, {"componentType", component_type}, {"count", count}, {"type", type}};
+    if (normalized) a["normalized"] = true;
+    for (const auto& [key, value] : min_max.items()) a[key] = value;
+    accessors_.push_back(std::move(a));
+    return int(accessors_.size()) - 1;
   }
-  std::string Finish(const std::string& rest_of_json) {
+  // The GLB container of `document` (the scene, meshes, materials) with the asset,
+  // buffers, views and accessors added; the JSON is printed by core/json.h.
+  std::string Finish(const core::Json& document) {
     while (bin_.size() % 4) bin_.push_back('\0');
-    std::string json =
-        "{\"asset\": {\"version\": \"2.0\", \"generator\": \"dome\"}, " + rest_of_json +
-        ", \"buffers\": [{\"byteLength\": " + std::to_string(bin_.size()) +
-        "}], \"bufferViews\": [" + views_ + "], \"accessors\": [" + accessors_ + "]}";
+    core::Json j = {{"asset", {{"version", "2.0"}, {"generator", "dome"}}}};
+    for (const auto& [key, value] : document.items()) j[key] = value;
+    j["buffers"] = {{{"byteLength", bin_.size()}}};
+    j["bufferViews"] = views_;
+    j["accessors"] = accessors_;
+    std::string json = core::DumpJson(j);
     while (json.size() % 4) json.push_back(' ');
     std::string out;
     auto put32 = [&](uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
@@ -63,15 +65,14 @@ class GlbBuilder {
   }
 
  private:
-  std::string bin_, views_, accessors_;
-  int view_count_ = 0, accessor_count_ = 0;
+  std::string bin_;
+  core::Json views_ = core::Json::array(), accessors_ = core::Json::array();
 };
 
 constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedByte = 5121;
-const char* const kArrayTarget = ", \"target\": 34962";
-const char* const kElementTarget = ", \"target\": 34963";
+constexpr int kArrayTarget = 34962, kElementTarget = 34963;
 
-std::string MinMax(const std::vector<float>& xyz) {
+core::Json MinMax(const std::vector<float>& xyz) {
   float lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
                  std::numeric_limits<float>::max()};
   float hi[3] = {-lo[0], -lo[1], -lo[2]};
@@ -80,16 +81,20 @@ std::string MinMax(const std::vector<float>& xyz) {
     hi[n % 3] = std::max(hi[n % 3], xyz[n]);
   }
   if (xyz.empty()) std::fill(lo, lo + 3, 0.0f), std::fill(hi, hi + 3, 0.0f);
-  char buf[200];
-  std::snprintf(buf, sizeof buf, ", \"min\": [%.9g, %.9g, %.9g], \"max\": [%.9g, %.9g, %.9g]",
-                lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
-  return buf;
+  using core::FloatJson;
+  return {{"min", {FloatJson(lo[0]), FloatJson(lo[1]), FloatJson(lo[2])}},
+          {"max", {FloatJson(hi[0]), FloatJson(hi[1]), FloatJson(hi[2])}}};
 }
 
-// World mm, z up -> glTF metres, y up (column-major 4x4).
-const char* const kNode =
-    "\"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0, \"matrix\": "
-    "[0.001, 0, 0, 0, 0, 0, -0.001, 0, 0, 0.001, 0, 0, 0, 0, 0, 1]}]";
+// The scene of one mesh node. World mm, z up -> glTF metres, y up (column-major 4x4).
+core::Json SceneOf(core::Json primitive) {
+  return {{"scene", 0},
+          {"scenes", {{{"nodes", {0}}}}},
+          {"nodes",
+           {{{"mesh", 0},
+             {"matrix", {0.001, 0, 0, 0, 0, 0, -0.001, 0, 0, 0.001, 0, 0, 0, 0, 0, 1}}}}},
+          {"meshes", {{{"primitives", {std::move(primitive)}}}}}};
+}
 
 }  // namespace
 
@@ -123,18 +128,19 @@ std::string EncodeGlb(const TexturedMesh& textured) {
       b.AddAccessor(b.AddView(uv.data(), uv.size() * 4, kArrayTarget), kFloat, nv, "VEC2", false);
   const int idx = b.AddAccessor(b.AddView(index.data(), index.size() * 4, kElementTarget),
                                 kUnsignedInt, index.size(), "SCALAR", false);
-  const int image_view = b.AddView(png.data(), png.size(), "");
-  const std::string rest =
-      std::string(kNode) +
-      ", \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": " + std::to_string(pos) +
-      ", \"TEXCOORD_0\": " + std::to_string(tex) + "}, \"indices\": " + std::to_string(idx) +
-      ", \"material\": 0, \"mode\": 4}]}], \"materials\": [{\"pbrMetallicRoughness\": "
-      "{\"baseColorTexture\": {\"index\": 0}, \"metallicFactor\": 0, \"roughnessFactor\": 1}, "
-      "\"doubleSided\": true}], \"textures\": [{\"sampler\": 0, \"source\": 0}], "
-      "\"samplers\": [{\"magFilter\": 9729, \"minFilter\": 9729}], \"images\": "
-      "[{\"bufferView\": " +
-      std::to_string(image_view) + ", \"mimeType\": \"image/png\"}]";
-  return b.Finish(rest);
+  const int image_view = b.AddView(png.data(), png.size(), 0);
+  core::Json document = SceneOf({{"attributes", {{"POSITION", pos}, {"TEXCOORD_0", tex}}},
+                                 {"indices", idx},
+                                 {"material", 0},
+                                 {"mode", 4}});
+  document["materials"] = {
+      {{"pbrMetallicRoughness",
+        {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0}, {"roughnessFactor", 1}}},
+       {"doubleSided", true}}};
+  document["textures"] = {{{"sampler", 0}, {"source", 0}}};
+  document["samplers"] = {{{"magFilter", 9729}, {"minFilter", 9729}}};
+  document["images"] = {{{"bufferView", image_view}, {"mimeType", "image/png"}}};
+  return b.Finish(document);
 }
 
 std::string EncodeGlb(const io::Mesh& mesh) {
@@ -150,7 +156,7 @@ std::string EncodeGlb(const io::Mesh& mesh) {
   const size_t nv = mesh.vertices.size();
   const int pos = b.AddAccessor(b.AddView(xyz.data(), xyz.size() * 4, kArrayTarget), kFloat, nv,
                                 "VEC3", false, MinMax(xyz));
-  std::string attributes = "\"POSITION\": " + std::to_string(pos);
+  core::Json attributes = {{"POSITION", pos}};
   if (mesh.HasColors()) {
     std::vector<uint8_t> rgba;
     rgba.reserve(nv * 4);
@@ -160,17 +166,18 @@ std::string EncodeGlb(const io::Mesh& mesh) {
     }
     const int col = b.AddAccessor(b.AddView(rgba.data(), rgba.size(), kArrayTarget), kUnsignedByte,
                                   nv, "VEC4", true);
-    attributes += ", \"COLOR_0\": " + std::to_string(col);
+    attributes["COLOR_0"] = col;
   }
-  std::string primitive = "{\"attributes\": {" + attributes + "}";
+  core::Json primitive = {{"attributes", std::move(attributes)}};
   if (mesh.HasFaces()) {
     const int idx = b.AddAccessor(b.AddView(index.data(), index.size() * 4, kElementTarget),
                                   kUnsignedInt, index.size(), "SCALAR", false);
-    primitive += ", \"indices\": " + std::to_string(idx) + ", \"mode\": 4}";
+    primitive["indices"] = idx;
+    primitive["mode"] = 4;
   } else {
-    primitive += ", \"mode\": 0}";  // points
+    primitive["mode"] = 0;  // points
   }
-  return b.Finish(std::string(kNode) + ", \"meshes\": [{\"primitives\": [" + primitive + "]}]");
+  return b.Finish(SceneOf(std::move(primitive)));
 }
 
 void WriteGlb(const std::filesystem::path& path, const TexturedMesh& textured) {

@@ -3,7 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
-#include "eval/json_writer.h"
+#include "core/json.h"
 #include "io/file_util.h"
 #include "view/assets.h"
 #include "view/derived.h"
@@ -54,11 +54,11 @@ class Writer {
   }
   // `url`.js: a script that hands the bytes to the page.
   void WritePacked(const std::string& url, std::string_view bytes) {
-    Write(url + ".js", "domeBlob(" + eval::JsonQuote(url) + ", \"" + Base64(bytes) + "\");\n");
+    Write(url + ".js", "domeBlob(" + core::DumpJson(url) + ", \"" + Base64(bytes) + "\");\n");
   }
   void WritePackedError(const std::string& url, const std::string& why) {
     Write(url + ".js",
-          "domeBlobError(" + eval::JsonQuote(url) + ", " + eval::JsonQuote(why) + ");\n");
+          "domeBlobError(" + core::DumpJson(url) + ", " + core::DumpJson(why) + ");\n");
     ++summary.failed_derived;
   }
 

@@ -5,7 +5,7 @@
 #include <system_error>
 
 #include "core/error.h"
-#include "eval/json_writer.h"
+#include "core/json.h"
 #include "take/take.h"
 #include "take/timecode.h"
 
@@ -31,14 +31,11 @@ std::vector<std::string> InstantFolders(const fs::path& dir) {
   return names;
 }
 
-std::string Url(const std::string& prefix, const std::string& relative) {
-  return relative.empty() ? "null" : eval::JsonQuote(prefix + relative);
+core::Json Url(const std::string& prefix, const std::string& relative) {
+  return relative.empty() ? core::Json() : core::Json(prefix + relative);
 }
 
-std::string Point(const Eigen::Vector3d& p) {
-  return "[" + eval::JsonNumber(p.x()) + ", " + eval::JsonNumber(p.y()) + ", " +
-         eval::JsonNumber(p.z()) + "]";
-}
+core::Json Point(const Eigen::Vector3d& p) { return {p.x(), p.y(), p.z()}; }
 
 }  // namespace
 
@@ -142,52 +139,55 @@ ViewerIndex BuildIndex(const fs::path& out_dir, const std::optional<fs::path>& t
 }
 
 std::string IndexJson(const ViewerIndex& index, bool packed) {
-  std::string j =
-      "{\"format\": 1, \"title\": " + eval::JsonQuote(index.out_dir.filename().string()) +
-      ", \"packed\": " + (packed ? "true" : "false") +
-      ", \"error_range_mm\": " + eval::JsonNumber(index.options.error_range_mm) +
-      ", \"play_rate_hz\": " + eval::JsonNumber(index.options.play_rate_hz) + ",\n\"cameras\": [";
-  for (size_t i = 0; i < index.cameras.size(); ++i) {
-    const CameraFrustum& f = index.cameras[i];
-    j += std::string(i ? ",\n" : "\n") + "{\"id\": " + eval::JsonQuote(f.id) +
-         ", \"width_px\": " + std::to_string(f.width_px) +
-         ", \"height_px\": " + std::to_string(f.height_px) +
-         ", \"centre_mm\": " + Point(f.centre_mm) + ", \"corners_mm\": [" + Point(f.corners_mm[0]) +
-         ", " + Point(f.corners_mm[1]) + ", " + Point(f.corners_mm[2]) + ", " +
-         Point(f.corners_mm[3]) + "]}";
+  core::Json cameras = core::Json::array();
+  for (const CameraFrustum& f : index.cameras) {
+    cameras.push_back({{"id", f.id},
+                       {"width_px", f.width_px},
+                       {"height_px", f.height_px},
+                       {"centre_mm", Point(f.centre_mm)},
+                       {"corners_mm",
+                        {Point(f.corners_mm[0]), Point(f.corners_mm[1]), Point(f.corners_mm[2]),
+                         Point(f.corners_mm[3])}}});
   }
-  j += "],\n\"instants\": [";
-  for (size_t i = 0; i < index.instants.size(); ++i) {
-    const InstantEntry& e = index.instants[i];
+  core::Json instants = core::Json::array();
+  for (const InstantEntry& e : index.instants) {
     const bool truth = !e.truth_mesh.empty();
     auto error_url = [&](const std::string& mesh, MeshVariant v) {
       return truth && !mesh.empty()
-                 ? eval::JsonQuote("derived/error/" + e.name + "/" + VariantName(v) + ".f32")
-                 : std::string("null");
+                 ? core::Json("derived/error/" + e.name + "/" + VariantName(v) + ".f32")
+                 : core::Json();
     };
-    j += std::string(i ? ",\n" : "\n") + "{\"name\": " + eval::JsonQuote(e.name) +
-         ", \"label\": " + eval::JsonQuote(e.label) + ", \"fused\": " + Url("out/", e.fused) +
-         ", \"decimated\": " + Url("out/", e.decimated) +
-         ", \"textured_glb\": " + Url("out/", e.textured_glb) +
-         ", \"textured_obj\": " + Url("out/", e.textured_obj) +
-         ", \"textured_png\": " + Url("out/", e.textured_png) +
-         ", \"error\": {\"fused\": " + error_url(e.fused, MeshVariant::kFused) +
-         ", \"decimated\": " + error_url(e.decimated, MeshVariant::kDecimated) +
-         "}, \"cameras\": [";
+    core::Json files = core::Json::array();
     for (size_t c = 0; c < e.cameras.size(); ++c) {
       const CameraFiles& f = e.cameras[c];
-      std::string depth = "null";
+      core::Json depth;
       if (!f.depth_preview.empty())
-        depth = eval::JsonQuote("out/" + f.depth_preview);
+        depth = "out/" + f.depth_preview;
       else if (!f.depth_map.empty())
-        depth = eval::JsonQuote("derived/depth/" + e.name + "/" + index.cameras[c].id + ".png");
-      j += std::string(c ? ", " : "") + "{\"image\": " + Url("take/", f.image) +
-           ", \"depth\": " + depth + ", \"depth_source\": " + eval::JsonQuote(f.depth_source) + "}";
+        depth = "derived/depth/" + e.name + "/" + index.cameras[c].id + ".png";
+      files.push_back(
+          {{"image", Url("take/", f.image)}, {"depth", depth}, {"depth_source", f.depth_source}});
     }
-    j += "]}";
+    instants.push_back({{"name", e.name},
+                        {"label", e.label},
+                        {"fused", Url("out/", e.fused)},
+                        {"decimated", Url("out/", e.decimated)},
+                        {"textured_glb", Url("out/", e.textured_glb)},
+                        {"textured_obj", Url("out/", e.textured_obj)},
+                        {"textured_png", Url("out/", e.textured_png)},
+                        {"error",
+                         {{"fused", error_url(e.fused, MeshVariant::kFused)},
+                          {"decimated", error_url(e.decimated, MeshVariant::kDecimated)}}},
+                        {"cameras", std::move(files)}});
   }
-  j += "]}";
-  return j;
+  const core::Json j = {{"format", 1},
+                        {"title", index.out_dir.filename().string()},
+                        {"packed", packed},
+                        {"error_range_mm", index.options.error_range_mm},
+                        {"play_rate_hz", index.options.play_rate_hz},
+                        {"cameras", std::move(cameras)},
+                        {"instants", std::move(instants)}};
+  return core::DumpJson(j);
 }
 
 }  // namespace dome::view

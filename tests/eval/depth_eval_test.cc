@@ -1,4 +1,5 @@
 #include "eval/depth_eval.h"
+#include "eval/statistics.h"
 
 #include <gtest/gtest.h>
 
@@ -121,6 +122,19 @@ TEST(EvaluateDepthFiles, ReadsTiffPngAndMask) {
   EXPECT_EQ(r.estimate, (dir / "est.tif").string());
   ExpectInputError([&] { EvaluateDepthFiles(dir / "none.tif", dir / "gt.png", {}); },
                    {"none.tif", "no such file"});
+}
+
+}  // namespace
+}  // namespace dome::eval
+
+namespace dome::eval {
+namespace {
+
+TEST(FormatG, SpellsThresholdsAsPythonPercentG) {
+  EXPECT_EQ(FormatG(0.5), "0.5");
+  EXPECT_EQ(FormatG(1.0), "1");
+  EXPECT_EQ(FormatG(0.25), "0.25");
+  EXPECT_EQ(FormatG(10.0), "10");
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/json.h"
 #include "io/file_util.h"
 #include "io/ply.h"
 #include "mesh/marching_cubes.h"
@@ -28,13 +29,13 @@ void Dump(const std::filesystem::path& out, const std::string& name, const Volum
       }
   dome::io::WriteFileAtomically(out / (name + ".raw"),
                                 std::string(reinterpret_cast<const char*>(d.data()), d.size() * 4));
-  char json[512];
-  std::snprintf(json, sizeof json,
-                "{\"nx\": %d, \"ny\": %d, \"nz\": %d, \"voxel_size_mm\": %.17g, "
-                "\"origin_mm\": [%.17g, %.17g, %.17g]}\n",
-                g.nx, g.ny, g.nz, g.voxel_size_mm, g.origin_mm.x(), g.origin_mm.y(),
-                g.origin_mm.z());
-  dome::io::WriteFileAtomically(out / (name + ".json"), json);
+  const dome::core::Json json = {
+      {"nx", g.nx},
+      {"ny", g.ny},
+      {"nz", g.nz},
+      {"voxel_size_mm", g.voxel_size_mm},
+      {"origin_mm", {g.origin_mm.x(), g.origin_mm.y(), g.origin_mm.z()}}};
+  dome::io::WriteFileAtomically(out / (name + ".json"), dome::core::DumpJson(json) + "\n");
   dome::io::WritePly(out / (name + ".ply"), dome::mesh::MarchingCubes(g, d, w));
 }
 

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/json_writer.h"
+#include "core/json.h"
 #include "io/file_util.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
@@ -29,7 +29,7 @@ TEST(Base64, Rfc4648TestVectors) {
 }
 
 std::string Packed(const std::string& url, const std::string& bytes) {
-  return "domeBlob(" + eval::JsonQuote(url) + ", \"" + Base64(bytes) + "\");\n";
+  return "domeBlob(" + core::DumpJson(url) + ", \"" + Base64(bytes) + "\");\n";
 }
 
 TEST(Export, WritesThePageThePackedIndexAndEveryFileItNames) {
