@@ -13,6 +13,8 @@
 // Talking to a dome-master needs --master-key FILE (its .pub) and --key FILE (this
 // side's .key, its .pub on the master's allow-list), or --insecure for a plaintext
 // master; the embedded master of `dome run` is in-process and needs no keys.
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -26,6 +28,7 @@
 #include "core/error.h"
 #include "net/security.h"
 #include "pipeline/defaults.h"
+#include "pipeline/derive.h"
 #include "pipeline/session.h"
 
 namespace dome::cli {
@@ -36,6 +39,7 @@ namespace {
 struct SessionArgs {
   std::string source, out;
   std::vector<std::string> instants;
+  std::vector<double> box;  // --box: x0 y0 z0 x1 y1 z1, world mm
   double voxel_mm = 0, decimate_ratio = 0;
   int slab_planes = 0, smooth_iterations = 0;
   bool no_texture = false, no_preview = false;
@@ -51,14 +55,17 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
       cmd->add_option("--out", a->out, "output folder (OUT/<instant>/..., OUT/report.json)");
   if (out_required) out->required();
   cmd->add_option("--instant", a->instants, "instants HH-MM-SS-FF (default: all)");
-  a->voxel =
-      cmd->add_option("--voxel-mm", a->voxel_mm, "voxel edge, mm (default 20: the seed's volume)");
+  a->voxel = cmd->add_option("--voxel-mm", a->voxel_mm,
+                             "voxel edge, mm (default: derived from the take, pipeline/derive.h)");
   a->slabs =
       cmd->add_option("--slab-planes", a->slab_planes, "voxel planes per fusion job (default 16)");
   a->ratio = cmd->add_option("--decimate-ratio", a->decimate_ratio,
                              "fraction of triangles kept (default 0.1)");
   a->smooth = cmd->add_option("--smooth-iterations", a->smooth_iterations,
                               "Taubin smoothing of mesh.ply, lambda|mu pairs (default 0: none)");
+  cmd->add_option("--box", a->box,
+                  "the volume XMIN YMIN ZMIN XMAX YMAX ZMAX (mm) instead of the derived one")
+      ->expected(6);
   cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
   cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
   a->stereo = std::make_unique<SettingFlags<stereo::TakeStereoOptions>>(
@@ -96,6 +103,21 @@ runtime::Session MakeSession(const SessionArgs& a) {
   a.stereo->Apply(s.mutable_stereo());
   a.fusion->Apply(s.mutable_fusion());
   pipeline::ResolveSessionOptions(s, "session");  // bad options fail here, not remotely
+  // What the user left unset, derived from the take (pipeline/derive.h) here, so that
+  // the master and the journal see explicit values.
+  // A take this machine cannot read (a remote master's path) is submitted as it is.
+  if (!s.has_noop_jobs() && !fs::is_directory(s.take())) {
+    core::Require(a.box.empty(), "--box", "needs the take readable on this machine");
+    spdlog::warn(
+        "{}: not a folder here, so nothing is derived from it: the master's defaults "
+        "(the seed's volume) apply unless --box and the options are given",
+        s.take());
+  } else if (!s.has_noop_jobs()) {
+    pipeline::DeriveRequest r;
+    if (!a.box.empty()) r.box = {{a.box[0], a.box[1], a.box[2]}, {a.box[3], a.box[4], a.box[5]}};
+    const pipeline::Derivation d = pipeline::DeriveSession(r, &s);
+    for (const auto& n : d.notes) s.add_derived(n);
+  }
   return s;
 }
 

@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "schema/json.h"
 #include "io/file_util.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
@@ -286,6 +287,10 @@ struct Master::Impl {
     std::error_code ec;
     fs::create_directories(s->out(), ec);
     core::Require(!ec, s->out().string(), "cannot create the output folder: " + ec.message());
+    // The session as submitted, derived values included: `dome run OUT/session.json`
+    // runs it again with the same options.
+    if (!spec.has_noop_jobs())
+      io::WriteFileAtomically(s->out() / "session.json", schema::PrintJson(spec) + "\n");
     s->blobs = std::make_unique<SessionBlobs>(&blobs, s->out() / ".blobs");
     s->graph = std::make_unique<JobGraph>(s->plan.instants, GraphStages(stages, s->plan));
     s->stage_stats.resize(stages.stages.size());
@@ -568,6 +573,12 @@ struct Master::Impl {
           {"bytes_from_workers", st.bytes_from_workers}};
     }
     j["stages"] = by_stage;
+    const fusion::VolumeGrid& g = s.plan.options.grid;
+    j["volume"] = {{"origin_mm", {g.origin_mm.x(), g.origin_mm.y(), g.origin_mm.z()}},
+                   {"voxel_size_mm", g.voxel_size_mm},
+                   {"dims", {g.nx, g.ny, g.nz}}};
+    j["derived"] = core::Json(std::vector<std::string>(s.plan.spec.derived().begin(),
+                                                       s.plan.spec.derived().end()));
     j["jobs_by_worker"] = s.jobs_by_worker;
     core::Json per_instant = core::Json::array();
     for (int t = 0; t < instants; ++t) {

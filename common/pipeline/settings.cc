@@ -31,6 +31,8 @@ const std::vector<SettingField<TakeStereoOptions>>& StereoSettingFields() {
       {"sqrt_greys", "--sqrt-greys",
        "match the square roots of the greys (shot noise levelled; dim images)",
        +[](O& o) -> bool& { return o.stereo.sqrt_greys; }},
+      {"clip_pad_mm", "", "added to each end of a clipped depth range, mm",
+       +[](O& o) -> double& { return o.clip_pad_mm; }},
       {"outside_difference_grey", "--outside-difference",
        "cost of a sample outside a neighbour's image, as a grey difference",
        +[](O& o) -> double& { return o.stereo.outside_difference_grey; }},
@@ -138,6 +140,18 @@ runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
   runtime::StereoSettings s;
   SetAll(StereoSettingFields(), o, &s);
   if (o.coarse_to_fine) *s.mutable_coarse_to_fine() = ToCoarseToFineSettings(*o.coarse_to_fine);
+  if (o.clip) {
+    for (int i = 0; i < 3; ++i) {
+      s.add_clip_min_mm(o.clip_min_mm[i]);
+      s.add_clip_max_mm(o.clip_max_mm[i]);
+    }
+  }
+  for (const auto& [id, z] : o.camera_depth_mm) {
+    auto* r = s.add_camera_depths();
+    r->set_camera(id);
+    r->set_z_min_mm(z.first);
+    r->set_z_max_mm(z.second);
+  }
   return s;
 }
 
@@ -147,6 +161,18 @@ TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std
   GetSet(StereoSettingFields(), s, &o);
   if (s.has_coarse_to_fine())
     o.coarse_to_fine = FromCoarseToFineSettings(s.coarse_to_fine(), where);
+  if (s.clip_min_mm_size() > 0 || s.clip_max_mm_size() > 0) {
+    core::Require(s.clip_min_mm_size() == 3 && s.clip_max_mm_size() == 3, where + ": clip_min_mm",
+                  "expected x y z (3 numbers, mm) in both clip_min_mm and clip_max_mm");
+    o.clip = true;
+    o.clip_min_mm = Eigen::Vector3d(s.clip_min_mm(0), s.clip_min_mm(1), s.clip_min_mm(2));
+    o.clip_max_mm = Eigen::Vector3d(s.clip_max_mm(0), s.clip_max_mm(1), s.clip_max_mm(2));
+  }
+  for (const auto& r : s.camera_depths()) {
+    core::Require(!o.camera_depth_mm.count(r.camera()), where + ": camera_depths",
+                  "names camera '" + r.camera() + "' twice");
+    o.camera_depth_mm[r.camera()] = {r.z_min_mm(), r.z_max_mm()};
+  }
   CheckUnder(where, [&] { o.Check(); });
   return o;
 }

@@ -12,18 +12,44 @@
 
 namespace dome::pipeline {
 
-stereo::StereoResult Stereo(const stereo::StereoInput& input,
-                            const stereo::TakeStereoOptions& options, const std::string& where) {
+namespace {
+
+// Stereo with the options as given (the camera's own range applied).
+stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
+                                   const stereo::TakeStereoOptions& options,
+                                   const std::string& where) {
   stereo::StereoResult result;
   if (options.coarse_to_fine) {
     stereo::StereoOptions o = options.stereo;
     stereo::ClipDepthRange(*options.coarse_to_fine, input.reference.camera, where, &o);
     result = stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine);
+  } else if (options.clip) {
+    stereo::StereoOptions o = options.stereo;
+    stereo::ClipDepthRangeToVisibleBox(options.clip_min_mm, options.clip_max_mm,
+                                       options.clip_pad_mm, input.reference.camera,
+                                       where + ": clip_min_mm", &o);
+    result = stereo::ComputeDepth(input, o);
   } else {
     result = stereo::ComputeDepth(input, options.stereo);
   }
   result.camera = input.reference.camera.id;
   return result;
+}
+
+}  // namespace
+
+stereo::StereoResult Stereo(const stereo::StereoInput& input,
+                            const stereo::TakeStereoOptions& options, const std::string& where) {
+  stereo::TakeStereoOptions limited = options;
+  const auto range = options.camera_depth_mm.find(input.reference.camera.id);
+  if (range != options.camera_depth_mm.end()) {
+    auto& s = limited.stereo;
+    s.z_min_mm = std::max(s.z_min_mm, range->second.first);
+    s.z_max_mm = std::min(s.z_max_mm, range->second.second);
+    core::Require(s.z_min_mm < s.z_max_mm, where + ": camera_depths",
+                  "camera '" + input.reference.camera.id + "': its range misses the session's");
+  }
+  return StereoLimited(input, limited, where);
 }
 
 std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,

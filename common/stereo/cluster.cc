@@ -1,5 +1,7 @@
 #include "stereo/cluster.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -46,12 +48,37 @@ std::vector<int> SelectCluster(const geometry::Rig& rig, const std::string& came
     std::sort(candidates.begin(), candidates.end());
     for (size_t k = 0; k < candidates.size() && static_cast<int>(k) < options.max_neighbours; ++k)
       cluster.push_back(candidates[k].second);
+    if (cluster.empty()) {
+      // A sparse rig: no camera looks the same way. The cameras nearest in axis angle
+      // still share parts of the scene; stereo between axes up to kFallbackAngleDeg apart
+      // finds them (beyond, the cameras face each other and see opposite sides).
+      constexpr double kFallbackAngleDeg = 135.0;
+      std::vector<std::pair<double, int>> by_angle;
+      for (int j = 0; j < static_cast<int>(rig.cameras.size()); ++j) {
+        if (j == ref) continue;
+        const Eigen::Vector3d aj = rig.cameras[j].model.rotation.row(2).transpose();
+        const double deg = std::acos(std::clamp(axis.dot(aj), -1.0, 1.0)) * 180.0 / M_PI;
+        if (deg <= kFallbackAngleDeg) by_angle.emplace_back(deg, j);
+      }
+      std::sort(by_angle.begin(), by_angle.end());
+      std::string names;
+      for (size_t k = 0; k < by_angle.size() && int(k) < std::min(2, options.max_neighbours); ++k) {
+        cluster.push_back(by_angle[k].second);
+        names += (k ? ", " : "") + rig.cameras[by_angle[k].second].model.id + " (" +
+                 std::to_string(int(std::lround(by_angle[k].first))) + " deg)";
+      }
+      if (!cluster.empty()) {
+        spdlog::info(
+            "cluster of {}: no camera within {:g} degrees of its axis; using the nearest "
+            "in axis angle: {}",
+            camera_id, options.max_axis_angle_deg, names);
+      }
+    }
   }
   core::Require(!cluster.empty(), "cluster",
                 "camera '" + camera_id +
                     "' has no neighbours (a cluster of one camera): name them in rig.json or "
-                    "add cameras whose optical axes are within " +
-                    std::to_string(options.max_axis_angle_deg) + " degrees of it");
+                    "add cameras whose optical axes are within 135 degrees of it");
   return cluster;
 }
 

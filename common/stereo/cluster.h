@@ -4,7 +4,9 @@
 // When rig.json names a camera's neighbours (take/rig.h) they are the cluster, in the
 // order given. Otherwise the cluster is derived from the geometry: the cameras whose
 // optical axes are within max_axis_angle_deg of the reference's (so they see the same
-// side of the scene), nearest camera centre first, at most max_neighbours of them.
+// side of the scene), nearest camera centre first, at most max_neighbours of them. On a
+// sparse rig where no camera is within that angle, the (at most two) cameras nearest in
+// axis angle up to 135 degrees are taken instead, and the reason is logged.
 #pragma once
 
 #include <string>

@@ -17,8 +17,9 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// Block averages of `grey` (NaN = no data); a block with any NaN is NaN.
-cv::Mat Reduce(const cv::Mat& grey, int factor) {
+}  // namespace
+
+cv::Mat ReduceGrey(const cv::Mat& grey, int factor) {
   const cv::Size size(grey.cols / factor, grey.rows / factor);
   const cv::Rect used(0, 0, size.width * factor, size.height * factor);
   const cv::Mat valid = grey(used) == grey(used);
@@ -31,6 +32,8 @@ cv::Mat Reduce(const cv::Mat& grey, int factor) {
   out.setTo(kNaN, coverage < 1.0f - 1e-4f);
   return out;
 }
+
+namespace {
 
 // The bounding rectangle in `nb` of the rectangle `rect` of the reference image seen at
 // depths z0 and z1 (every point between projects inside it), grown by `margin_px` and
@@ -103,23 +106,65 @@ void CoarseToFineOptions::Check() const {
 void ClipDepthRange(const CoarseToFineOptions& c2f, const geometry::TsaiCamera& camera,
                     const std::string& where, StereoOptions* o) {
   if (!c2f.clip) return;
-  double z_lo = std::numeric_limits<double>::infinity();
-  double z_hi = -std::numeric_limits<double>::infinity();
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d p(c & 1 ? c2f.clip_max_mm(0) : c2f.clip_min_mm(0),
-                            c & 2 ? c2f.clip_max_mm(1) : c2f.clip_min_mm(1),
-                            c & 4 ? c2f.clip_max_mm(2) : c2f.clip_min_mm(2));
-    const double z = camera.WorldToCamera(p).z();
-    z_lo = std::min(z_lo, z);
-    z_hi = std::max(z_hi, z);
-  }
-  const double z_min = std::max(o->z_min_mm, z_lo - c2f.clip_pad_mm);
-  const double z_max = std::min(o->z_max_mm, z_hi + c2f.clip_pad_mm);
-  core::Require(z_min < z_max, where + ": coarse_to_fine.clip_min_mm",
+  ClipDepthRangeToBox(c2f.clip_min_mm, c2f.clip_max_mm, c2f.clip_pad_mm, camera,
+                      where + ": coarse_to_fine.clip_min_mm", o);
+}
+
+namespace {
+// The options' range intersected with [z_lo, z_hi]; an empty one is refused naming `field`.
+void NarrowDepthRange(double z_lo, double z_hi, const geometry::TsaiCamera& camera,
+                      const std::string& field, StereoOptions* o) {
+  const double z_min = std::max(o->z_min_mm, z_lo);
+  const double z_max = std::min(o->z_max_mm, z_hi);
+  core::Require(z_min < z_max, field,
                 "camera '" + camera.id + "' sees no depth of the clip box within [" +
                     std::to_string(o->z_min_mm) + ", " + std::to_string(o->z_max_mm) + "] mm");
   o->z_min_mm = z_min;
   o->z_max_mm = z_max;
+}
+}  // namespace
+
+void ClipDepthRangeToBox(const Eigen::Vector3d& box_min_mm, const Eigen::Vector3d& box_max_mm,
+                         double pad_mm, const geometry::TsaiCamera& camera,
+                         const std::string& field, StereoOptions* o) {
+  double z_lo = std::numeric_limits<double>::infinity();
+  double z_hi = -std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d p(c & 1 ? box_max_mm(0) : box_min_mm(0),
+                            c & 2 ? box_max_mm(1) : box_min_mm(1),
+                            c & 4 ? box_max_mm(2) : box_min_mm(2));
+    const double z = camera.WorldToCamera(p).z();
+    z_lo = std::min(z_lo, z);
+    z_hi = std::max(z_hi, z);
+  }
+  NarrowDepthRange(z_lo - pad_mm, z_hi + pad_mm, camera, field, o);
+}
+
+void ClipDepthRangeToVisibleBox(const Eigen::Vector3d& box_min_mm,
+                                const Eigen::Vector3d& box_max_mm, double pad_mm,
+                                const geometry::TsaiCamera& camera, const std::string& field,
+                                StereoOptions* o) {
+  constexpr int kSamples = 24;  // per box edge
+  const Eigen::Vector3d step = (box_max_mm - box_min_mm) / kSamples;
+  double z_lo = std::numeric_limits<double>::infinity();
+  double z_hi = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= kSamples; ++k) {
+    for (int j = 0; j <= kSamples; ++j) {
+      for (int i = 0; i <= kSamples; ++i) {
+        const Eigen::Vector3d p = box_min_mm + step.cwiseProduct(Eigen::Vector3d(i, j, k));
+        Eigen::Vector2d px;
+        if (!camera.Project(p, &px) || px.x() < -0.5 || px.y() < -0.5 ||
+            px.x() > camera.width_px - 0.5 || px.y() > camera.height_px - 0.5)
+          continue;
+        const double z = camera.WorldToCamera(p).z();
+        z_lo = std::min(z_lo, z);
+        z_hi = std::max(z_hi, z);
+      }
+    }
+  }
+  // A visible point of the box lies within half a sample diagonal of a sample.
+  const double slack = 0.5 * step.norm() + pad_mm;
+  NarrowDepthRange(z_lo - slack, z_hi + slack, camera, field, o);
 }
 
 geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor) {
@@ -162,9 +207,9 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
 
   // 1. Coarse pass over the whole range.
   StereoInput coarse;
-  coarse.reference = {ReducedCamera(ref_cam, f), Reduce(greys[0], f)};
+  coarse.reference = {ReducedCamera(ref_cam, f), ReduceGrey(greys[0], f)};
   for (size_t i = 1; i < views.size(); ++i) {
-    coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), Reduce(greys[i], f)});
+    coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), ReduceGrey(greys[i], f)});
   }
   StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;  // the greys above are mapped already

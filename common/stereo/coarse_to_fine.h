@@ -71,10 +71,27 @@ struct CoarseToFineOptions {
 void ClipDepthRange(const CoarseToFineOptions& c2f, const geometry::TsaiCamera& camera,
                     const std::string& where, StereoOptions* options);
 
+// The same for any box (world mm, min and max corner) and pad (mm); `field` names the
+// box in the error.
+void ClipDepthRangeToBox(const Eigen::Vector3d& box_min_mm, const Eigen::Vector3d& box_max_mm,
+                         double pad_mm, const geometry::TsaiCamera& camera,
+                         const std::string& field, StereoOptions* options);
+
+// Tighter, for a box the camera sees only part of: the depths of the box's points inside
+// the image (sampled on a 25^3 grid; widened by half a sample's diagonal and pad_mm).
+void ClipDepthRangeToVisibleBox(const Eigen::Vector3d& box_min_mm,
+                                const Eigen::Vector3d& box_max_mm, double pad_mm,
+                                const geometry::TsaiCamera& camera, const std::string& field,
+                                StereoOptions* options);
+
 // The camera of an image reduced by `factor` (pixel (i, j) averaging the factor x factor
 // block from (factor i, factor j)): pitch times factor, centre moved to match, size
 // rounded down.
 geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int factor);
+
+// Block averages of a CV_32FC1 grey (NaN = no data) over factor x factor blocks, the
+// size rounded down; a block with any NaN is NaN. The image of ReducedCamera.
+cv::Mat ReduceGrey(const cv::Mat& grey, int factor);
 
 // Where the work went, for benchmarks.
 struct CoarseToFineStats {

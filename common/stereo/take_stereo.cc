@@ -16,9 +16,18 @@ void TakeStereoOptions::Check() const {
   stereo.Check();
   cluster.Check();
   if (coarse_to_fine) coarse_to_fine->Check();
+  for (const auto& [id, z] : camera_depth_mm) {
+    core::Require(
+        std::isfinite(z.first) && std::isfinite(z.second) && z.first > 0 && z.first < z.second,
+        "camera_depths", "camera '" + id + "': needs 0 < z_min_mm < z_max_mm");
+  }
+  if (clip) {
+    core::Require((clip_max_mm - clip_min_mm).minCoeff() > 0, "clip_max_mm",
+                  "must exceed clip_min_mm on every axis");
+    core::Require(std::isfinite(clip_pad_mm) && clip_pad_mm >= 0, "clip_pad_mm",
+                  "must be >= 0 mm, got " + std::to_string(clip_pad_mm));
+  }
 }
-
-namespace {
 
 cv::Mat ReadFrame(const fs::path& path) {
   // Keep alpha when present: it marks valid pixels.
@@ -29,6 +38,8 @@ cv::Mat ReadFrame(const fs::path& path) {
   }
   return image;
 }
+
+namespace {
 
 std::string Suffix(size_t k, int window_px) {
   return k == 0 ? std::string() : "-w" + std::to_string(window_px);

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -34,10 +35,24 @@ struct TakeStereoOptions {
   // Present: coarse-to-fine stereo over tiles (stereo/coarse_to_fine.h), each camera's
   // range clipped to its box; absent: the full-range search (pipeline/stages.h Stereo).
   std::optional<CoarseToFineOptions> coarse_to_fine;
+  // A clip box for the full-range search (clip = true; world frame, mm): each reference
+  // camera searches only the depths of the part of the box it sees
+  // (ClipDepthRangeToVisibleBox), widened by clip_pad_mm.
+  bool clip = false;
+  Eigen::Vector3d clip_min_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d clip_max_mm = Eigen::Vector3d::Zero();
+  double clip_pad_mm = 2.0;
+  // Per camera id, the depths (z_min, z_max along its axis, mm) its search is limited
+  // to, within the range above; cameras not named search the whole range.
+  std::map<std::string, std::pair<double, double>> camera_depth_mm;
 
   // Throws core::InputError naming the first option out of range.
   void Check() const;
 };
+
+// A frame as stereo takes it: 8-bit gray, BGR or BGRA (alpha kept: it marks valid
+// pixels). Throws core::InputError naming the file otherwise.
+cv::Mat ReadFrame(const std::filesystem::path& path);
 
 // The stereo input of one job: the reference camera's frame at `instant` and its
 // cluster's frames, read from the take (errors name the files).

@@ -51,7 +51,7 @@ run_and_compare() {
     { echo "FAIL: the embedded run"; cat "$work/run-embedded.log"; return 1; }
   local n=0 f
   while IFS= read -r f; do
-    [[ "$f" == report.json || "$f" == *.log || "$f" == journal* ]] && continue
+    [[ "$f" == report.json || "$f" == session.json || "$f" == *.log || "$f" == journal* ]] && continue
     cmp -s "$work/out-embedded/$f" "$work/out-remote/$f" ||
       { echo "FAIL: $f differs between the remote and the embedded run"; return 1; }
     n=$((n + 1))

@@ -210,7 +210,7 @@ TEST(SettingTables, EveryProtoFieldHasItsRow) {
     EXPECT_EQ(rows.size() + apart.size(), size_t(d->field_count())) << d->name();
   };
   expect_all(runtime::StereoSettings::descriptor(), names(StereoSettingFields()),
-             {"coarse_to_fine"});
+             {"coarse_to_fine", "clip_min_mm", "clip_max_mm", "camera_depths"});
   expect_all(runtime::CoarseToFineSettings::descriptor(), names(CoarseToFineSettingFields()),
              {"clip_min_mm", "clip_max_mm"});
   expect_all(runtime::FusionSettings::descriptor(), names(FusionSettingFields()), {});

@@ -20,6 +20,7 @@
 
 #include "cli/client.h"
 #include "io/file_util.h"
+#include "pipeline/session.h"
 #include "runtime/process.h"
 #include "testing/run_command.h"
 
@@ -34,15 +35,16 @@ inline std::string Join(const std::vector<std::string>& v) {
   return s;
 }
 
-// Every output file under `dir` (not the journal, the blob store or the report,
-// whose timings differ), relative path -> bytes.
+// Every output file under `dir` (not the journal, the blob store, the report, whose
+// timings differ, or session.json, which names the output folder), relative path -> bytes.
 inline std::map<std::string, std::string> Outputs(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
   std::map<std::string, std::string> files;
   for (const auto& e : fs::recursive_directory_iterator(dir)) {
     if (!e.is_regular_file()) continue;
     const std::string rel = fs::relative(e.path(), dir).string();
-    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json") {
+    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json" ||
+        rel == "session.json") {
       continue;
     }
     files[rel] = io::ReadFileBytes(e.path());
@@ -138,12 +140,12 @@ class ClusterFixture : public ::testing::Test {
     return std::make_unique<ChildProcess>("dome-worker", args, (root_ / (name + ".log")).string());
   }
 
+  // The reference run's session (REFERENCE/session.json: kSessionFlags and what `dome
+  // run` derived from the take) writing to `out`: the same jobs, the same outputs.
   runtime::Session MakeSession(const std::filesystem::path& out) {
-    runtime::Session s;
-    s.set_take(take_.string());
+    runtime::Session s = pipeline::ReadSessionJson(reference_ / "session.json");
     s.set_out(out.string());
-    s.mutable_volume()->set_voxel_size_mm(40);
-    s.set_slab_planes(10);
+    s.clear_derived();
     return s;
   }
   std::string Submit(const Master& m, const runtime::Session& s) {

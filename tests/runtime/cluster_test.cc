@@ -2,6 +2,7 @@
 // processes and the dome client on the small synthetic take. Every run must produce
 // the same bytes as the embedded `dome run`, which itself must match the offline
 // `dome stereo` and `dome fuse` on the same inputs.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -20,6 +21,7 @@
 #include "net/wire.h"
 #include "runtime/cluster_fixture.h"
 #include "runtime/process.h"
+#include "schema/json.h"
 #include "testing/run_command.h"
 
 namespace dome {
@@ -60,10 +62,15 @@ TEST(ClientTimeout, ControlCommandsGiveUpAfterTimeoutS) {
 TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   ASSERT_EQ(instants_.size(), 2u);
   const std::string instant = instants_[1];
+  // The options the run derived (REFERENCE/session.json) for the offline commands.
+  const runtime::Session session = MakeSession(root_ / "unused");
+  const fs::path options = root_ / "stereo_options.json";
+  io::WriteFileAtomically(options, schema::PrintJson(session.stereo()));
   // Stereo: `dome stereo` on one camera writes the same depth, reliability and preview.
   const fs::path offline = root_ / "offline";
-  const auto st = RunDomeBinary("stereo " + take_.string() + " --camera c00 --instant " + instant +
-                                " --threads 1 --out " + offline.string());
+  const auto st =
+      RunDomeBinary("stereo " + take_.string() + " --camera c00 --instant " + instant +
+                    " --options " + options.string() + " --threads 1 --out " + offline.string());
   ASSERT_EQ(st.exit_code, 0) << st.output;
   for (const char* sub : {"depth", "reliability", "preview"}) {
     const std::string ext = std::string(sub) == "preview" ? ".png" : ".tiff";
@@ -77,9 +84,15 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   for (const auto& e : fs::directory_iterator(reference_ / instant / "depth")) {
     fs::copy_file(e.path(), depth / instant / e.path().filename());
   }
-  const auto fu = RunDomeBinary("fuse " + take_.string() + " --instant " + instant +
-                                " --depth-dir " + depth.string() +
-                                " --voxel-mm 40 --threads 1 --out " + (root_ / "fused").string());
+  const auto& v = session.volume();
+  const auto fu = RunDomeBinary(
+      "fuse " + take_.string() + " --instant " + instant + " --depth-dir " + depth.string() +
+      fmt::format(" --voxel-mm {:.17g} --origin ", v.voxel_size_mm()) +
+      fmt::format("{:.17g} {:.17g} {:.17g}", v.origin_mm(0), v.origin_mm(1), v.origin_mm(2)) +
+      fmt::format(" --dims {} {} {}", v.dims(0), v.dims(1), v.dims(2)) +
+      fmt::format(" --truncation-mm {:.17g} --clamp-mm {:.17g}", session.fusion().truncation_mm(),
+                  session.fusion().front_clamp_mm()) +
+      " --threads 1 --out " + (root_ / "fused").string());
   ASSERT_EQ(fu.exit_code, 0) << fu.output;
   const std::string mesh = io::ReadFileBytes(reference_ / instant / "mesh.ply");
   EXPECT_TRUE(io::ReadFileBytes(root_ / "fused" / instant / "mesh.ply") == mesh);
@@ -103,7 +116,10 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   EXPECT_EQ(glb_length, glb.size());
   const auto report = nlohmann::json::parse(io::ReadFileBytes(reference_ / "report.json"));
   EXPECT_EQ(report["stages"]["stereo"]["jobs"], 12) << report;
-  EXPECT_EQ(report["stages"]["fusion"]["jobs"], 30) << report;
+  // Slabs of 10 planes over the derived volume's z extent, for each of the 2 instants.
+  EXPECT_EQ(report["stages"]["fusion"]["jobs"], 2 * ((v.dims(2) + 9) / 10)) << report;
+  EXPECT_EQ(report["volume"]["dims"][2], v.dims(2)) << report;
+  EXPECT_FALSE(report["derived"].empty()) << report;
   for (const char* stage : {"surface", "decimate", "texture"}) {
     EXPECT_EQ(report["stages"][stage]["jobs"], 2) << stage << " in " << report;
   }

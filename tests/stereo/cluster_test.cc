@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+#include <cmath>
+
 #include "stereo/stereo_test_util.h"
 #include "testing/expect_error.h"
 
@@ -41,6 +44,25 @@ TEST(ClusterTest, AxesFacingAwayAreNotNeighbours) {
   rig.cameras[1].model.rotation = Eigen::Vector3d(-1, 1, -1).asDiagonal();
   dome::testing::ExpectInputError([&] { SelectCluster(rig, "c0", {}); },
                                   {"cluster", "c0", "no neighbours"});
+}
+
+// Rotation of `deg` degrees about the camera's y axis (down): the axis turns in x-z.
+Eigen::Matrix3d TurnedAboutY(double deg) {
+  return Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+
+TEST(ClusterTest, SparseRigTakesTheNearestInAxisAngle) {
+  // Axes 70, 100 and 150 degrees from c0's: none within the 60 degree default.
+  geometry::Rig rig = LineRig(4);
+  rig.cameras[1].model.rotation = TurnedAboutY(100);
+  rig.cameras[2].model.rotation = TurnedAboutY(70);
+  rig.cameras[3].model.rotation = TurnedAboutY(150);
+  const auto c = SelectCluster(rig, "c0", {});
+  // The two nearest in angle, nearest first; 150 degrees (beyond 135) is never used.
+  EXPECT_EQ(c, (std::vector<int>{2, 1}));
+  ClusterOptions one;
+  one.max_neighbours = 1;
+  EXPECT_EQ(SelectCluster(rig, "c0", one), (std::vector<int>{2}));
 }
 
 TEST(ClusterTest, BadInputs) {

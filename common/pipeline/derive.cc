@@ -1,0 +1,252 @@
+#include "pipeline/derive.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "pipeline/session.h"
+#include "pipeline/settings.h"
+#include "stereo/scene_extent.h"
+#include "stereo/take_stereo.h"
+
+namespace dome::pipeline {
+namespace {
+
+std::string Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  return fmt::format("[{:.1f} {:.1f} {:.1f}] .. [{:.1f} {:.1f} {:.1f}] mm", lo.x(), lo.y(), lo.z(),
+                     hi.x(), hi.y(), hi.z());
+}
+
+struct GreyStats {
+  double median = 0, p99 = 0;
+};
+
+// Median and 99th percentile of the valid greys (alpha 255 where there is alpha) of
+// every camera's frame at `instant`, sampled on a grid of at most ~64k pixels each.
+GreyStats FrameGreys(const take::Take& take, const std::string& instant) {
+  std::vector<int> histogram(256, 0);
+  int64_t total = 0;
+  for (const auto& rc : take.rig.cameras) {
+    const cv::Mat image = stereo::ReadFrame(take.FramePath(instant, rc.model.id));
+    cv::Mat grey;
+    if (image.channels() == 1) grey = image;
+    if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+    const int step = std::max(1, int(std::sqrt(double(image.total()) / 65536.0)));
+    for (int y = 0; y < image.rows; y += step) {
+      for (int x = 0; x < image.cols; x += step) {
+        if (image.channels() == 4 && image.at<cv::Vec4b>(y, x)[3] != 255) continue;
+        ++histogram[grey.at<uint8_t>(y, x)];
+        ++total;
+      }
+    }
+  }
+  GreyStats s;
+  core::Require(total > 0, take.dir.string(), "no valid pixel in the frames of " + instant);
+  auto quantile = [&](double q) {
+    int64_t seen = 0;
+    for (int g = 0; g < 256; ++g) {
+      seen += histogram[g];
+      if (double(seen) >= q * double(total)) return double(g);
+    }
+    return 255.0;
+  };
+  s.median = quantile(0.5);
+  s.p99 = quantile(0.99);
+  return s;
+}
+
+}  // namespace
+
+Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
+  Derivation d;
+  core::Require(!s->take().empty(), "session: take", "no take to derive the session from");
+  const take::Take take = take::OpenTake(s->take());
+  const std::vector<std::string> instants = SessionInstants(*s, take);
+  runtime::StereoSettings* st = s->mutable_stereo();
+  runtime::Volume* vol = s->mutable_volume();
+  const SessionOptions given = ResolveSessionOptions(*s, "session");  // bad values fail first
+
+  int64_t pixels = 0;
+  for (const auto& rc : take.rig.cameras)
+    pixels = std::max<int64_t>(pixels, int64_t(rc.model.width_px) * rc.model.height_px);
+  const bool large = pixels >= kLargeImagePx;
+
+  // Greys: from the images' statistics.
+  const GreyStats greys = FrameGreys(take, instants[instants.size() / 2]);
+  if (!st->has_normalize_contrast()) {
+    // Most of the grey range unused: stretch the 1st..99th percentile to 0..255.
+    st->set_normalize_contrast(greys.p99 < 128);
+    d.notes.push_back(
+        fmt::format("stereo.normalize_contrast: {} (99th percentile grey {:.0f}; "
+                    "stretched below 128)",
+                    st->normalize_contrast(), greys.p99));
+  }
+  if (!st->has_sqrt_greys()) {
+    // A dark exposure is shot-noise limited: the noise variance grows with the signal,
+    // and matching square roots levels it.
+    st->set_sqrt_greys(greys.median < 64);
+    d.notes.push_back(fmt::format("stereo.sqrt_greys: {} (median grey {:.0f}; on below 64)",
+                                  st->sqrt_greys(), greys.median));
+  }
+  if (large) {
+    // Large images: the settings measured best on megapixel frames (README "Robovision").
+    if (st->window_sizes_px_size() == 0) st->add_window_sizes_px(11);
+    if (!st->has_min_uniqueness()) st->set_min_uniqueness(0.02);
+    if (!st->has_max_neighbours()) st->set_max_neighbours(2);
+    d.notes.push_back(fmt::format(
+        "stereo: {} px per camera (>= {}): window {}, uniqueness {}, {} neighbours", pixels,
+        kLargeImagePx, st->window_sizes_px(0), st->min_uniqueness(), st->max_neighbours()));
+  }
+
+  // The volume: the given box, the session's, or the scene's.
+  const bool has_box = vol->origin_mm_size() > 0 && vol->dims_size() > 0;
+  Eigen::Vector3d lo, hi;
+  std::vector<std::pair<double, double>> camera_depth;  // from the scene's points, rig order
+  if (has_box && !request.box) {
+    const fusion::VolumeGrid& g = given.grid;
+    lo = g.origin_mm;
+    hi = g.origin_mm + g.voxel_size_mm * Eigen::Vector3d(g.nx, g.ny, g.nz);
+  } else if (request.box) {
+    lo = request.box->first;
+    hi = request.box->second;
+    core::Require((hi - lo).minCoeff() > 0, "--box", "needs XMIN < XMAX, YMIN < YMAX, ZMIN < ZMAX");
+    d.notes.push_back("volume: " + Box(lo, hi) + " (--box)");
+  } else {
+    const stereo::TakeStereoOptions so = ResolveSessionOptions(*s, "session").stereo;
+    stereo::SceneExtentOptions eo;
+    eo.num_threads = request.num_threads;
+    const stereo::SceneExtent e =
+        stereo::EstimateSceneExtent(take, instants, so.stereo, so.cluster, eo);
+    lo = e.min_mm;
+    hi = e.max_mm;
+    camera_depth = e.camera_depth_mm;
+    d.notes.push_back(fmt::format(
+        "volume: {} (the cameras' axes meet at [{:.1f} {:.1f} {:.1f}] mm, {:.1f} mm seen by "
+        "every camera; {} at {} instant(s), images reduced {}x: {} points agreeing between "
+        "cameras, in pieces of occupied cells, +{:.0f} % a side)",
+        Box(lo, hi), e.view_centre_mm.x(), e.view_centre_mm.y(), e.view_centre_mm.z(),
+        e.view_radius_mm,
+        e.from_stereo ? "coarse stereo" : "too few coarse points: the view sphere",
+        e.instants.size(), e.reduction, e.points, 100 * eo.margin_fraction));
+  }
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const double footprint = stereo::PixelFootprintMm(take.rig, centre);
+  double voxel = vol->has_voxel_size_mm() ? vol->voxel_size_mm() : 0.0;
+  if (voxel <= 0 || !has_box || request.box) {
+    if (!vol->has_voxel_size_mm()) {
+      // 1.5 pixel footprints at the scene (a matched depth is good to about +-0.75 px
+      // after the sub-level refinement), no finer than the seed's voxel budget allows.
+      const double budget = std::cbrt((hi - lo).prod() / kMaxVoxels);
+      voxel = std::max(1.5 * footprint, budget);
+      vol->set_voxel_size_mm(voxel);
+      d.notes.push_back(fmt::format(
+          "volume.voxel_size_mm: {:.4g} (1.5 x the pixel footprint at the scene, {:.4g} mm; "
+          "budget of {} voxels: {:.4g} mm)",
+          voxel, footprint, kMaxVoxels, budget));
+    }
+    vol->clear_origin_mm();
+    vol->clear_dims();
+    for (int a = 0; a < 3; ++a) {
+      vol->add_origin_mm(lo(a));
+      vol->add_dims(std::max(1, int(std::ceil((hi(a) - lo(a)) / voxel))));
+    }
+  }
+  voxel = vol->voxel_size_mm();
+
+  // Depth range: the box's nearest and farthest corner over all cameras.
+  if (!st->has_z_min_mm() || !st->has_z_max_mm()) {
+    double z_lo = INFINITY, z_hi = -INFINITY;
+    for (const auto& rc : take.rig.cameras) {
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3d p(c & 1 ? hi.x() : lo.x(), c & 2 ? hi.y() : lo.y(),
+                                c & 4 ? hi.z() : lo.z());
+        const double z = rc.model.WorldToCamera(p).z();
+        z_lo = std::min(z_lo, z);
+        z_hi = std::max(z_hi, z);
+      }
+    }
+    const double z_min = std::max(0.01 * z_hi, z_lo - 2 * voxel), z_max = z_hi + 2 * voxel;
+    core::Require(z_max > z_min && z_max > 0, "volume", "is behind every camera");
+    if (!st->has_z_min_mm()) st->set_z_min_mm(z_min);
+    if (!st->has_z_max_mm()) st->set_z_max_mm(z_max);
+    d.notes.push_back(fmt::format(
+        "stereo.z_min_mm .. z_max_mm: {:.1f} .. {:.1f} (the volume's corners over all cameras, "
+        "+-2 voxels)",
+        st->z_min_mm(), st->z_max_mm()));
+  }
+  // Each camera searches the depths where the coarse pass found the scene in its image.
+  if (st->camera_depths_size() == 0 && !camera_depth.empty()) {
+    int n = 0;
+    for (size_t c = 0; c < camera_depth.size(); ++c) {
+      if (!(camera_depth[c].second > camera_depth[c].first)) continue;
+      auto* r = st->add_camera_depths();
+      r->set_camera(take.rig.cameras[c].model.id);
+      r->set_z_min_mm(std::max(camera_depth[c].first, st->z_min_mm()));
+      r->set_z_max_mm(std::min(camera_depth[c].second, st->z_max_mm()));
+      if (!(r->z_min_mm() < r->z_max_mm())) {
+        st->mutable_camera_depths()->RemoveLast();
+        continue;
+      }
+      ++n;
+    }
+    d.notes.push_back(fmt::format(
+        "stereo.camera_depths: {} camera(s), each the depths of the coarse scene points in its "
+        "image (0.2..99.8 %, +10 % and two coarse pixels a side)",
+        n));
+  }
+  // Each camera searches the depths of the volume only.
+  if (!st->has_coarse_to_fine() && st->clip_min_mm_size() == 0) {
+    for (int a = 0; a < 3; ++a) st->add_clip_min_mm(lo(a));
+    for (int a = 0; a < 3; ++a) st->add_clip_max_mm(hi(a));
+    if (!st->has_clip_pad_mm()) st->set_clip_pad_mm(2 * voxel);
+  }
+  if (large && !st->has_coarse_to_fine()) {
+    auto* c = st->mutable_coarse_to_fine();
+    c->set_min_coarse_depths(8);
+    c->set_trim_fraction(0.2);
+    c->set_coarse_min_uniqueness(0.5);
+    c->set_fill_min_neighbours(1);
+    d.notes.push_back(
+        "stereo.coarse_to_fine: on (large images), each camera clipped to the volume");
+  }
+  if (st->has_coarse_to_fine() && st->coarse_to_fine().clip_min_mm_size() == 0) {
+    auto* c = st->mutable_coarse_to_fine();
+    for (int a = 0; a < 3; ++a) c->add_clip_min_mm(lo(a));
+    for (int a = 0; a < 3; ++a) c->add_clip_max_mm(hi(a));
+    if (!c->has_clip_pad_mm()) c->set_clip_pad_mm(2 * voxel);
+  }
+  if (large && !st->has_speckle_area_px()) {
+    // Wrong matches come as islands; a true surface piece of a megapixel image is larger.
+    st->set_speckle_area_px(int(0.015 * double(pixels)));
+    if (!st->has_speckle_step_mm()) st->set_speckle_step_mm(2 * voxel);
+    d.notes.push_back(
+        fmt::format("stereo.speckle_area_px: {} (1.5 % of the image), step {:.3g} mm "
+                    "(two voxels)",
+                    st->speckle_area_px(), st->speckle_step_mm()));
+  }
+
+  // Fusion: truncation and clamp of three voxels (the seed's ramp), one voxel for large
+  // images, whose voxel the budget makes coarser than their matches' depth error.
+  runtime::FusionSettings* fu = s->mutable_fusion();
+  const double trunc = (large ? 1.0 : 3.0) * voxel;
+  if (!fu->has_truncation_mm()) fu->set_truncation_mm(trunc);
+  if (!fu->has_front_clamp_mm()) fu->set_front_clamp_mm(fu->truncation_mm());
+  d.notes.push_back(
+      fmt::format("fusion.truncation_mm: {:.4g}, front_clamp_mm {:.4g} (3 voxels; 1 for "
+                  "large images)",
+                  fu->truncation_mm(), fu->front_clamp_mm()));
+  if (large && !s->has_smooth_iterations()) {
+    s->set_smooth_iterations(10);
+    d.notes.push_back("smooth_iterations: 10 (large images)");
+  }
+  for (const auto& n : d.notes) spdlog::info("derived {}", n);
+  ResolveSessionOptions(*s, "derived session");  // what was derived must hold
+  return d;
+}
+
+}  // namespace dome::pipeline

@@ -1,0 +1,58 @@
+// A session's values derived from its take (rig and images only; never reference or
+// truth files), for every field the user left unset. `dome run TAKE` and `dome submit`
+// call it before submitting, so the master, the journal's digest and every job see
+// plain, explicit values. The rules, each stated where it is applied (derive.cc):
+//
+//   volume      the scene's box (stereo/scene_extent.h: the region the cameras see in
+//               common, narrowed by a coarse stereo pass to where surfaces are), or the
+//               box the user gives (dome run --box);
+//   voxel       1.5 pixel footprints at the box centre (median over cameras of depth /
+//               focal length in pixels), and no finer than the seed's voxel budget
+//               (kMaxVoxels: 300^3, the seed's 6 m cube of 20 mm voxels) allows;
+//   depths      z_min / z_max: the nearest and farthest box corner over all cameras,
+//               +-2 voxels; per camera (camera_depths) the depths of the coarse pass's
+//               scene points in its image; the full-range search is also clipped to the
+//               part of the box each camera sees, coarse to fine to the box;
+//   greys       normalize_contrast when the 99th percentile grey is below 128 (most of
+//               the range unused); sqrt_greys when the median grey is below 64 (a dark,
+//               shot-noise-limited exposure);
+//   large images (>= kLargeImagePx pixels per camera): coarse to fine, window 11,
+//               uniqueness 0.02, the two nearest cameras as the cluster, speckle pieces
+//               below 1.5 % of the image (step two voxels) dropped, 10 Taubin smoothing
+//               iterations of mesh.ply;
+//   fusion      truncation and free-space clamp three voxels (the seed's), one voxel for
+//               large images (the budget makes their voxel coarser than their matches'
+//               depth error).
+// Every value derived is named in Derivation::notes with how it was found; the
+// master copies them to OUT/report.json ("derived"), with the volume.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "runtime.pb.h"
+#include "take/take.h"
+
+namespace dome::pipeline {
+
+inline constexpr double kMaxVoxels = 300.0 * 300.0 * 300.0;  // the seed's 6 m / 20 mm cube
+inline constexpr int kLargeImagePx = 500000;                 // "large images", pixels
+
+struct DeriveRequest {
+  // The volume to use instead of the scene's box (dome run --box), world mm.
+  std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> box;
+  int num_threads = 0;  // the coarse pass's threads; 0: all
+};
+
+struct Derivation {
+  std::vector<std::string> notes;  // "volume: ... (how)", one per derived value
+};
+
+// Fills the unset fields of `session` (its take must be set) from the take. Throws
+// core::InputError naming the take or the field when nothing sensible can be derived
+// (then the message says which flag to give).
+Derivation DeriveSession(const DeriveRequest& request, runtime::Session* session);
+
+}  // namespace dome::pipeline

@@ -1,0 +1,97 @@
+// Session values derived from a take (pipeline/derive.h) on the small synthetic dome:
+// the volume found from the images holds the truth mesh (used here only to judge) and
+// is not much larger; given values are kept; --box replaces the volume; the derived
+// session resolves.
+#include "pipeline/derive.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+
+#include "io/ply.h"
+#include "pipeline/session.h"
+#include "pipeline/small_take_suite.h"
+#include "take/take.h"
+#include "testing/expect_error.h"
+
+namespace dome::pipeline {
+namespace {
+
+class Derive : public SmallTakeSuite {
+ protected:
+  static runtime::Session Fresh() {
+    runtime::Session s;
+    s.set_take(TakeDir().string());
+    s.set_out("/nonexistent/out");
+    return s;
+  }
+  static fusion::VolumeGrid Grid(const runtime::Session& s) {
+    return ResolveSessionOptions(s, "derived").grid;
+  }
+};
+
+TEST_F(Derive, VolumeHoldsTheSceneAndLittleElse) {
+  runtime::Session s = Fresh();
+  const Derivation d = DeriveSession({}, &s);
+  const fusion::VolumeGrid g = Grid(s);
+  const Eigen::Vector3d lo = g.origin_mm,
+                        hi = g.origin_mm + g.voxel_size_mm * Eigen::Vector3d(g.nx, g.ny, g.nz);
+  // The person: the truth mesh above the floor (z = 0) and inside the dome's shell
+  // (radius 6 m), used here only to judge.
+  const take::Take take = take::OpenTake(TakeDir());
+  const io::Mesh truth = io::ReadPly(take.TruthMeshPath(take.instants.front()));
+  Eigen::Vector3d tlo = Eigen::Vector3d::Constant(1e30), thi = -tlo;
+  for (const auto& v : truth.vertices) {
+    if (v.z() < 50 || v.z() > 3000 || std::hypot(v.x(), v.y()) > 3000) continue;
+    tlo = tlo.cwiseMin(v.cast<double>());
+    thi = thi.cwiseMax(v.cast<double>());
+  }
+  ASSERT_LT(tlo.z(), thi.z());
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LE(lo(a), tlo(a)) << "axis " << a;
+    EXPECT_GE(hi(a), thi(a)) << "axis " << a;
+  }
+  // Far smaller than the seed's 6 m cube, and the voxel one pixel's footprint or more.
+  EXPECT_LT((hi - lo).prod(), 0.5 * 6000.0 * 6000.0 * 6000.0);
+  EXPECT_GT(g.voxel_size_mm, 0);
+  // Every derived value says how it was found.
+  bool volume_note = false;
+  for (const auto& n : d.notes) volume_note |= n.rfind("volume: ", 0) == 0;
+  EXPECT_TRUE(volume_note);
+  EXPECT_TRUE(s.stereo().has_z_min_mm() && s.stereo().has_z_max_mm());
+  EXPECT_LT(s.stereo().z_min_mm(), s.stereo().z_max_mm());
+}
+
+TEST_F(Derive, GivenValuesAndTheBoxWin) {
+  runtime::Session s = Fresh();
+  s.mutable_volume()->set_voxel_size_mm(50);
+  s.mutable_stereo()->set_normalize_contrast(true);
+  s.mutable_fusion()->set_truncation_mm(123);
+  DeriveRequest r;
+  r.box = {{-1000, -1000, 0}, {1000, 500, 2000}};
+  DeriveSession(r, &s);
+  const fusion::VolumeGrid g = Grid(s);
+  EXPECT_EQ(g.voxel_size_mm, 50);
+  EXPECT_EQ(g.origin_mm, Eigen::Vector3d(-1000, -1000, 0));
+  EXPECT_EQ(g.nx, 40);
+  EXPECT_EQ(g.ny, 30);
+  EXPECT_EQ(g.nz, 40);
+  EXPECT_TRUE(s.stereo().normalize_contrast());
+  EXPECT_EQ(s.fusion().truncation_mm(), 123);
+  // A session that names its volume keeps it.
+  runtime::Session again = s;
+  DeriveSession({}, &again);
+  EXPECT_EQ(Grid(again).origin_mm, g.origin_mm);
+  EXPECT_EQ(Grid(again).nx, g.nx);
+}
+
+TEST_F(Derive, BadBoxIsNamed) {
+  runtime::Session s = Fresh();
+  DeriveRequest r;
+  r.box = {{0, 0, 0}, {100, -5, 100}};
+  dome::testing::ExpectInputError([&] { DeriveSession(r, &s); }, {"--box", "YMIN < YMAX"});
+}
+
+}  // namespace
+}  // namespace dome::pipeline
