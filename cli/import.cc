@@ -1,4 +1,4 @@
-// `dome import halcon|middlebury|colmap ... --out TAKE`: make a take from another
+// `dome import halcon|middlebury|colmap|panoptic ... --out TAKE`: make a take from another
 // tool's calibrated images (take/import.h), optionally cropped to a world box
 // (take/crop.h): --crop-box X0 Y0 Z0 X1 Y1 Z1 (mm) [--crop-margin-px N].
 #include "take/import.h"
@@ -53,8 +53,8 @@ void AddCommonOptions(CLI::App* cmd, ImportArgs* args) {
 
 // Crops the written take when asked, then reports it.
 void FinishImport(const ImportArgs& args, const take::Take& take) {
-  std::printf("wrote take %s: %zu camera(s), instant %s\n", take.dir.c_str(),
-              take.rig.cameras.size(), take.instants.front().c_str());
+  std::printf("wrote take %s: %zu camera(s), %zu instant(s) from %s\n", take.dir.c_str(),
+              take.rig.cameras.size(), take.instants.size(), take.instants.front().c_str());
   if (args.crop_box.empty()) return;
   const take::CropSummary c = take::CropTakeToBox(take.dir, CropBoxOf(args));
   std::printf("cropped %d camera(s) to the box: %.1f%% of the pixels kept\n", c.cameras_cropped,
@@ -93,6 +93,13 @@ void AddImportCommand(CLI::App* app, int* exit_code) {
     FinishImport(*args, take::ImportColmap(args->source, args->images, args->out, args->mm_per_unit,
                                            args->options));
   });
+  auto* panoptic = cmd->add_subcommand(
+      "panoptic", "A CMU Panoptic excerpt (camera_parameters.json, hd/<camera>/ frames)");
+  panoptic->add_option("DIR", args->source, "folder with camera_parameters.json and hd/")
+      ->required();
+  AddCommonOptions(panoptic, args.get());
+  panoptic->callback(
+      [=] { FinishImport(*args, take::ImportPanoptic(args->source, args->out, args->options)); });
   *exit_code = 0;
 }
 

@@ -40,6 +40,9 @@ std::vector<cv::Mat> KeepConsistentDepth(const std::vector<RangeImage>& images,
   const int threads = options.num_threads > 0 ? options.num_threads : core::HardwareThreads();
   for (size_t a = 0; a < images.size(); ++a) {
     const RangeImage& image = images[a];
+    const geometry::TsaiCamera self = image.PixelCamera();
+    std::vector<geometry::TsaiCamera> group_cams;
+    for (const auto& group : groups) group_cams.push_back(images[group[0]].PixelCamera());
     out[a] = image.depth_mm.clone();
     cv::Mat& depth = out[a];
     core::ParallelFor(0, depth.rows, threads, [&](int64_t y0, int64_t y1) {
@@ -48,11 +51,11 @@ std::vector<cv::Mat> KeepConsistentDepth(const std::vector<RangeImage>& images,
         for (int x = 0; x < depth.cols; ++x) {
           if (!(row[x] > 0.0f)) continue;
           const Eigen::Vector3d world =
-              image.camera.BackProjectAtDepth(Eigen::Vector2d(x, double(y)), row[x]);
+              self.BackProjectAtDepth(Eigen::Vector2d(x, double(y)), row[x]);
           int agree = 0;
           for (size_t g = 0; g < groups.size() && agree < options.min_views; ++g) {
             if (int(g) == group_of[a]) continue;
-            const geometry::TsaiCamera& cam = images[groups[g][0]].camera;
+            const geometry::TsaiCamera& cam = group_cams[g];
             const Eigen::Vector3d q = cam.WorldToCamera(world);
             Eigen::Vector2d pixel;
             if (!cam.ProjectCamera(q, &pixel)) continue;

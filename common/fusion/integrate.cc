@@ -351,7 +351,7 @@ Integrator::Integrator(const VolumeGrid& grid, const std::vector<RangeImage>& im
     for (int64_t c = c_begin; c < c_end; ++c) {
       const RangeImage& image = images[c];
       const cv::Mat& depth_mm = consistent.empty() ? image.depth_mm : consistent[c];
-      const geometry::TsaiCamera& cam = image.camera;
+      const geometry::TsaiCamera cam = image.PixelCamera();
       CameraTables& t = cameras_[c];
       TableRegion region(arena_->start() + region_begin[c], region_begin[c + 1] - region_begin[c]);
       t.rotation = cam.rotation;

@@ -82,6 +82,15 @@ struct RangeImage {
   cv::Mat depth_mm;   // CV_32FC1, camera.height_px x camera.width_px, 0 = invalid
   cv::Mat weight;     // empty (uniform weight 1) or CV_32FC1 of the same size, >= 0
   std::string where;  // names the source (file) in errors
+
+  // The camera whose pixels the depth map holds: `camera`, or for a camera with an
+  // OpenCV lens its ideal (undistorted) camera, the frame stereo matches in
+  // (stereo/multi_baseline.h).
+  geometry::TsaiCamera PixelCamera() const {
+    geometry::TsaiCamera c = camera;
+    c.lens = {};
+    return c;
+  }
 };
 
 // Throws core::InputError naming the image's `where` when the depth map is not

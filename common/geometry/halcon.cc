@@ -115,6 +115,9 @@ class IntrinsicsFile {
 };
 
 void RequireNoDistortion(const TsaiCamera& camera, const std::string& path) {
+  core::Require(!camera.lens.Any(), Where(path, "camera '" + camera.id + "'"),
+                "has an OpenCV lens, which these HALCON files cannot hold; undistort the "
+                "images (geometry/undistort.h) and write the ideal camera instead");
   core::Require(camera.kappa1_per_mm2 == 0.0, Where(path, "camera '" + camera.id + "'"),
                 "kappa1 = " + FormatDouble(camera.kappa1_per_mm2) +
                     ": HALCON's distortion models differ from Tsai's; undistort the images "

@@ -170,6 +170,9 @@ PinholeCamera PinholeFromTsai(const TsaiCamera& camera, const PinholeConversionO
                               RadialFitReport* report) {
   camera.Check(CameraWhere(camera.id));
   options.Check();
+  core::Require(!camera.lens.Any(), CameraWhere(camera.id) + ": lens",
+                "an OpenCV lens with tangential terms has no k1/k2 pinhole equivalent here; "
+                "undistort the images and convert the ideal camera");
   PinholeCamera pinhole;
   pinhole.id = camera.id;
   pinhole.width_px = camera.width_px;

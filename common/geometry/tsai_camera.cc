@@ -39,6 +39,12 @@ void TsaiCamera::Check(const std::string& where) const {
   RequirePositive(sensor.dpx_mm(), where, "sensor.dpx_mm (dx * ncx / nfx)");
   RequirePositive(focal_mm, where, "focal_mm");
   RequireFinite(kappa1_per_mm2, where, "kappa1_per_mm2");
+  for (const auto& [v, name] :
+       {std::pair{lens.k1, "lens.k1"}, std::pair{lens.k2, "lens.k2"}, std::pair{lens.p1, "lens.p1"},
+        std::pair{lens.p2, "lens.p2"}, std::pair{lens.k3, "lens.k3"}})
+    RequireFinite(v, where, name);
+  core::Require(!(lens.Any() && kappa1_per_mm2 != 0.0), Field(where, "lens"),
+                "cannot be combined with kappa1_per_mm2 (one distortion model per camera)");
   RequireFinite(cx_px, where, "cx_px");
   RequireFinite(cy_px, where, "cy_px");
   RequirePositive(sx, where, "sx");
@@ -62,7 +68,47 @@ Eigen::Vector2d TsaiCamera::SensorToPixel(const Eigen::Vector2d& sensor_mm) cons
   return {sensor_mm.x() * sx / sensor.dpx_mm() + cx_px, sensor_mm.y() / sensor.dpy_mm() + cy_px};
 }
 
+bool OpenCvLens::Undistort(const Eigen::Vector2d& d, Eigen::Vector2d* n) const {
+  Eigen::Vector2d u = d;
+  for (int it = 0; it < 50; ++it) {
+    const double x = u.x(), y = u.y(), r2 = x * x + y * y;
+    const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    const double dradial = k1 + r2 * (2 * k2 + r2 * 3 * k3);  // d radial / d(r^2)
+    Eigen::Matrix2d j;
+    j(0, 0) = radial + x * dradial * 2 * x + 2 * p1 * y + 6 * p2 * x;
+    j(0, 1) = x * dradial * 2 * y + 2 * p1 * x + 2 * p2 * y;
+    j(1, 0) = y * dradial * 2 * x + 2 * p1 * x + 2 * p2 * y;
+    j(1, 1) = radial + y * dradial * 2 * y + 6 * p1 * y + 2 * p2 * x;
+    const Eigen::Vector2d f = Distort(u) - d;
+    if (f.norm() < 1e-13) {
+      *n = u;
+      return InRange(u);
+    }
+    u -= j.inverse() * f;
+    if (!u.allFinite()) return false;
+  }
+  *n = u;
+  return (Distort(u) - d).norm() < 1e-10 && InRange(u);
+}
+
+namespace {
+// Pixel <-> normalized coordinates of the ideal camera.
+Eigen::Vector2d Normalized(const TsaiCamera& c, const Eigen::Vector2d& px) {
+  return {(px.x() - c.cx_px) * c.sensor.dpx_mm() / (c.focal_mm * c.sx),
+          (px.y() - c.cy_px) * c.sensor.dpy_mm() / c.focal_mm};
+}
+Eigen::Vector2d Pixel(const TsaiCamera& c, const Eigen::Vector2d& n) {
+  return {c.focal_mm * c.sx / c.sensor.dpx_mm() * n.x() + c.cx_px,
+          c.focal_mm / c.sensor.dpy_mm() * n.y() + c.cy_px};
+}
+}  // namespace
+
 Eigen::Vector2d TsaiCamera::UndistortPixel(const Eigen::Vector2d& distorted) const {
+  if (lens.Any()) {
+    Eigen::Vector2d n;
+    lens.Undistort(Normalized(*this, distorted), &n);
+    return Pixel(*this, n);
+  }
   if (kappa1_per_mm2 == 0.0) {
     return distorted;
   }
@@ -72,6 +118,12 @@ Eigen::Vector2d TsaiCamera::UndistortPixel(const Eigen::Vector2d& distorted) con
 
 bool TsaiCamera::DistortPixelIfInRange(const Eigen::Vector2d& undistorted,
                                        Eigen::Vector2d* distorted) const {
+  if (lens.Any()) {
+    const Eigen::Vector2d n = Normalized(*this, undistorted);
+    if (!lens.InRange(n)) return false;
+    *distorted = Pixel(*this, lens.Distort(n));
+    return true;
+  }
   if (kappa1_per_mm2 == 0.0) {
     *distorted = undistorted;
     return true;
@@ -91,6 +143,7 @@ bool TsaiCamera::DistortPixelIfInRange(const Eigen::Vector2d& undistorted,
 }
 
 Eigen::Vector2d TsaiCamera::DistortPixel(const Eigen::Vector2d& undistorted) const {
+  if (lens.Any()) return Pixel(*this, lens.Distort(Normalized(*this, undistorted)));
   if (kappa1_per_mm2 == 0.0) {
     return undistorted;
   }
@@ -105,6 +158,11 @@ Eigen::Vector2d TsaiCamera::DistortPixel(const Eigen::Vector2d& undistorted) con
 }
 
 Eigen::Vector3d TsaiCamera::BackProject(const Eigen::Vector2d& pixel) const {
+  if (lens.Any()) {
+    Eigen::Vector2d n;
+    lens.Undistort(Normalized(*this, pixel), &n);
+    return rotation.transpose() * Eigen::Vector3d(n.x(), n.y(), 1.0).normalized();
+  }
   const Eigen::Vector2d d = PixelToSensor(pixel);
   const Eigen::Vector2d u = d * (1.0 + kappa1_per_mm2 * d.squaredNorm());
   const Eigen::Vector3d ray_camera(u.x(), u.y(), focal_mm);
@@ -113,6 +171,12 @@ Eigen::Vector3d TsaiCamera::BackProject(const Eigen::Vector2d& pixel) const {
 
 Eigen::Vector3d TsaiCamera::BackProjectAtDepth(const Eigen::Vector2d& pixel,
                                                double depth_mm) const {
+  if (lens.Any()) {
+    Eigen::Vector2d n;
+    lens.Undistort(Normalized(*this, pixel), &n);
+    return rotation.transpose() *
+           (Eigen::Vector3d(n.x() * depth_mm, n.y() * depth_mm, depth_mm) - translation_mm);
+  }
   const Eigen::Vector2d d = PixelToSensor(pixel);
   const Eigen::Vector2d u = d * (1.0 + kappa1_per_mm2 * d.squaredNorm());
   const Eigen::Vector3d camera_mm(u.x() * depth_mm / focal_mm, u.y() * depth_mm / focal_mm,

@@ -74,16 +74,46 @@ inline bool DistortedRadiusMm(double undistorted_mm, double kappa1_per_mm2, doub
   return true;
 }
 
+// OpenCV's radial-tangential lens (the model of cv::projectPoints with five
+// coefficients), on normalized coordinates of the ideal camera (x, y) = (Xc/Zc, Yc/Zc):
+//   r^2 = x^2 + y^2,  radial = 1 + k1 r^2 + k2 r^4 + k3 r^6
+//   x_d = x radial + 2 p1 x y + p2 (r^2 + 2 x^2)
+//   y_d = y radial + p1 (r^2 + 2 y^2) + 2 p2 x y
+// then pixel = (fx x_d + cx, fy y_d + cy) with the camera's K(). It maps undistorted ->
+// distorted (Tsai's kappa1 goes the other way); the inverse is found by Newton's method
+// to 1e-12 of a normalized unit (OpenCvLens::Undistort).
+struct OpenCvLens {
+  double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
+  bool Any() const { return k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0; }
+  Eigen::Vector2d Distort(const Eigen::Vector2d& n) const {
+    const double x = n.x(), y = n.y(), r2 = x * x + y * y;
+    const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+            y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+  }
+  // The undistorted normalized point whose Distort is `d`; false when Newton's method
+  // does not converge (beyond the radius where the lens folds back).
+  bool Undistort(const Eigen::Vector2d& d, Eigen::Vector2d* n) const;
+  // False where the map is not one-to-one any more: the radial factor's derivative
+  // d(r radial)/dr <= 0 (strong barrel distortion folding back beyond some radius).
+  bool InRange(const Eigen::Vector2d& n) const {
+    const double r2 = n.squaredNorm();
+    return 1 + r2 * (3 * k1 + r2 * (5 * k2 + r2 * 7 * k3)) > 0;
+  }
+};
+
 struct TsaiCamera {
   std::string id;     // camera identifier, unique within a rig
   int width_px = 0;   // image width, in pixels
   int height_px = 0;  // image height, in pixels
   TsaiSensor sensor;
-  double focal_mm = 0.0;                                     // effective focal length, in mm
-  double kappa1_per_mm2 = 0.0;                               // radial distortion, in 1/mm^2
-  double cx_px = 0.0;                                        // image centre x, in pixels
-  double cy_px = 0.0;                                        // image centre y, in pixels
-  double sx = 1.0;                                           // horizontal scale factor
+  double focal_mm = 0.0;        // effective focal length, in mm
+  double kappa1_per_mm2 = 0.0;  // radial distortion, in 1/mm^2
+  double cx_px = 0.0;           // image centre x, in pixels
+  double cy_px = 0.0;           // image centre y, in pixels
+  double sx = 1.0;              // horizontal scale factor
+  // OpenCV's lens instead of kappa1 (at most one of the two is set; Check refuses both).
+  OpenCvLens lens;
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();    // world -> camera
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();  // world -> camera, in mm
 
@@ -99,6 +129,9 @@ struct TsaiCamera {
   Eigen::Vector3d WorldToCamera(const Eigen::Vector3d& world_mm) const {
     return rotation * world_mm + translation_mm;
   }
+
+  // Any lens distortion (kappa1 or the OpenCV lens).
+  bool HasDistortion() const { return kappa1_per_mm2 != 0.0 || lens.Any(); }
 
   // World point -> distorted pixel (what the real camera sees). Returns false, and
   // leaves *pixel untouched, when the point is not in front of the camera (Zc <= 0).
@@ -137,6 +170,13 @@ inline bool TsaiCamera::ProjectCamera(const Eigen::Vector3d& camera_mm,
                                       Eigen::Vector2d* pixel) const {
   if (!(camera_mm.z() > 0.0)) {
     return false;
+  }
+  if (lens.Any()) {
+    const Eigen::Vector2d d =
+        lens.Distort(Eigen::Vector2d(camera_mm.x() / camera_mm.z(), camera_mm.y() / camera_mm.z()));
+    (*pixel)[0] = focal_mm * sx / sensor.dpx_mm() * d.x() + cx_px;
+    (*pixel)[1] = focal_mm / sensor.dpy_mm() * d.y() + cy_px;
+    return true;
   }
   // Same order of operations as Willson's world_coord_to_image_coord.
   const double xu = focal_mm * camera_mm.x() / camera_mm.z();

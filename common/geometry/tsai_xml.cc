@@ -264,6 +264,8 @@ TsaiCamera ReadTsaiXml(const std::string& path) {
 
 void WriteTsaiXml(const std::string& path, const TsaiCamera& camera) {
   camera.Check(Where(path, "camera '" + camera.id + "'"));
+  core::Require(!camera.lens.Any(), Where(path, "camera '" + camera.id + "'"),
+                "has an OpenCV lens, which Tsai's XML (kappa1 only) cannot hold");
   const auto attr = [](const char* name, double value) {
     return std::string(" ") + name + "=\"" + FormatDouble(value) + "\"";
   };

@@ -66,6 +66,11 @@ std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camer
                                camera.sensor.dy_mm,
                                camera.focal_mm,
                                camera.kappa1_per_mm2,
+                               camera.lens.k1,
+                               camera.lens.k2,
+                               camera.lens.p1,
+                               camera.lens.p2,
+                               camera.lens.k3,
                                camera.cx_px,
                                camera.cy_px,
                                camera.sx};

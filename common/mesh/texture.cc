@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/parallel_for.h"
+#include "geometry/undistort.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
 
@@ -144,6 +145,19 @@ std::vector<float> RenderZBuffer(const geometry::TsaiCamera& cam, const FastView
     }
   }
   return zbuf;
+}
+
+// Views of cameras with an OpenCV lens resampled once into their ideal cameras (the
+// exact lens through geometry/undistort.h's tables), so that the projections below,
+// written for Tsai's radial model, hold for every view.
+std::vector<TextureView> IdealViews(const std::vector<TextureView>& views) {
+  std::vector<TextureView> out = views;
+  for (auto& v : out) {
+    if (!v.camera.lens.Any()) continue;
+    v.image = geometry::Remap(v.image, *geometry::SharedUndistortTables(v.camera));
+    v.camera.lens = {};
+  }
+  return out;
 }
 
 std::vector<ShadingView> PrepareViews(const io::Mesh& mesh, const std::vector<TextureView>& views,
@@ -507,7 +521,8 @@ void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
                    const TextureOptions& options) {
   options.Check();
   for (const auto& v : views) CheckTextureView(v);
-  const auto prepared = PrepareViews(*mesh, views, options, false);
+  const std::vector<TextureView> ideal = IdealViews(views);
+  const auto prepared = PrepareViews(*mesh, ideal, options, false);
   const std::vector<FastView> fast = FastViews(prepared);
   std::vector<Eigen::Vector3d> normals(mesh->vertices.size(), Eigen::Vector3d::Zero());
   for (const auto& f : mesh->faces) {
@@ -535,7 +550,8 @@ TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureVi
                                const TextureOptions& options) {
   options.Check();
   for (const auto& v : views) CheckTextureView(v);
-  const auto prepared = PrepareViews(mesh, views, options, !options.exhaustive);
+  const std::vector<TextureView> ideal = IdealViews(views);
+  const auto prepared = PrepareViews(mesh, ideal, options, !options.exhaustive);
   const std::vector<FastView> fast = FastViews(prepared);
   TexturedMesh out;
   out.mesh.vertices = mesh.vertices;

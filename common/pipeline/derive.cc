@@ -87,11 +87,14 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
                     st->normalize_contrast(), greys.p99));
   }
   if (!st->has_sqrt_greys()) {
-    // A dark exposure is shot-noise limited: the noise variance grows with the signal,
-    // and matching square roots levels it.
-    st->set_sqrt_greys(greys.median < 64);
-    d.notes.push_back(fmt::format("stereo.sqrt_greys: {} (median grey {:.0f}; on below 64)",
-                                  st->sqrt_greys(), greys.median));
+    // A dark exposure (even its bright end below half the range) is shot-noise limited:
+    // the noise variance grows with the signal, and matching square roots levels it. A
+    // bright object on a black background is not dark: there the roots would lift the
+    // background's noise.
+    st->set_sqrt_greys(greys.p99 < 128);
+    d.notes.push_back(
+        fmt::format("stereo.sqrt_greys: {} (99th percentile grey {:.0f}; on below 128)",
+                    st->sqrt_greys(), greys.p99));
   }
   if (large) {
     // Large images: the settings measured best on megapixel frames (README "Robovision").
@@ -220,7 +223,23 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     for (int a = 0; a < 3; ++a) c->add_clip_max_mm(hi(a));
     if (!c->has_clip_pad_mm()) c->set_clip_pad_mm(2 * voxel);
   }
-  if (large && !st->has_speckle_area_px()) {
+  // A sparse rig: some camera has no other within the cluster's axis angle (it matches
+  // with cameras far apart, stereo/cluster.h), so its depths come in fragments.
+  bool sparse = false;
+  {
+    const stereo::ClusterOptions co = ResolveSessionOptions(*s, "session").stereo.cluster;
+    const double cos_max = std::cos(co.max_axis_angle_deg * M_PI / 180.0);
+    for (const auto& a : take.rig.cameras) {
+      bool near = false;
+      for (const auto& b : take.rig.cameras)
+        near |= &a != &b && a.model.rotation.row(2).dot(b.model.rotation.row(2)) >= cos_max;
+      sparse |= !near && a.neighbours.empty();
+    }
+  }
+  if (large && sparse && !st->has_speckle_area_px()) {
+    d.notes.push_back("stereo.speckle_area_px: none (a sparse rig: fragments are its depths)");
+  }
+  if (large && !sparse && !st->has_speckle_area_px()) {
     // Wrong matches come as islands; a true surface piece of a megapixel image is larger.
     st->set_speckle_area_px(int(0.015 * double(pixels)));
     if (!st->has_speckle_step_mm()) st->set_speckle_step_mm(2 * voxel);

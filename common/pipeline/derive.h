@@ -13,9 +13,8 @@
 //               +-2 voxels; per camera (camera_depths) the depths of the coarse pass's
 //               scene points in its image; the full-range search is also clipped to the
 //               part of the box each camera sees, coarse to fine to the box;
-//   greys       normalize_contrast when the 99th percentile grey is below 128 (most of
-//               the range unused); sqrt_greys when the median grey is below 64 (a dark,
-//               shot-noise-limited exposure);
+//   greys       a dark exposure (99th percentile grey below 128: most of the range
+//               unused, shot noise dominant): normalize_contrast and sqrt_greys;
 //   large images (>= kLargeImagePx pixels per camera): coarse to fine, window 11,
 //               uniqueness 0.02, the two nearest cameras as the cluster, speckle pieces
 //               below 1.5 % of the image (step two voxels) dropped, 10 Taubin smoothing

@@ -25,6 +25,13 @@ RigCamera FromProto(const proto::Camera& c, const std::string& where) {
   m.sensor.dy_mm = c.sensor().dy_mm();
   m.focal_mm = c.focal_mm();
   m.kappa1_per_mm2 = c.kappa1_per_mm2();
+  if (c.opencv_distortion_size() > 0) {
+    Require(
+        c.opencv_distortion_size() == 5, where + ".opencv_distortion",
+        "expected 5 values (k1 k2 p1 p2 k3), got " + std::to_string(c.opencv_distortion_size()));
+    m.lens = {c.opencv_distortion(0), c.opencv_distortion(1), c.opencv_distortion(2),
+              c.opencv_distortion(3), c.opencv_distortion(4)};
+  }
   m.cx_px = c.cx_px();
   m.cy_px = c.cy_px();
   m.sx = c.sx();
@@ -51,6 +58,10 @@ void ToProto(const RigCamera& in, proto::Camera* c) {
   c->mutable_sensor()->set_dy_mm(m.sensor.dy_mm);
   c->set_focal_mm(m.focal_mm);
   c->set_kappa1_per_mm2(m.kappa1_per_mm2);
+  if (m.lens.Any()) {
+    for (double v : {m.lens.k1, m.lens.k2, m.lens.p1, m.lens.p2, m.lens.k3})
+      c->add_opencv_distortion(v);
+  }
   c->set_cx_px(m.cx_px);
   c->set_cy_px(m.cy_px);
   c->set_sx(m.sx);

@@ -62,7 +62,7 @@ cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool und
     throw core::InputError(where + ": image", "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
   }
   if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
-  if (undistort && cam.kappa1_per_mm2 != 0.0) {
+  if (undistort && cam.HasDistortion()) {
     const auto tables = geometry::SharedUndistortTables(cam);
     grey = geometry::Remap(grey, *tables);
     valid = geometry::Remap(valid, *tables);

@@ -3,10 +3,12 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <regex>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "geometry/colmap.h"
 #include "geometry/halcon.h"
 #include "geometry/middlebury.h"
@@ -171,6 +173,137 @@ Take ImportColmap(const fs::path& sparse_dir, const fs::path& images_dir, const 
     images.push_back(images_dir / image.name);
   }
   return WriteImportedTake(rig, images, out, options);
+}
+
+namespace {
+
+// The numbers of a JSON array of `n` numbers at `field` of `camera` (errors name both).
+std::vector<double> Numbers(const core::Json& camera, const char* field, size_t n,
+                            const std::string& where) {
+  const auto it = camera.find(field);
+  Require(it != camera.end(), where + "." + field, "missing");
+  std::vector<double> out;
+  const auto flat = [&](const core::Json& v, auto&& self) -> void {
+    if (v.is_array()) {
+      for (const auto& e : v) self(e, self);
+    } else {
+      Require(v.is_number() && std::isfinite(v.get<double>()), where + "." + field,
+              "expected numbers, got " + v.dump());
+      out.push_back(v.get<double>());
+    }
+  };
+  flat(*it, flat);
+  Require(out.size() == n, where + "." + field,
+          "expected " + std::to_string(n) + " numbers, got " + std::to_string(out.size()));
+  return out;
+}
+
+}  // namespace
+
+Take ImportPanoptic(const fs::path& dir, const fs::path& out, const ImportOptions& options) {
+  options.Check();
+  std::error_code ec;
+  const fs::path params = dir / "camera_parameters.json";
+  Require(fs::is_regular_file(params, ec), params.string(), "missing");
+  core::Json doc;
+  try {
+    doc = core::Json::parse(io::ReadFileBytes(params));
+  } catch (const core::Json::exception& e) {
+    throw core::InputError(params.string(), std::string("not JSON: ") + e.what());
+  }
+  Require(doc.contains("cameras") && doc["cameras"].is_array(), params.string() + ": cameras",
+          "missing (expected an array of cameras)");
+  const fs::path hd = dir / "hd";
+  Require(fs::is_directory(hd, ec), hd.string(), "missing: the HD frames' folder");
+  geometry::Rig rig;
+  rig.source = "panoptic";
+  rig.source_unit = "cm";
+  rig.source_unit_mm = 10.0;
+  std::vector<std::vector<std::pair<std::string, fs::path>>> frames;  // per camera
+  for (size_t i = 0; i < doc["cameras"].size(); ++i) {
+    const core::Json& c = doc["cameras"][i];
+    const std::string name = c.value("name", "");
+    const std::string where =
+        params.string() + ": cameras[" + std::to_string(i) + "] '" + name + "'";
+    Require(!name.empty(), where + ".name", "missing");
+    if (!fs::is_directory(hd / name, ec)) continue;  // calibrated, not filmed here
+    const std::vector<double> res = Numbers(c, "resolution", 2, where);
+    const std::vector<double> k = Numbers(c, "K", 9, where);
+    const std::vector<double> d = Numbers(c, "distCoef", 5, where);
+    const std::vector<double> r = Numbers(c, "R", 9, where);
+    const std::vector<double> t = Numbers(c, "t", 3, where);
+    Require(
+        std::abs(k[1]) <= 1e-9 * std::abs(k[0]) && k[3] == 0 && k[6] == 0 && k[7] == 0 && k[8] == 1,
+        where + ".K", "must be [fx 0 cx; 0 fy cy; 0 0 1] (no skew)");
+    Require(k[0] > 0 && k[4] > 0, where + ".K", "needs positive focal lengths");
+    geometry::RigCamera rc;
+    geometry::TsaiCamera& m = rc.model;
+    m.id = name;
+    m.width_px = int(res[0]);
+    m.height_px = int(res[1]);
+    Require(m.width_px == res[0] && m.height_px == res[1] && m.width_px > 0 && m.height_px > 0,
+            where + ".resolution", "expected two positive whole numbers");
+    // One sensor element per pixel of 0.01 mm (only focal / pitch matters), as pinhole.h.
+    m.sensor.ncx = m.sensor.nfx = m.width_px;
+    m.sensor.dx_mm = m.sensor.dy_mm = 0.01;
+    m.focal_mm = k[4] * 0.01;
+    m.sx = k[0] / k[4];
+    m.cx_px = k[2];  // OpenCV's pixel centres are at integers, as dome's
+    m.cy_px = k[5];
+    m.lens = {d[0], d[1], d[2], d[3], d[4]};
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) m.rotation(a, b) = r[3 * a + b];
+      m.translation_mm(a) = 10.0 * t[a];  // centimetres
+    }
+    m.Check(where);
+    std::vector<std::pair<std::string, fs::path>> mine;
+    const std::regex frame_name(name + R"(_(\d+)\.(jpg|png))");
+    for (const auto& e : fs::directory_iterator(hd / name)) {
+      std::smatch match;
+      const std::string f = e.path().filename().string();
+      if (!std::regex_match(f, match, frame_name)) continue;
+      const long n = std::stol(match[1]);
+      Timecode tc;
+      tc.frames = int(n % 30);
+      tc.seconds = int(n / 30 % 60);
+      tc.minutes = int(n / 1800 % 60);
+      tc.hours = int(n / 108000);
+      Require(tc.hours < 24, e.path().string(), "frame number beyond 24 hours");
+      mine.emplace_back(tc.FolderName(), e.path());
+    }
+    Require(!mine.empty(), (hd / name).string(),
+            "no frames named " + name + "_<frame>.jpg for camera '" + name + "'");
+    std::sort(mine.begin(), mine.end());
+    frames.push_back(std::move(mine));
+    rig.cameras.push_back(rc);
+  }
+  Require(rig.cameras.size() >= 2, hd.string(),
+          "needs frames of at least two calibrated cameras, found " +
+              std::to_string(rig.cameras.size()));
+  for (size_t c = 1; c < frames.size(); ++c) {
+    std::vector<std::string> a, b;
+    for (const auto& f : frames[0]) a.push_back(f.first);
+    for (const auto& f : frames[c]) b.push_back(f.first);
+    Require(a == b, (hd / rig.cameras[c].model.id).string(),
+            "does not hold the same frames as " + (hd / rig.cameras[0].model.id).string());
+  }
+  CreateTakeDir(out, options.overwrite);
+  for (size_t t = 0; t < frames[0].size(); ++t) {
+    const fs::path folder = out / "frames" / frames[0][t].first;
+    fs::create_directories(folder, ec);
+    Require(!ec, folder.string(), "cannot create folder: " + ec.message());
+    for (size_t c = 0; c < frames.size(); ++c) {
+      const cv::Mat image = io::ReadImage(frames[c][t].second, io::ImageMode::kUnchanged);
+      const auto& m = rig.cameras[c].model;
+      Require(image.cols == m.width_px && image.rows == m.height_px, frames[c][t].second.string(),
+              "is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                  ", but camera '" + m.id + "' is calibrated for " + std::to_string(m.width_px) +
+                  "x" + std::to_string(m.height_px));
+      io::WriteImage(folder / (m.id + ".png"), image);
+    }
+  }
+  schema::WriteRig(rig, out / "rig.json");
+  return OpenTake(out);
 }
 
 }  // namespace dome::take

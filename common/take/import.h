@@ -42,4 +42,15 @@ Take ImportColmap(const std::filesystem::path& sparse_dir, const std::filesystem
                   const std::filesystem::path& out, double mm_per_unit,
                   const ImportOptions& options = {});
 
+// A CMU Panoptic Studio excerpt: DIR/camera_parameters.json ({"cameras": [{"name",
+// "type", "resolution": [w, h], "K": 3x3, "distCoef": [k1, k2, p1, p2, k3], "R": 3x3,
+// "t": 3x1}]}, world -> camera in centimetres, OpenCV's lens) and the frames
+// DIR/hd/<camera>/<camera>_<frame>.jpg. Every camera with a folder under hd/ is
+// imported with its exact lens (geometry/tsai_camera.h OpenCvLens); each HD frame
+// number becomes an instant, its timecode the frame count at 30 frames a second
+// (HD frame 4500 -> 00-02-30-00). Every camera must have the same frames, of its
+// calibrated size. Source unit: centimetres.
+Take ImportPanoptic(const std::filesystem::path& dir, const std::filesystem::path& out,
+                    const ImportOptions& options = {});
+
 }  // namespace dome::take

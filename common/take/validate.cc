@@ -182,6 +182,11 @@ std::string TakeReport::Summary() const {
           m.id.c_str(), m.width_px, m.height_px, m.focal_mm / m.sensor.dpy_mm(), m.kappa1_per_mm2,
           c.x(), c.y(), c.z());
       out << line;
+      if (m.lens.Any()) {
+        std::snprintf(line, sizeof line, "  lens k1 %+.4f k2 %+.4f p1 %+.5f p2 %+.5f k3 %+.4f",
+                      m.lens.k1, m.lens.k2, m.lens.p1, m.lens.p2, m.lens.k3);
+        out << line;
+      }
       if (!cam.neighbours.empty()) out << "  cluster " << cam.neighbours.size() + 1;
       out << "\n";
     }

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "geometry_test_util.h"
+#include "testing/expect_error.h"
 
 namespace dome::geometry {
 namespace {
@@ -294,6 +295,58 @@ TEST(TsaiCamera, CheckNamesTheField) {
   camera = TypicalCamera(5e-4);
   camera.rotation(0, 0) += 1e-7;
   EXPECT_NO_THROW(camera.Check("c0"));
+}
+
+}  // namespace
+}  // namespace dome::geometry
+
+namespace dome::geometry {
+namespace {
+
+// OpenCV's lens: a Panoptic-like strong barrel lens with tangential terms.
+TsaiCamera LensCamera() {
+  TsaiCamera c;
+  c.id = "lens";
+  c.width_px = 1920;
+  c.height_px = 1080;
+  c.sensor.ncx = c.sensor.nfx = 1920;
+  c.focal_mm = 14.0;  // 1400 px at 0.01 mm
+  c.sx = 1.002;
+  c.cx_px = 955.3;
+  c.cy_px = 541.8;
+  c.lens = {-0.27, 0.21, 0.0007, -0.0004, -0.04};
+  c.translation_mm = Eigen::Vector3d(10, -20, 3000);
+  return c;
+}
+
+TEST(OpenCvLens, ProjectAndBackProjectInvertEachOtherOverTheImage) {
+  const TsaiCamera c = LensCamera();
+  c.Check("test");
+  double worst = 0;
+  for (int y = 0; y < c.height_px; y += 53) {
+    for (int x = 0; x < c.width_px; x += 61) {
+      const Eigen::Vector2d px(x, y);
+      Eigen::Vector2d back;
+      ASSERT_TRUE(c.Project(c.BackProjectAtDepth(px, 2500.0), &back));
+      worst = std::max(worst, (back - px).norm());
+      EXPECT_LT((c.DistortPixel(c.UndistortPixel(px)) - px).norm(), 1e-8);
+      // The ray of BackProject passes through the point at depth.
+      const Eigen::Vector3d ray = c.BackProject(px);
+      const Eigen::Vector3d p = c.BackProjectAtDepth(px, 2500.0) - c.CentreWorld();
+      EXPECT_LT((p.normalized() - ray).norm(), 1e-9);
+    }
+  }
+  EXPECT_LT(worst, 1e-8);
+}
+
+TEST(OpenCvLens, OneDistortionModelPerCamera) {
+  TsaiCamera c = LensCamera();
+  c.kappa1_per_mm2 = 1e-3;
+  dome::testing::ExpectInputError([&] { c.Check("rig.json: camera lens"); },
+                                  {"rig.json: camera lens: lens", "kappa1_per_mm2"});
+  c.kappa1_per_mm2 = 0;
+  c.lens.p1 = std::nan("");
+  dome::testing::ExpectInputError([&] { c.Check("cam"); }, {"cam: lens.p1", "finite"});
 }
 
 }  // namespace

@@ -4,8 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/json.h"
+#include "io/file_util.h"
 #include "io/image_io.h"
 #include "io/ply.h"
 #include "take/validate.h"
@@ -147,6 +152,96 @@ TEST(Import, RefusesToOverwriteWithoutPermission) {
   ImportOptions options;
   options.overwrite = true;
   EXPECT_NO_THROW(ImportMiddlebury(par, out, options));
+}
+
+}  // namespace
+}  // namespace dome::take
+
+namespace dome::take {
+namespace {
+
+// cv::projectPoints of world points (mm) with a Panoptic camera's own K, distCoef, R
+// and t (centimetres), read from the source JSON, not from the take.
+std::vector<cv::Point2d> OpenCvProjection(const core::Json& cam,
+                                          const std::vector<Eigen::Vector3d>& world_mm) {
+  cv::Mat k(3, 3, CV_64F), r(3, 3, CV_64F), t(3, 1, CV_64F), d(1, 5, CV_64F);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      k.at<double>(i, j) = cam["K"][i][j].get<double>();
+      r.at<double>(i, j) = cam["R"][i][j].get<double>();
+    }
+    t.at<double>(i) = cam["t"][i][0].get<double>();
+  }
+  for (int i = 0; i < 5; ++i) d.at<double>(i) = cam["distCoef"][i].get<double>();
+  std::vector<cv::Point3d> cm;
+  for (const auto& p : world_mm) cm.emplace_back(p.x() / 10, p.y() / 10, p.z() / 10);
+  cv::Mat rvec;
+  cv::Rodrigues(r, rvec);
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(cm, rvec, t, k, d, px);
+  return px;
+}
+
+TEST(PanopticImport, ThreeInstantTakeWhoseLensReprojectsTheCalibrationExactly) {
+  const fs::path dir = kShared / "data/panoptic";
+  if (!fs::exists(dir)) GTEST_SKIP() << "no shared data at " << dir;
+  const dome::testing::TempDir tmp;
+  const Take take = ImportPanoptic(dir, tmp.path());
+  ASSERT_EQ(take.rig.cameras.size(), 5u);
+  EXPECT_EQ(take.instants, (std::vector<std::string>{"00-02-30-00", "00-03-03-24", "00-03-48-19"}));
+  EXPECT_TRUE(ValidateTake(tmp.path()).ok()) << ValidateTake(tmp.path()).Summary();
+  const core::Json doc = core::Json::parse(io::ReadFileBytes(dir / "camera_parameters.json"));
+  double worst = 0;
+  size_t points = 0;
+  for (const auto& rc : take.rig.cameras) {
+    const geometry::TsaiCamera& m = rc.model;
+    EXPECT_TRUE(m.lens.Any()) << m.id;
+    core::Json src;
+    for (const auto& c : doc["cameras"])
+      if (c["name"] == m.id) src = c;
+    ASSERT_FALSE(src.is_null()) << m.id;
+    // A grid of image points (corners included) sent 1.5 to 6 m out along their rays by
+    // the take's camera, then projected by both.
+    std::vector<Eigen::Vector3d> world;
+    std::vector<Eigen::Vector2d> ours;
+    for (int gy = 0; gy <= 10; ++gy) {
+      for (int gx = 0; gx <= 16; ++gx) {
+        const Eigen::Vector2d px(gx * (m.width_px - 1) / 16.0, gy * (m.height_px - 1) / 10.0);
+        const Eigen::Vector3d p = m.BackProjectAtDepth(px, 1500.0 + 300.0 * ((gx + gy) % 16));
+        Eigen::Vector2d back;
+        ASSERT_TRUE(m.Project(p, &back));
+        EXPECT_LT((back - px).norm(), 1e-6) << m.id << " at " << px.transpose();
+        world.push_back(p);
+        ours.push_back(back);
+      }
+    }
+    const std::vector<cv::Point2d> theirs = OpenCvProjection(src, world);
+    for (size_t i = 0; i < world.size(); ++i) {
+      worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
+      ++points;
+    }
+  }
+  EXPECT_LT(worst, 0.01) << "px over " << points << " points";
+  std::printf("panoptic: our lens vs cv::projectPoints: max %.2e px over %zu points\n", worst,
+              points);
+}
+
+TEST(PanopticImport, BadCalibrationIsNamed) {
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp / "src";
+  fs::create_directories(dir / "hd" / "00_01");
+  io::WriteFileAtomically(dir / "camera_parameters.json",
+                          R"({"cameras": [{"name": "00_01", "resolution": [4, 4],
+                              "K": [[1, 0, 2], [0, 1, 2], [0, 0, 1]], "distCoef": [0, 0, 0, 0],
+                              "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [[0], [0], [0]]}]})");
+  ExpectInputError([&] { ImportPanoptic(dir, tmp / "take"); },
+                   {"camera_parameters.json", "'00_01'", "distCoef", "expected 5 numbers"});
+  io::WriteFileAtomically(dir / "camera_parameters.json",
+                          R"({"cameras": [{"name": "00_01", "resolution": [4, 4],
+                              "K": [[1, 0, 2], [0, 1, 2], [0, 0, 1]], "distCoef": [0, 0, 0, 0, 0],
+                              "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [[0], [0], [0]]}]})");
+  ExpectInputError([&] { ImportPanoptic(dir, tmp / "take"); }, {"00_01", "no frames"});
+  EXPECT_FALSE(fs::exists(tmp / "take"));  // nothing written
 }
 
 }  // namespace
