@@ -155,8 +155,13 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     vol->clear_origin_mm();
     vol->clear_dims();
     for (int a = 0; a < 3; ++a) {
+      const double n = std::ceil((hi(a) - lo(a)) / voxel);
+      core::Require(std::isfinite(n) && n <= double(1 << 20), "volume.voxel_size_mm",
+                    fmt::format("{} mm makes {:.0f} voxels along an axis of the {:.1f} mm volume "
+                                "(at most {})",
+                                voxel, n, hi(a) - lo(a), 1 << 20));
       vol->add_origin_mm(lo(a));
-      vol->add_dims(std::max(1, int(std::ceil((hi(a) - lo(a)) / voxel))));
+      vol->add_dims(std::max(1, int(n)));
     }
   }
   voxel = vol->voxel_size_mm();

@@ -239,6 +239,10 @@ fusion::VolumeGrid FromVolume(const runtime::Volume& v, const std::string& where
   core::Require(std::isfinite(voxel_mm) && voxel_mm > 0, where + ": volume.voxel_size_mm",
                 "must be a positive number of mm, got " + std::to_string(voxel_mm));
   fusion::VolumeGrid g = DefaultVolume(voxel_mm);
+  core::Require(v.dims_size() > 0 || g.nx > 0, where + ": volume.voxel_size_mm",
+                std::to_string(voxel_mm) + " mm makes " +
+                    std::to_string(std::round(kSeedCubeMm / voxel_mm)) +
+                    " voxels along an axis of the seed's 6000 mm cube (at most 1048576)");
   if (v.origin_mm_size() > 0) {
     core::Require(v.origin_mm_size() == 3, where + ": volume.origin_mm",
                   "expected 3 values (x y z, mm), got " + std::to_string(v.origin_mm_size()));

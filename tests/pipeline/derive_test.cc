@@ -86,6 +86,13 @@ TEST_F(Derive, GivenValuesAndTheBoxWin) {
   EXPECT_EQ(Grid(again).nx, g.nx);
 }
 
+TEST_F(Derive, VoxelThatOverflowsTheGridIsNamed) {
+  runtime::Session s = Fresh();
+  s.mutable_volume()->set_voxel_size_mm(1.4e-6);
+  dome::testing::ExpectInputError([&] { DeriveSession({}, &s); },
+                                  {"volume.voxel_size_mm", "voxels along an axis"});
+}
+
 TEST_F(Derive, BadBoxIsNamed) {
   runtime::Session s = Fresh();
   DeriveRequest r;
