@@ -2,13 +2,18 @@
 // TAKE/calib/ (common/calib/calibrate.h). Writes the calibrated rig (default
 // TAKE/rig.json) and a JSON report (default TAKE/calib/report.json); prints a summary.
 // Exit status 0 when every camera is within bounds, 2 when some camera is flagged.
+// `dome calibrate --points FILE --size W H --sensor NCX NFX DX DY [--out RIG]`: one
+// camera from 3D-2D correspondences (calib/point_calibration.h), printed as Willson's
+// ccal / ncal print it.
 #include "calib/calibrate.h"
 
 #include <cstdio>
 #include <memory>
 #include <string>
 
+#include "calib/point_calibration.h"
 #include "cli/commands.h"
+#include "core/error.h"
 #include "io/file_util.h"
 #include "schema/rig_json.h"
 
@@ -21,9 +26,21 @@ void AddCalibrateCommand(CLI::App* app, int* exit_code) {
     calib::CalibrateOptions options;
     std::string take, prior, out, report;
     bool no_joint = false;
+    // --points: one camera from a correspondence file (calib/point_calibration.h).
+    std::string points, id = "camera";
+    std::vector<int> size;       // width height, px
+    std::vector<double> sensor;  // ncx nfx dx_mm dy_mm
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("TAKE", args->take, "take folder with calib/stage1 and calib/stage2")->required();
+  cmd->add_option("TAKE", args->take, "take folder with calib/stage1 and calib/stage2");
+  cmd->add_option("--points", args->points,
+                  "instead of a take: one camera from a file of x y z Xf Yf rows (world mm, "
+                  "pixels), coplanar when every z is 0 (Willson's ccal) or not (ncal)");
+  cmd->add_option("--size", args->size, "with --points: image width and height, px")->expected(2);
+  cmd->add_option("--sensor", args->sensor,
+                  "with --points: Tsai's sensor constants ncx nfx dx_mm dy_mm")
+      ->expected(4);
+  cmd->add_option("--id", args->id, "with --points: the camera's id")->capture_default_str();
   cmd->add_option(
       "--prior", args->prior,
       "rig giving the cameras' ids, image sizes and sensor constants (default TAKE/rig.json)");
@@ -47,6 +64,29 @@ void AddCalibrateCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--threads", args->options.threads, "worker threads (0 = all)")
       ->capture_default_str();
   cmd->callback([=] {
+    if (!args->points.empty()) {
+      core::Require(args->take.empty(), "TAKE", "give a take or --points, not both");
+      core::Require(args->size.size() == 2, "--size", "needs the image width and height (px)");
+      core::Require(args->sensor.size() == 4, "--sensor",
+                    "needs the sensor constants ncx nfx dx_mm dy_mm");
+      calib::CameraPrior prior;
+      prior.id = args->id;
+      prior.width_px = args->size[0];
+      prior.height_px = args->size[1];
+      prior.sensor = {args->sensor[0], args->sensor[1], args->sensor[2], args->sensor[3]};
+      const calib::PointCalibration r =
+          calib::CalibrateFromPoints(prior, calib::ReadPointFile(args->points), args->points);
+      std::fputs(r.Report().c_str(), stdout);
+      if (!args->out.empty()) {
+        geometry::Rig rig;
+        rig.source = "points";
+        rig.cameras.push_back({r.camera, {}});
+        schema::WriteRig(rig, args->out);
+      }
+      *exit_code = 0;
+      return;
+    }
+    core::Require(!args->take.empty(), "TAKE", "missing: give a take folder or --points FILE");
     const std::filesystem::path take(args->take);
     calib::CalibrateOptions options = args->options;
     options.joint_refinement = !args->no_joint;

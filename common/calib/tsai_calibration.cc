@@ -258,16 +258,7 @@ geometry::TsaiCamera NonCoplanarImpl(const CameraPrior& prior, double cx_px, dou
   for (int i = 0; i < n; ++i) sd[i] = Vector2d(s[i].x() / sx, s[i].y());
   double f = 0, tz = 0;
   SolveFocalTzWithSign(&r, tx, ty, points, sd, where, &f, &tz);
-  geometry::TsaiCamera cam;
-  cam.id = prior.id;
-  cam.width_px = prior.width_px;
-  cam.height_px = prior.height_px;
-  cam.sensor = prior.sensor;
-  cam.focal_mm = f;
-  cam.kappa1_per_mm2 = 0.0;
-  cam.cx_px = cx_px;
-  cam.cy_px = cy_px;
-  cam.sx = sx;
+  geometry::TsaiCamera cam = prior.Camera(f, cx_px, cy_px, sx);
   cam.rotation = r;
   cam.translation_mm = Vector3d(tx, ty, tz);
   RequireInFront(cam, points, where);

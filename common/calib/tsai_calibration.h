@@ -42,6 +42,20 @@ struct CameraPrior {
   int width_px = 0;
   int height_px = 0;
   geometry::TsaiSensor sensor;
+
+  // The camera of these constants with the given intrinsics, kappa1 = 0, pose identity.
+  geometry::TsaiCamera Camera(double focal_mm, double cx_px, double cy_px, double sx) const {
+    geometry::TsaiCamera c;
+    c.id = id;
+    c.width_px = width_px;
+    c.height_px = height_px;
+    c.sensor = sensor;
+    c.focal_mm = focal_mm;
+    c.cx_px = cx_px;
+    c.cy_px = cy_px;
+    c.sx = sx;
+    return c;
+  }
 };
 
 struct TsaiInitOptions {

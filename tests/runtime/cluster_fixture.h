@@ -26,8 +26,9 @@
 
 namespace dome::testing {
 
-// Small volume and slabs so that one instant is a few seconds on two busy cores.
-inline const std::vector<std::string> kSessionFlags = {"--voxel-mm", "40", "--slab-planes", "10"};
+// Small voxels' worth of slabs: enough jobs per instant (about 20 fusion slabs of the
+// derived volume) that the fault tests can act while a session runs.
+inline const std::vector<std::string> kSessionFlags = {"--voxel-mm", "40", "--slab-planes", "5"};
 
 inline std::string Join(const std::vector<std::string>& v) {
   std::string s;

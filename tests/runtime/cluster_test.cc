@@ -116,8 +116,8 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   EXPECT_EQ(glb_length, glb.size());
   const auto report = nlohmann::json::parse(io::ReadFileBytes(reference_ / "report.json"));
   EXPECT_EQ(report["stages"]["stereo"]["jobs"], 12) << report;
-  // Slabs of 10 planes over the derived volume's z extent, for each of the 2 instants.
-  EXPECT_EQ(report["stages"]["fusion"]["jobs"], 2 * ((v.dims(2) + 9) / 10)) << report;
+  // Slabs of 5 planes over the derived volume's z extent, for each of the 2 instants.
+  EXPECT_EQ(report["stages"]["fusion"]["jobs"], 2 * ((v.dims(2) + 4) / 5)) << report;
   EXPECT_EQ(report["volume"]["dims"][2], v.dims(2)) << report;
   EXPECT_FALSE(report["derived"].empty()) << report;
   for (const char* stage : {"surface", "decimate", "texture"}) {
