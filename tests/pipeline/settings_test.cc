@@ -106,6 +106,30 @@ TEST(StereoOptionsJsonTest, BadInputNamesTheField) {
                    {"o.json: max_neighbours"});
   ExpectInputError([] { ParseStereoOptionsJson(R"({"speckle_area_px": 100})", "o.json"); },
                    {"o.json: speckle_step_mm", "positive"});
+  // The derived session's fields: clip box and per-camera depth ranges.
+  ExpectInputError(
+      [] {
+        ParseStereoOptionsJson(R"({"clip_min_mm": [0, 0], "clip_max_mm": [1, 1, 1]})", "o.json");
+      },
+      {"o.json: clip_min_mm", "3 numbers"});
+  ExpectInputError(
+      [] {
+        ParseStereoOptionsJson(R"({"clip_min_mm": [0, 0, 5], "clip_max_mm": [1, 1, 1]})", "o.json");
+      },
+      {"o.json: clip_max_mm", "exceed clip_min_mm"});
+  ExpectInputError(
+      [] {
+        ParseStereoOptionsJson(
+            R"({"camera_depths": [{"camera": "c1", "z_min_mm": 900, "z_max_mm": 800}]})", "o.json");
+      },
+      {"o.json: camera_depths", "'c1'", "z_min_mm < z_max_mm"});
+  ExpectInputError(
+      [] {
+        ParseStereoOptionsJson(R"({"camera_depths": [{"camera": "c1", "z_min_mm": 1, "z_max_mm": 2},
+                                                    {"camera": "c1", "z_min_mm": 1, "z_max_mm": 3}]})",
+                               "o.json");
+      },
+      {"o.json: camera_depths", "'c1' twice"});
   dome::testing::TempDir dir;
   ExpectInputError([&] { ReadStereoOptionsJson(dir / "missing.json"); }, {"missing.json"});
 }

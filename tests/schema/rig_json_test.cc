@@ -111,6 +111,23 @@ TEST_F(RigFieldTest, NanFocalLength) {
   ExpectInputError([&] { ParseRigJson(json, "r.json"); }, {"r.json", "cameras[1]", "focal_mm"});
 }
 
+TEST_F(RigFieldTest, OpenCvLensRoundTripsAndItsCountIsChecked) {
+  Rig rig = MakeRingRig(2, 16, 12);
+  rig.cameras[1].model.kappa1_per_mm2 = 0;  // one distortion model per camera
+  rig.cameras[1].model.lens = {-0.25, 0.1, 0.001, -0.0005, -0.02};
+  const Rig back = ParseRigJson(RigToJson(rig), "r.json");
+  EXPECT_EQ(back.cameras[1].model.lens.k1, -0.25);
+  EXPECT_EQ(back.cameras[1].model.lens.p2, -0.0005);
+  EXPECT_EQ(back.cameras[1].model.lens.k3, -0.02);
+  EXPECT_FALSE(back.cameras[0].model.lens.Any());
+  std::string json = RigToJson(rig);
+  const auto at = json.find("-0.02");
+  ASSERT_NE(at, std::string::npos);
+  json.erase(json.rfind(',', at), at + 5 - json.rfind(',', at));  // drop k3
+  ExpectInputError([&] { ParseRigJson(json, "r.json"); },
+                   {"r.json", "cameras[1]", "opencv_distortion", "expected 5 values"});
+}
+
 TEST_F(RigFieldTest, NonOrthonormalRotation) {
   const auto json = With([](RigCamera& c) { c.model.rotation(0, 1) += 0.01; });
   ExpectInputError([&] { ParseRigJson(json, "r.json"); }, {"r.json", "cameras[1]", "rotation"});
