@@ -12,9 +12,11 @@
 #include "geometry/colmap.h"
 #include "geometry/halcon.h"
 #include "geometry/middlebury.h"
+#include "geometry/opencv_camera.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
 #include "schema/rig_json.h"
+#include "take/import_frames.h"
 #include "take/timecode.h"
 
 namespace dome::take {
@@ -23,33 +25,22 @@ namespace {
 namespace fs = std::filesystem;
 using core::Require;
 
-// Copies an image into the take as PNG: byte copy for PNG sources, re-encoding
-// (lossless, 8-bit, channels kept) for anything else.
-void CopyImage(const fs::path& from, const fs::path& to) {
-  if (from.extension() == ".png" || from.extension() == ".PNG") {
-    // Decode once so a corrupt source fails here, naming the source file.
-    io::ReadImage(from, io::ImageMode::kUnchanged);
-    io::WriteFileAtomically(to, io::ReadFileBytes(from));
-  } else {
-    io::WriteImage(to, io::ReadImage(from, io::ImageMode::kUnchanged));
-  }
-}
-
-// Writes rig.json and frames/<instant>/<id>.png for each (camera, image) pair.
-Take WriteImportedTake(geometry::Rig rig, const std::vector<fs::path>& images, const fs::path& out,
-                       const ImportOptions& options) {
+// Writes rig.json and frames/<instant>/<id>.png for each (camera, image) pair, and
+// `reference` (when given) to reference/ unchanged.
+Take WriteImportedTake(const geometry::Rig& rig, const std::vector<fs::path>& images,
+                       const fs::path& out, const ImportOptions& options,
+                       const fs::path& reference = {}) {
   DOME_CHECK(rig.cameras.size() == images.size(), "one image per camera");
-  CreateTakeDir(out, options.overwrite);
-  const fs::path frames = out / "frames" / options.instant;
-  std::error_code ec;
-  fs::remove_all(frames, ec);
-  fs::create_directories(frames, ec);
-  Require(!ec, frames.string(), "cannot create folder: " + ec.message());
+  TakeWriter writer(out, options.overwrite);
   for (size_t i = 0; i < images.size(); ++i) {
-    CopyImage(images[i], frames / (rig.cameras[i].model.id + ".png"));
+    const geometry::TsaiCamera& camera = rig.cameras[i].model;
+    internal::CopyImage(images[i], writer.FramePath(options.instant, camera.id), camera);
   }
-  schema::WriteRig(rig, out / "rig.json");
-  return OpenTake(out);
+  if (!reference.empty()) {
+    io::WriteFileAtomically(writer.Staged(fs::path("reference") / reference.filename()),
+                            io::ReadFileBytes(reference));
+  }
+  return writer.Commit(rig);
 }
 
 }  // namespace
@@ -92,13 +83,9 @@ Take ImportHalconScene(const fs::path& scene_dir, const fs::path& out,
     rig.cameras.push_back(cam);
     images.push_back(image);
   }
-  Take take = WriteImportedTake(rig, images, out, options);
   const fs::path reference = scene_dir / "reference.ply";
-  if (fs::is_regular_file(reference, ec)) {
-    fs::create_directories(out / "reference", ec);
-    io::WriteFileAtomically(out / "reference" / "reference.ply", io::ReadFileBytes(reference));
-  }
-  return take;
+  return WriteImportedTake(rig, images, out, options,
+                           fs::is_regular_file(reference, ec) ? reference : fs::path());
 }
 
 Take ImportMiddlebury(const fs::path& par_file, const fs::path& out, const ImportOptions& options) {
@@ -200,110 +187,81 @@ std::vector<double> Numbers(const core::Json& camera, const char* field, size_t 
 
 }  // namespace
 
-Take ImportPanoptic(const fs::path& dir, const fs::path& out, const ImportOptions& options) {
+Take ImportPanoptic(const fs::path& calibration, const fs::path& images_dir, const fs::path& out,
+                    const PanopticOptions& panoptic, const ImportOptions& options) {
   options.Check();
   std::error_code ec;
-  const fs::path params = dir / "camera_parameters.json";
-  Require(fs::is_regular_file(params, ec), params.string(), "missing");
+  Require(fs::is_regular_file(calibration, ec), calibration.string(), "missing");
   core::Json doc;
   try {
-    doc = core::Json::parse(io::ReadFileBytes(params));
+    doc = core::Json::parse(io::ReadFileBytes(calibration));
   } catch (const core::Json::exception& e) {
-    throw core::InputError(params.string(), std::string("not JSON: ") + e.what());
+    // NaN and Infinity, which some JSON writers emit, are not JSON either.
+    throw core::InputError(calibration.string(), std::string("not JSON: ") + e.what());
   }
-  Require(doc.contains("cameras") && doc["cameras"].is_array(), params.string() + ": cameras",
+  Require(doc.contains("cameras") && doc["cameras"].is_array(), calibration.string() + ": cameras",
           "missing (expected an array of cameras)");
-  const fs::path hd = dir / "hd";
-  Require(fs::is_directory(hd, ec), hd.string(), "missing: the HD frames' folder");
+  const bool with_images = !images_dir.empty();
+  Require(!with_images || fs::is_directory(images_dir, ec), images_dir.string(),
+          "missing: the folder of <camera>/<camera>_<frame>.jpg frames");
+  for (const std::string& name : panoptic.cameras) {
+    bool listed = false;
+    for (const auto& c : doc["cameras"]) listed = listed || c.value("name", "") == name;
+    Require(listed, "--cameras", "camera '" + name + "' is not in " + calibration.string());
+  }
   geometry::Rig rig;
   rig.source = "panoptic";
   rig.source_unit = "cm";
   rig.source_unit_mm = 10.0;
-  std::vector<std::vector<std::pair<std::string, fs::path>>> frames;  // per camera
+  std::vector<internal::CameraFrames> frames;  // per camera, when with images
+  std::vector<fs::path> folders;
   for (size_t i = 0; i < doc["cameras"].size(); ++i) {
     const core::Json& c = doc["cameras"][i];
-    const std::string name = c.value("name", "");
+    const std::string name = c.is_object() ? c.value("name", "") : "";
     const std::string where =
-        params.string() + ": cameras[" + std::to_string(i) + "] '" + name + "'";
+        calibration.string() + ": cameras[" + std::to_string(i) + "] '" + name + "'";
     Require(!name.empty(), where + ".name", "missing");
-    if (!fs::is_directory(hd / name, ec)) continue;  // calibrated, not filmed here
+    const bool named =
+        std::find(panoptic.cameras.begin(), panoptic.cameras.end(), name) != panoptic.cameras.end();
+    if (!panoptic.cameras.empty() && !named) continue;
+    if (with_images && !fs::is_directory(images_dir / name, ec)) {
+      // Calibrated but not filmed here: skipped unless asked for by name.
+      Require(!named, (images_dir / name).string(),
+              "missing: camera '" + name + "' (--cameras) has no frames");
+      continue;
+    }
     const std::vector<double> res = Numbers(c, "resolution", 2, where);
     const std::vector<double> k = Numbers(c, "K", 9, where);
-    const std::vector<double> d = Numbers(c, "distCoef", 5, where);
     const std::vector<double> r = Numbers(c, "R", 9, where);
     const std::vector<double> t = Numbers(c, "t", 3, where);
-    Require(
-        std::abs(k[1]) <= 1e-9 * std::abs(k[0]) && k[3] == 0 && k[6] == 0 && k[7] == 0 && k[8] == 1,
-        where + ".K", "must be [fx 0 cx; 0 fy cy; 0 0 1] (no skew)");
-    Require(k[0] > 0 && k[4] > 0, where + ".K", "needs positive focal lengths");
-    geometry::RigCamera rc;
-    geometry::TsaiCamera& m = rc.model;
-    m.id = name;
-    m.width_px = int(res[0]);
-    m.height_px = int(res[1]);
-    Require(m.width_px == res[0] && m.height_px == res[1] && m.width_px > 0 && m.height_px > 0,
-            where + ".resolution", "expected two positive whole numbers");
-    // One sensor element per pixel of 0.01 mm (only focal / pitch matters), as pinhole.h.
-    m.sensor.ncx = m.sensor.nfx = m.width_px;
-    m.sensor.dx_mm = m.sensor.dy_mm = 0.01;
-    m.focal_mm = k[4] * 0.01;
-    m.sx = k[0] / k[4];
-    m.cx_px = k[2];  // OpenCV's pixel centres are at integers, as dome's
-    m.cy_px = k[5];
-    m.lens = {d[0], d[1], d[2], d[3], d[4]};
+    geometry::OpenCvCamera source;
+    source.id = name;
+    source.width_px = int(res[0]);
+    source.height_px = int(res[1]);
+    Require(source.width_px == res[0] && source.height_px == res[1], where + ".resolution",
+            "expected two whole numbers");
+    source.distortion = Numbers(c, "distCoef", 5, where);
     for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) m.rotation(a, b) = r[3 * a + b];
-      m.translation_mm(a) = 10.0 * t[a];  // centimetres
+      for (int b = 0; b < 3; ++b) {
+        source.k(a, b) = k[3 * a + b];
+        source.r(a, b) = r[3 * a + b];
+      }
+      source.t_mm(a) = 10.0 * t[a];  // centimetres
     }
-    m.Check(where);
-    std::vector<std::pair<std::string, fs::path>> mine;
-    const std::regex frame_name(name + R"(_(\d+)\.(jpg|png))");
-    for (const auto& e : fs::directory_iterator(hd / name)) {
-      std::smatch match;
-      const std::string f = e.path().filename().string();
-      if (!std::regex_match(f, match, frame_name)) continue;
-      const long n = std::stol(match[1]);
-      Timecode tc;
-      tc.frames = int(n % 30);
-      tc.seconds = int(n / 30 % 60);
-      tc.minutes = int(n / 1800 % 60);
-      tc.hours = int(n / 108000);
-      Require(tc.hours < 24, e.path().string(), "frame number beyond 24 hours");
-      mine.emplace_back(tc.FolderName(), e.path());
-    }
-    Require(!mine.empty(), (hd / name).string(),
-            "no frames named " + name + "_<frame>.jpg for camera '" + name + "'");
-    std::sort(mine.begin(), mine.end());
-    frames.push_back(std::move(mine));
+    geometry::RigCamera rc;
+    rc.model = geometry::CameraFromOpenCv(source, where);
     rig.cameras.push_back(rc);
+    if (!with_images) continue;
+    frames.push_back(internal::NumberedFrames(images_dir / name, name + "_"));
+    folders.push_back(images_dir / name);
   }
-  Require(rig.cameras.size() >= 2, hd.string(),
+  Require(!rig.cameras.empty(), with_images ? images_dir.string() : calibration.string(),
+          with_images ? "holds no frame folder of a calibrated camera" : "no cameras");
+  Require(!with_images || rig.cameras.size() >= 2, images_dir.string(),
           "needs frames of at least two calibrated cameras, found " +
               std::to_string(rig.cameras.size()));
-  for (size_t c = 1; c < frames.size(); ++c) {
-    std::vector<std::string> a, b;
-    for (const auto& f : frames[0]) a.push_back(f.first);
-    for (const auto& f : frames[c]) b.push_back(f.first);
-    Require(a == b, (hd / rig.cameras[c].model.id).string(),
-            "does not hold the same frames as " + (hd / rig.cameras[0].model.id).string());
-  }
-  CreateTakeDir(out, options.overwrite);
-  for (size_t t = 0; t < frames[0].size(); ++t) {
-    const fs::path folder = out / "frames" / frames[0][t].first;
-    fs::create_directories(folder, ec);
-    Require(!ec, folder.string(), "cannot create folder: " + ec.message());
-    for (size_t c = 0; c < frames.size(); ++c) {
-      const cv::Mat image = io::ReadImage(frames[c][t].second, io::ImageMode::kUnchanged);
-      const auto& m = rig.cameras[c].model;
-      Require(image.cols == m.width_px && image.rows == m.height_px, frames[c][t].second.string(),
-              "is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                  ", but camera '" + m.id + "' is calibrated for " + std::to_string(m.width_px) +
-                  "x" + std::to_string(m.height_px));
-      io::WriteImage(folder / (m.id + ".png"), image);
-    }
-  }
-  schema::WriteRig(rig, out / "rig.json");
-  return OpenTake(out);
+  internal::RequireSameInstants(frames, folders);
+  return internal::WriteFrames(rig, frames, out, options.overwrite);
 }
 
 }  // namespace dome::take

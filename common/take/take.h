@@ -42,4 +42,36 @@ Take OpenTake(const std::filesystem::path& dir);
 // `overwrite` is false.
 void CreateTakeDir(const std::filesystem::path& dir, bool overwrite);
 
+// Writes a new take so that a failure part way leaves nothing half written: files go
+// to a staging folder beside `dir` (".<name>.partial-<pid>", the same file system, so
+// the final move is one rename) and Commit() moves it into place. Without Commit()
+// the destructor removes the staging folder, and an existing take at `dir` is left
+// as it was. The constructor throws core::InputError naming `dir` when it already
+// holds a take and `overwrite` is false, or holds something that is not a take.
+class TakeWriter {
+ public:
+  TakeWriter(std::filesystem::path dir, bool overwrite);
+  ~TakeWriter();
+  TakeWriter(const TakeWriter&) = delete;
+  TakeWriter& operator=(const TakeWriter&) = delete;
+
+  // The final folder, for messages; files are written under Staged() until Commit().
+  const std::filesystem::path& dir() const { return dir_; }
+  // `relative` under the staging folder, its parent folders created.
+  std::filesystem::path Staged(const std::filesystem::path& relative) const;
+  // frames/<instant>/<camera>.png under the staging folder, its folder created.
+  std::filesystem::path FramePath(const std::string& instant, const std::string& camera) const;
+
+  // Writes rig.json, moves the take into place (replacing the old one when allowed)
+  // and returns it. A take with no frames written is a rig-only take: empty
+  // `instants`, and OpenTake refuses it until frames are added.
+  Take Commit(const geometry::Rig& rig);
+
+ private:
+  std::filesystem::path dir_;
+  std::filesystem::path staging_;
+  bool overwrite_ = false;
+  bool committed_ = false;
+};
+
 }  // namespace dome::take

@@ -140,5 +140,78 @@ TEST(Cli, SynthSmallTakePassesInfo) {
   EXPECT_NE(info.output.find("truth: 1 instant(s)"), std::string::npos) << info.output;
 }
 
+// `dome calibrate --points`: each missing or contradictory flag and each degenerate
+// point file is named, exit 1, and no rig is written.
+TEST(Cli, CalibratePointsFlagsAndDegenerateFilesAreNamed) {
+  const testing::TempDir tmp;
+  const fs::path few = tmp / "few.txt", line = tmp / "line.txt", rig = tmp / "rig.json";
+  {
+    std::ofstream f(few);
+    for (int i = 0; i < 6; ++i)
+      f << i * 10 << " " << i * 7 << " 0 " << 100 + i << " " << 50 + i << "\n";
+    std::ofstream l(line);
+    for (int i = 0; i < 12; ++i)
+      l << i * 10 << " " << i * 20 << " " << i * 5 << " " << 100 + i << " 50\n";
+  }
+  const std::string sensor = " --size 640 480 --sensor 640 640 0.01 0.01 --out " + rig.string();
+  const struct {
+    std::string args;
+    const char* message;
+  } cases[] = {
+      {"--points " + few.string() + " --sensor 640 640 0.01 0.01",
+       "--size: needs the image width and height (px)"},
+      {"--points " + few.string() + " --size 640 480", "--sensor: needs the sensor constants"},
+      {"/some/take --points " + few.string() + sensor, "TAKE: give a take or --points, not both"},
+      {"--points " + few.string() + sensor, "needs at least 7 correspondences, got 6"},
+      {"--points " + line.string() + sensor, "the points are collinear"},
+      {"--points " + (tmp / "none.txt").string() + sensor, "none.txt"},
+  };
+  for (const auto& c : cases) {
+    const Result r = RunDomeBinary("calibrate " + c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.args << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(rig));
+}
+
+// The video and Panoptic import flags, checked before anything is written.
+TEST(Cli, ImportFlagsNameTheFlag) {
+  const testing::TempDir tmp;
+  take::testing::WriteTake(tmp / "t", take::testing::MakeRingRig(2, 24, 16), 1);
+  fs::create_directories(tmp / "videos");
+  const std::string video = "import video " + (tmp / "t").string() + " " +
+                            (tmp / "videos").string() + " --out " + (tmp / "out").string();
+  const struct {
+    std::string args;
+    const char* message;
+  } cases[] = {
+      {video + " --offset c0", "--offset: expected CAMERA=VALUE, got 'c0'"},
+      {video + " --offset c0=x", "--offset c0: expected a whole number of frames, got 'x'"},
+      {video + " --offset c9=3", "--offset c9: no such camera in the rig"},
+      {video + " --every 0", "--every: must be at least 1, got 0"},
+      {video + " --fps 60", "--fps: must be 1..30"},
+      {video + " --instants 3 --every 2", "--instants: cannot be combined with --range or --every"},
+      {video, "c0.*: missing: camera 'c0' has no video"},
+      {"import panoptic " + (tmp / "none.json").string() + " --out " + (tmp / "out").string(),
+       "none.json: missing"},
+  };
+  for (const auto& c : cases) {
+    const Result r = RunDomeBinary(c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.args << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(tmp / "out"));
+}
+
+TEST(Cli, ImportPanopticWholeDomeCalibrationIsARigOnlyTake) {
+  const fs::path json = fs::path(DOME_SHARED_DIR) / "data/panoptic/calibration_160906_band1.json";
+  if (!fs::exists(json)) GTEST_SKIP() << "no shared data at " << json;
+  const testing::TempDir tmp;
+  const Result r =
+      RunDomeBinary("import panoptic " + json.string() + " --out " + (tmp / "dome").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("520 camera(s), rig only (no images)"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace dome

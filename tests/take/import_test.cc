@@ -186,7 +186,7 @@ TEST(PanopticImport, ThreeInstantTakeWhoseLensReprojectsTheCalibrationExactly) {
   const fs::path dir = kShared / "data/panoptic";
   if (!fs::exists(dir)) GTEST_SKIP() << "no shared data at " << dir;
   const dome::testing::TempDir tmp;
-  const Take take = ImportPanoptic(dir, tmp.path());
+  const Take take = ImportPanoptic(dir / "camera_parameters.json", dir / "hd", tmp.path());
   ASSERT_EQ(take.rig.cameras.size(), 5u);
   EXPECT_EQ(take.instants, (std::vector<std::string>{"00-02-30-00", "00-03-03-24", "00-03-48-19"}));
   EXPECT_TRUE(ValidateTake(tmp.path()).ok()) << ValidateTake(tmp.path()).Summary();
@@ -234,13 +234,16 @@ TEST(PanopticImport, BadCalibrationIsNamed) {
                           R"({"cameras": [{"name": "00_01", "resolution": [4, 4],
                               "K": [[1, 0, 2], [0, 1, 2], [0, 0, 1]], "distCoef": [0, 0, 0, 0],
                               "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [[0], [0], [0]]}]})");
-  ExpectInputError([&] { ImportPanoptic(dir, tmp / "take"); },
-                   {"camera_parameters.json", "'00_01'", "distCoef", "expected 5 numbers"});
+  ExpectInputError(
+      [&] { ImportPanoptic(dir / "camera_parameters.json", dir / "hd", tmp / "take"); },
+      {"camera_parameters.json", "'00_01'", "distCoef", "expected 5 numbers"});
   io::WriteFileAtomically(dir / "camera_parameters.json",
                           R"({"cameras": [{"name": "00_01", "resolution": [4, 4],
                               "K": [[1, 0, 2], [0, 1, 2], [0, 0, 1]], "distCoef": [0, 0, 0, 0, 0],
                               "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [[0], [0], [0]]}]})");
-  ExpectInputError([&] { ImportPanoptic(dir, tmp / "take"); }, {"00_01", "no frames"});
+  ExpectInputError(
+      [&] { ImportPanoptic(dir / "camera_parameters.json", dir / "hd", tmp / "take"); },
+      {"00_01", "no frames"});
   EXPECT_FALSE(fs::exists(tmp / "take"));  // nothing written
 }
 
