@@ -63,6 +63,10 @@ void CheckRangeImage(const RangeImage& image) {
   const std::string where =
       image.where.empty() ? "range image of camera " + image.camera.id : image.where;
   image.camera.Check(where + ": camera");
+  core::Require(!(image.distorted_pixels && image.camera.lens.Any()), where,
+                "a depth map on the distorted pixels of a camera with an OpenCV lens is not "
+                "supported (fusion projects through Tsai's kappa1 only): give it on the ideal "
+                "camera's pixels");
   core::Require(!image.depth_mm.empty() && image.depth_mm.type() == CV_32FC1, where,
                 "depth map must be a 32-bit float single-channel image");
   core::Require(

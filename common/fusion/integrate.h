@@ -82,13 +82,20 @@ struct RangeImage {
   cv::Mat depth_mm;   // CV_32FC1, camera.height_px x camera.width_px, 0 = invalid
   cv::Mat weight;     // empty (uniform weight 1) or CV_32FC1 of the same size, >= 0
   std::string where;  // names the source (file) in errors
+  // The pixel grid of depth_mm. false: the ideal (undistorted) camera's, as stereo
+  // writes them (stereo/multi_baseline.h undistorts every image once and matches in
+  // the ideal cameras). true: the real camera's, Tsai's kappa1 included, as the
+  // synthetic truth depth maps are rendered (TAKE/truth/<instant>/depth/).
+  bool distorted_pixels = false;
 
-  // The camera whose pixels the depth map holds: `camera`, or for a camera with an
-  // OpenCV lens its ideal (undistorted) camera, the frame stereo matches in
-  // (stereo/multi_baseline.h).
+  // The camera whose pixels the depth map holds: `camera` without its distortion, or
+  // with Tsai's kappa1 when distorted_pixels. Projecting an ideal-pixel map through the
+  // distortion would move each voxel by the distortion's displacement (pixels towards
+  // the corners) away from the depth that measured it.
   geometry::TsaiCamera PixelCamera() const {
     geometry::TsaiCamera c = camera;
     c.lens = {};
+    if (!distorted_pixels) c.kappa1_per_mm2 = 0.0;
     return c;
   }
 };

@@ -21,6 +21,7 @@ std::vector<RangeImage> LoadTruthRangeImages(const take::Take& take, const std::
     const auto& cam = take.rig.cameras[c].model;
     RangeImage image;
     image.camera = cam;
+    image.distorted_pixels = true;  // rendered through the camera's lens
     const auto path = take.TruthDepthPath(instant, cam.id);
     image.where = path.string();
     image.depth_mm = io::ReadDepthTiff(path);

@@ -3,9 +3,10 @@
 //  * Truth depth (until stereo depth exists, and for fidelity experiments):
 //    TAKE/truth/<instant>/depth/<camera>.tiff (take/take.h), optionally with added
 //    zero-mean Gaussian noise of noise_sigma_mm on every valid pixel (a stand-in for
-//    stereo error; deterministic for a seed, camera by camera).
+//    stereo error; deterministic for a seed, camera by camera). Rendered through each
+//    camera's lens: on its distorted pixels (RangeImage::distorted_pixels).
 //  * A depth folder: DIR/<camera>.tiff (or .png, 16-bit mm) for every camera of the rig
-//    that has one (stereo output).
+//    that has one (stereo output): on the ideal camera's pixels.
 // Errors are core::InputError naming the file (size not matching the camera, NaN...).
 #pragma once
 

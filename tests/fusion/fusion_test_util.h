@@ -76,10 +76,12 @@ inline std::vector<Sphere> StackedSpheres() {
 
 // `kappa1` 0.05 bends the image corners by about 20 %, far more than real lenses (the
 // fusion kernel then reads its distortion table; real lenses give it a polynomial).
+// The depth maps are rendered through the lens (distorted_pixels), as the synthetic
+// truth is; with `ideal_pixels` through the camera without it, as stereo writes them.
 inline std::vector<fusion::RangeImage> RingImages(const std::vector<Sphere>& spheres, int n,
                                                   int width, int height,
                                                   const std::vector<double>& heights_mm,
-                                                  double kappa1 = 0.05) {
+                                                  double kappa1 = 0.05, bool ideal_pixels = false) {
   std::vector<fusion::RangeImage> images;
   for (int c = 0; c < n; ++c) {
     const double a = 2 * M_PI * c / n;
@@ -88,7 +90,10 @@ inline std::vector<fusion::RangeImage> RingImages(const std::vector<Sphere>& sph
     fusion::RangeImage image;
     image.camera = LookAtCamera("c" + std::to_string(c), centre, Eigen::Vector3d(0, 0, h), width,
                                 height, 60.0, kappa1);
-    image.depth_mm = RenderSpheres(image.camera, spheres);
+    geometry::TsaiCamera render = image.camera;
+    if (ideal_pixels) render.kappa1_per_mm2 = 0.0;
+    image.depth_mm = RenderSpheres(render, spheres);
+    image.distorted_pixels = !ideal_pixels;
     image.where = "depth/c" + std::to_string(c) + ".tiff";
     images.push_back(image);
   }
