@@ -51,7 +51,8 @@ bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
   return true;
 }
 
-std::optional<std::string> BlobStore::Read(const std::string& sha256) const {
+std::optional<std::string> BlobStore::Read(const std::string& sha256, std::string* error) const {
+  if (error) error->clear();
   fs::path path;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -59,11 +60,24 @@ std::optional<std::string> BlobStore::Read(const std::string& sha256) const {
     if (it == entries_.end()) return std::nullopt;
     path = it->second.path;
   }
+  std::string bytes;
   try {
-    return io::ReadFileBytes(path);
-  } catch (const core::InputError&) {
+    bytes = io::ReadFileBytes(path);
+  } catch (const core::InputError& e) {
+    if (error) *error = e.what();
     return std::nullopt;
   }
+  // Hashing what is served costs about a millisecond a megabyte; serving bytes under
+  // an address they do not have would make every worker ask again without end.
+  if (net::Sha256Hex(bytes) != sha256) {
+    if (error) {
+      *error = path.string() +
+               ": changed since it was read at submit (its bytes no longer hash to " +
+               sha256.substr(0, 12) + "...)";
+    }
+    return std::nullopt;
+  }
+  return bytes;
 }
 
 std::optional<runtime::BlobRef> BlobStore::Find(const std::string& sha256) const {

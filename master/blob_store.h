@@ -23,8 +23,11 @@ class BlobStore {
   // Remembers dir/<sha256> written by an earlier master (journal resume); false when
   // the file is not there or does not hash to `sha256`.
   bool Adopt(const std::filesystem::path& dir, const std::string& sha256);
-  // The bytes, or nothing when unknown or unreadable.
-  std::optional<std::string> Read(const std::string& sha256) const;
+  // The bytes, checked against their address: nothing when the blob is unknown, or
+  // when its file is gone, unreadable or no longer hashes to `sha256` (a take file
+  // deleted or replaced since it was added); then *error, when given, names the file
+  // and what happened ("" for an unknown blob).
+  std::optional<std::string> Read(const std::string& sha256, std::string* error) const;
   std::optional<runtime::BlobRef> Find(const std::string& sha256) const;
   // Forgets a blob; removes its file when the store wrote it under an output folder.
   void Drop(const std::string& sha256);

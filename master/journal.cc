@@ -14,8 +14,10 @@ namespace dome::scheduler {
 namespace fs = std::filesystem;
 
 namespace {
-const char* kMagic = "dome-journal 1 ";
-}
+// Version 2 added the inputs digest; a version 1 journal is moved aside like another
+// session's (its jobs are redone: nothing says which inputs they were made from).
+const char* kMagic = "dome-journal 2 ";
+}  // namespace
 
 Journal::Journal(const fs::path& path, const std::string& digest) : path_(path) {
   bool fresh = true;
@@ -38,6 +40,11 @@ Journal::Journal(const fs::path& path, const std::string& digest) : path_(path) 
         JournalEntry entry;
         bool ok = true;
         while (fields >> output) {
+          if (output.size() > 1 && output[0] == '@' && entry.inputs.empty() &&
+              entry.outputs.empty()) {
+            entry.inputs = output.substr(1);
+            continue;
+          }
           const auto eq = output.find('=');
           if (eq == std::string::npos) {
             ok = false;
@@ -54,8 +61,10 @@ Journal::Journal(const fs::path& path, const std::string& digest) : path_(path) 
     }
   }
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  core::Require(fd_ >= 0, path.string(),
-                std::string("cannot open the journal: ") + std::strerror(errno));
+  if (fd_ < 0) {
+    throw core::StorageError(path.string(),
+                             std::string("cannot open the journal: ") + std::strerror(errno));
+  }
   if (fresh) {
     Append(kMagic + digest + "\n");
     Sync();
@@ -81,11 +90,19 @@ Journal::~Journal() {
 }
 
 void Journal::Append(const std::string& line) {
+  const off_t start = ::lseek(fd_, 0, SEEK_END);
   size_t written = 0;
   while (written < line.size()) {
     const ssize_t n = ::write(fd_, line.data() + written, line.size() - written);
     if (n < 0 && errno == EINTR) continue;
-    core::Require(n > 0, path_.string(), std::string("cannot append: ") + std::strerror(errno));
+    if (n <= 0) {
+      const int err = n < 0 ? errno : ENOSPC;
+      // A part of the record written would join the next one on its line: cut it away,
+      // so that the journal stays whole records (a record lost only redoes its job).
+      if (written > 0 && start >= 0) (void)::ftruncate(fd_, start);
+      throw core::StorageError(path_.string(),
+                               std::string("cannot append a record: ") + std::strerror(err));
+    }
     written += size_t(n);
   }
   ++unsynced_;
@@ -93,13 +110,15 @@ void Journal::Append(const std::string& line) {
 
 void Journal::Sync() {
   if (unsynced_ == 0) return;
-  core::Require(::fdatasync(fd_) == 0, path_.string(),
-                std::string("cannot fsync: ") + std::strerror(errno));
+  if (::fdatasync(fd_) != 0) {
+    throw core::StorageError(path_.string(), std::string("cannot fsync: ") + std::strerror(errno));
+  }
   unsynced_ = 0;
 }
 
 void Journal::RecordDone(const std::string& key, const JournalEntry& entry) {
   std::string line = "done " + key;
+  if (!entry.inputs.empty()) line += " @" + entry.inputs;
   for (const auto& [name, sha] : entry.outputs) line += " " + name + "=" + sha;
   Append(line + "\n");
   done_[key] = entry;

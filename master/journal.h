@@ -10,10 +10,17 @@
 // their jobs are then redone, which is harmless as jobs are idempotent and their
 // outputs content-addressed.
 //
-//   dome-journal 1 <session digest>        first line: the format version and the
+//   dome-journal 2 <session digest>        first line: the format version and the
 //                                          SHA-256 of the session's resolved options
-//   done <job key> [<name>=<sha256> ...]   a job finished; its outputs' blob addresses
+//   done <job key> [@<inputs>] [<name>=<sha256> ...]
+//                                          a job finished: the digest of the inputs it
+//                                          was made from (pipeline::InstantInputsDigest:
+//                                          the rig's and its instant's frames' content
+//                                          addresses), its outputs' blob addresses
 //
+// The master counts a record as done only while its inputs digest is the instant's
+// current one: frames changed on disk since (the same take path, other bytes) redo
+// that instant's jobs, and only those.
 // Job keys are "<instant>/<stage>/<part>" (no session id: a restarted master gives the
 // session a new id). A torn last line (the master died mid-write) is cut away. A
 // journal of another session digest is moved aside to journal.log.old and a new one
@@ -31,6 +38,7 @@ namespace dome::scheduler {
 
 struct JournalEntry {
   std::vector<std::pair<std::string, std::string>> outputs;  // name, sha256
+  std::string inputs;  // digest of the inputs the job was made from; empty: none recorded
 };
 
 class Journal {
@@ -45,9 +53,12 @@ class Journal {
 
   const std::map<std::string, JournalEntry>& done() const { return done_; }
 
-  // Appends a record (written, not yet fsync'd: see Sync).
+  // Appends a record (written, not yet fsync'd: see Sync). Throws core::StorageError
+  // naming the file when it cannot be written (disk full); a part written is cut away
+  // and the record is not in done().
   void RecordDone(const std::string& key, const JournalEntry& entry);
   // Fsyncs the records appended since the last call; a no-op when there are none.
+  // Throws core::StorageError naming the file when the system cannot.
   void Sync();
   // Records appended and not yet fsync'd.
   int unsynced() const { return unsynced_; }

@@ -1,6 +1,8 @@
 #include "master/master.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,7 +20,6 @@
 
 #include "core/error.h"
 #include "core/json.h"
-#include "schema/json.h"
 #include "io/file_util.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
@@ -28,6 +29,7 @@
 #include "net/content_hash.h"
 #include "net/security.h"
 #include "pipeline/session.h"
+#include "schema/json.h"
 
 namespace dome::scheduler {
 namespace fs = std::filesystem;
@@ -40,6 +42,19 @@ void MasterOptions::Check() const {
   core::Require(heartbeat_liveness > 0, "heartbeat_liveness",
                 "must be positive, got " + std::to_string(heartbeat_liveness));
   core::Require(max_job_losses > 0, "max_job_losses", "must be positive");
+  core::Require(
+      std::isfinite(job_timeout_s) && job_timeout_s >= 0, "job_timeout_s",
+      "must be 0 (derived) or a positive number of seconds, got " + std::to_string(job_timeout_s));
+  core::Require(std::isfinite(job_timeout_min_s) && job_timeout_min_s > 0, "job_timeout_min_s",
+                "must be a positive number of seconds, got " + std::to_string(job_timeout_min_s));
+  core::Require(std::isfinite(job_timeout_first_s_per_mib) && job_timeout_first_s_per_mib >= 0,
+                "job_timeout_first_s_per_mib",
+                "must not be negative, got " + std::to_string(job_timeout_first_s_per_mib));
+  core::Require(std::isfinite(job_timeout_factor) && job_timeout_factor >= 1, "job_timeout_factor",
+                "must be at least 1, got " + std::to_string(job_timeout_factor));
+  core::Require(max_job_mb >= 0, "max_job_mb",
+                "must be 0 (this machine's memory) or a positive MiB count, got " +
+                    std::to_string(max_job_mb));
   core::Require(jobs_ahead >= 0 && jobs_ahead <= 16, "jobs_ahead",
                 "must be in 0..16, got " + std::to_string(jobs_ahead));
   core::Require(
@@ -77,16 +92,29 @@ struct WorkerRec {
   // Wire ids of the jobs sent and not yet answered, oldest (the running one) first;
   // empty when idle. More than one when jobs were sent ahead (MasterOptions).
   std::deque<std::string> jobs;
+  // Since when jobs.front() has been the job it runs (its time-out counts from here: a
+  // job sent ahead waits for the one before it).
+  Clock::time_point front_since = Clock::now();
+  // Jobs it was told to drop after they timed out while it ran them: it cannot stop a
+  // running job, so it gets no more work while others can take it (until the result
+  // of one of them comes, late).
+  std::set<std::string> stuck;
+  void Add(const std::string& job_id) {
+    if (jobs.empty()) front_since = Clock::now();
+    jobs.push_back(job_id);
+  }
   bool Forget(const std::string& job_id) {
     auto it = std::find(jobs.begin(), jobs.end(), job_id);
     if (it == jobs.end()) return false;
+    if (it == jobs.begin()) front_since = Clock::now();
     jobs.erase(it);
     return true;
   }
 };
 
 struct StageStats {
-  double job_seconds = 0;                                // summed over jobs
+  double job_seconds = 0;         // summed over jobs
+  double slowest_s_per_mib = -1;  // worker jobs: the most seconds per input MiB; -1: none yet
   double first_start = -1, last_done = -1;               // seconds since the session started
   int64_t bytes_to_workers = 0, bytes_from_workers = 0;  // blobs served, outputs received
 };
@@ -100,7 +128,7 @@ class SessionBlobs : public pipeline::BlobAccess {
  public:
   SessionBlobs(BlobStore* store, fs::path dir) : store_(store), dir_(std::move(dir)) {}
   std::optional<std::string> Read(const std::string& sha256) const override {
-    return store_->Read(sha256);
+    return store_->Read(sha256, nullptr);
   }
   runtime::BlobRef Keep(const std::string& bytes, const std::string& name) override {
     return store_->AddBytes(dir_, bytes, name);
@@ -114,12 +142,15 @@ class SessionBlobs : public pipeline::BlobAccess {
 struct SessionRec {
   std::string id;
   pipeline::SessionPlan plan;
+  std::vector<std::string> input_digests;  // per instant: pipeline::InstantInputsDigest
+  std::set<std::string> input_shas;        // the take files it reads (rig and frames)
   std::unique_ptr<JobGraph> graph;
   std::unique_ptr<Journal> journal;
   std::unique_ptr<SessionBlobs> blobs;
   std::map<int, std::vector<runtime::BlobRef>> outputs;  // node -> output blobs (by name order)
   std::map<int, std::string> running_on;                 // node -> worker id
-  std::map<int, int> losses;                             // node -> workers lost with it
+  std::map<int, int> losses;           // node -> times lost (worker lost, timed out, bad result)
+  std::map<int, int64_t> input_bytes;  // node -> its inputs' bytes, as sent
   std::map<int, double> dispatched_at;
   SessionState state = SessionState::kRunning;
   std::string error;
@@ -284,19 +315,38 @@ struct Master::Impl {
     s->plan = pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
       return blobs.AddFile(path, name);
     });
+    CheckJobMemory(s->plan);
     std::error_code ec;
+    const bool existed = fs::exists(s->out(), ec);
     fs::create_directories(s->out(), ec);
-    core::Require(!ec, s->out().string(), "cannot create the output folder: " + ec.message());
-    // The session as submitted, derived values included: `dome run OUT/session.json`
-    // runs it again with the same options.
-    if (!spec.has_noop_jobs())
-      io::WriteFileAtomically(s->out() / "session.json", schema::PrintJson(spec) + "\n");
+    if (ec) {
+      throw core::StorageError(s->out().string(),
+                               "cannot create the output folder: " + ec.message());
+    }
+    try {
+      // The session as submitted, derived values included: `dome run OUT/session.json`
+      // runs it again with the same options.
+      if (!spec.has_noop_jobs())
+        io::WriteFileAtomically(s->out() / "session.json", schema::PrintJson(spec) + "\n");
+      s->journal =
+          std::make_unique<Journal>(s->out() / "journal.log", pipeline::SessionDigest(s->plan));
+    } catch (const core::InputError&) {
+      // A refused submit leaves nothing behind it made.
+      if (!existed) fs::remove_all(s->out(), ec);
+      throw;
+    }
     s->blobs = std::make_unique<SessionBlobs>(&blobs, s->out() / ".blobs");
     s->graph = std::make_unique<JobGraph>(s->plan.instants, GraphStages(stages, s->plan));
     s->stage_stats.resize(stages.stages.size());
     s->instant_stats.resize(s->plan.instants.size());
-    s->journal =
-        std::make_unique<Journal>(s->out() / "journal.log", pipeline::SessionDigest(s->plan));
+    s->input_shas.insert(s->plan.rig.sha256());
+    for (size_t t = 0; t < s->plan.instants.size(); ++t) {
+      s->input_digests.push_back(pipeline::InstantInputsDigest(s->plan, t));
+      for (const auto& f :
+           s->plan.frames.size() > t ? s->plan.frames[t] : std::vector<runtime::BlobRef>{}) {
+        s->input_shas.insert(f.sha256());
+      }
+    }
     Resume(s.get());
     const std::string id = s->id;
     spdlog::info("session {}: {} instants x {} cameras, {} jobs ({} already done), out {}", id,
@@ -308,6 +358,25 @@ struct Master::Impl {
     Publish(*raw, -1, "submitted");
     Advance(raw);
     return id;
+  }
+
+  // Refuses a session whose fusion job would need more memory than a worker job may
+  // (MasterOptions::max_job_mb): the slab's distances and weights, 8 bytes a voxel.
+  void CheckJobMemory(const pipeline::SessionPlan& plan) const {
+    int64_t limit_mb = options.max_job_mb;
+    if (limit_mb == 0) {
+      limit_mb = int64_t(::sysconf(_SC_PHYS_PAGES)) * int64_t(::sysconf(_SC_PAGE_SIZE)) >> 20;
+    }
+    const fusion::VolumeGrid& g = plan.options.grid;
+    const int64_t planes = std::min(plan.options.slab_planes, g.nz);
+    const double slab_mb = double(g.PlaneVoxels()) * double(planes) * 8.0 / double(1 << 20);
+    core::Require(
+        slab_mb <= double(limit_mb), "session volume",
+        fmt::format("a fusion job of {} x {} voxels x {} planes needs {:.0f} MiB, more than the "
+                    "{} MiB a worker job may use (dome-master --max-job-mb); use larger voxels "
+                    "(--voxel-mm), a smaller volume (--box) or fewer planes per job "
+                    "(--slab-planes)",
+                    g.nx, g.ny, planes, slab_mb, limit_mb));
   }
 
   // True when `stage` of `instant` is done and consumed its inputs' outputs.
@@ -328,13 +397,30 @@ struct Master::Impl {
 
   // Marks the jobs the journal records as done, when their outputs are still there.
   void Resume(SessionRec* s) {
+    // A record stands only for the inputs it was made from: an instant whose frames
+    // (or the rig) changed on disk since is redone.
+    const auto current = [&](const std::string& key, const JournalEntry& entry) {
+      const int node = s->graph->Find(key);
+      return node >= 0 && entry.inputs == s->input_digests[s->graph->node(node).instant];
+    };
     std::set<std::string> done;
+    std::set<int> changed;
     for (const auto& [key, entry] : s->journal->done()) {
-      if (s->graph->Find(key) >= 0) done.insert(key);
+      if (current(key, entry)) {
+        done.insert(key);
+      } else if (const int node = s->graph->Find(key); node >= 0) {
+        changed.insert(s->graph->node(node).instant);
+      }
+    }
+    for (int t : changed) {
+      spdlog::warn(
+          "session {}: instant {}: the take's rig or frames changed since {} recorded "
+          "its jobs; redoing them",
+          s->id, s->plan.instants[t], (s->out() / "journal.log").string());
     }
     for (const auto& [key, entry] : s->journal->done()) {
+      if (!done.count(key)) continue;
       const int node = s->graph->Find(key);
-      if (node < 0) continue;
       const JobNode& n = s->graph->node(node);
       // The outputs of a stage whose consumer is done are gone: its record stands on
       // the consumer's.
@@ -471,16 +557,23 @@ struct Master::Impl {
     const StageDescriptor& d = stages.stages[n.stage];
     JournalEntry entry;
     for (const auto& o : outs) entry.outputs.emplace_back(o.name(), o.sha256());
+    entry.inputs = s->input_digests[n.instant];
     s->journal->RecordDone(n.key, entry);  // fsync'd with the loop turn's others
     s->outputs[node] = outs;
     s->running_on.erase(node);
     s->graph->MarkDone(node);
     const double now = s->Now();
     auto& st = s->stage_stats[n.stage];
-    st.job_seconds += job_seconds > 0
-                          ? job_seconds
-                          : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
+    const double seconds =
+        job_seconds > 0 ? job_seconds
+                        : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
+    st.job_seconds += seconds;
     st.last_done = now;
+    if (auto in = s->input_bytes.find(node); in != s->input_bytes.end()) {
+      // At least 1 KiB: jobs of almost no input are timed by the floor alone.
+      const double mib = std::max(double(in->second), 1024.0) / double(1 << 20);
+      st.slowest_s_per_mib = std::max(st.slowest_s_per_mib, seconds / mib);
+    }
     if (!outs.empty()) FeedMasterStages(s, node, std::move(decoded));
     if (d.consumes_inputs) {
       // Its inputs are in its outputs now; its journal record stands for theirs once it
@@ -515,19 +608,36 @@ struct Master::Impl {
     Publish(*s, -1, error);
   }
 
+  // Forgets the jobs of a session that ended; their workers drop them (a running one
+  // runs on: its result is dropped when it comes).
   void DropQueued(SessionRec* s) {
     for (auto& [node, worker] : s->running_on) {
       auto it = workers.find(worker);
-      if (it != workers.end()) it->second.Forget(s->id + "/" + s->graph->node(node).key);
+      const std::string job = s->id + "/" + s->graph->node(node).key;
+      if (it != workers.end() && it->second.Forget(job)) {
+        SendDrop(worker, job, "session " + s->id + " is " + StateName(s->state));
+      }
     }
     s->running_on.clear();
   }
 
+  void SendDrop(const std::string& worker, const std::string& job, const std::string& reason) {
+    runtime::Envelope env;
+    env.mutable_drop_job()->set_job_id(job);
+    env.mutable_drop_job()->set_reason(reason);
+    SendToWorker(worker, env);
+  }
+
   void Finish(SessionRec* s) {
-    s->state = SessionState::kDone;
     s->finished_s = s->Now();
-    s->journal->Sync();
-    WriteReport(*s);
+    try {
+      s->journal->Sync();
+      WriteReport(*s);
+    } catch (const core::InputError& e) {
+      Fail(s, e.what());  // the storage failed under the last records or the report
+      return;
+    }
+    s->state = SessionState::kDone;
     spdlog::info(
         "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
         s->finished_s, s->graph->size(), s->requeued, s->duplicates);
@@ -577,8 +687,8 @@ struct Master::Impl {
     j["volume"] = {{"origin_mm", {g.origin_mm.x(), g.origin_mm.y(), g.origin_mm.z()}},
                    {"voxel_size_mm", g.voxel_size_mm},
                    {"dims", {g.nx, g.ny, g.nz}}};
-    j["derived"] = core::Json(std::vector<std::string>(s.plan.spec.derived().begin(),
-                                                       s.plan.spec.derived().end()));
+    j["derived"] = core::Json(
+        std::vector<std::string>(s.plan.spec.derived().begin(), s.plan.spec.derived().end()));
     j["jobs_by_worker"] = s.jobs_by_worker;
     core::Json per_instant = core::Json::array();
     for (int t = 0; t < instants; ++t) {
@@ -623,12 +733,13 @@ struct Master::Impl {
       spdlog::warn("{} lost ({}); it was idle", name, why);
       return;
     }
-    for (const std::string& job : jobs) Requeue(id, name, why, job);
+    for (const std::string& job : jobs) Requeue(id, name + " lost (" + why + ")", job, true);
   }
 
-  // A job sent to a worker now lost goes back to the ready set.
-  void Requeue(const std::string& id, const std::string& name, const std::string& why,
-               const std::string& job) {
+  // A job sent to worker `id` goes back to the ready set: `why` says what happened
+  // ("worker ... lost (...)"). Counted as a loss of the job when `count`; the job lost
+  // max_job_losses times fails its session, naming the last reason.
+  void Requeue(const std::string& id, const std::string& why, const std::string& job, bool count) {
     auto found = FindJob(job);
     if (!found) return;
     auto [s, node] = *found;
@@ -640,11 +751,54 @@ struct Master::Impl {
     s->running_on.erase(node);
     s->graph->Requeue(node);
     ++s->requeued;
+    if (!count) {
+      spdlog::info("{}; re-queued job {}", why, job);
+      return;
+    }
     const int losses = ++s->losses[node];
-    spdlog::warn("{} lost ({}); re-queued job {} (lost {} time{})", name, why, job, losses,
-                 losses == 1 ? "" : "s");
+    spdlog::warn("{}; re-queued job {} (lost {} time{})", why, job, losses, losses == 1 ? "" : "s");
     if (losses >= options.max_job_losses) {
-      Fail(s, "job " + job + " was lost with " + std::to_string(losses) + " workers");
+      Fail(s,
+           "job " + job + " was lost " + std::to_string(losses) + " times; the last time: " + why);
+    }
+  }
+
+  // The time a worker job may run before it is dropped and re-queued (MasterOptions).
+  double JobTimeout(const SessionRec& s, int node) const {
+    if (options.job_timeout_s > 0) return options.job_timeout_s;
+    auto in = s.input_bytes.find(node);
+    const double mib = in == s.input_bytes.end() ? 0 : double(in->second) / double(1 << 20);
+    const StageStats& st = s.stage_stats[s.graph->node(node).stage];
+    if (st.slowest_s_per_mib < 0) {
+      return options.job_timeout_min_s + options.job_timeout_first_s_per_mib * mib;
+    }
+    return std::max(options.job_timeout_min_s,
+                    options.job_timeout_factor * st.slowest_s_per_mib * mib);
+  }
+
+  // Drops and re-queues the job each worker runs past its time-out, with the jobs sent
+  // ahead to it (those are not counted as lost: they never started).
+  void TimeOutJobs() {
+    const auto now = Clock::now();
+    std::vector<std::tuple<std::string, std::string, double>> late;  // worker, job, limit
+    for (const auto& [id, w] : workers) {
+      if (w.jobs.empty()) continue;
+      auto found = FindJob(w.jobs.front());
+      if (!found) continue;
+      const double limit = JobTimeout(*found->first, found->second);
+      if (Seconds(now - w.front_since) > limit) late.emplace_back(id, w.jobs.front(), limit);
+    }
+    for (const auto& [id, job, limit] : late) {
+      WorkerRec& w = workers.at(id);
+      const std::string why = fmt::format(
+          "{} did not finish job {} within its time-out of {:.3g} s", WorkerName(id), job, limit);
+      const std::deque<std::string> jobs = w.jobs;
+      w.jobs.clear();
+      w.stuck.insert(job);
+      for (const std::string& j : jobs) {
+        SendDrop(id, j, j == job ? why : "sent ahead behind a job that timed out");
+        Requeue(id, j == job ? why : why + " (sent ahead behind it)", j, j == job);
+      }
     }
   }
 
@@ -698,8 +852,14 @@ struct Master::Impl {
       auto* b = env.mutable_blob_reply()->add_blobs();
       b->set_sha256(sha.substr(0, 64));
       std::optional<std::string> bytes;
-      if (net::IsSha256Hex(sha)) bytes = blobs.Read(sha);
-      if (!bytes) {
+      std::string error;
+      if (net::IsSha256Hex(sha)) bytes = blobs.Read(sha, &error);
+      if (!bytes && !error.empty()) {
+        // The file behind a blob the master holds is gone or changed: what depends on
+        // it cannot be made from the bytes the session was submitted with.
+        BlobLost(sha, error);
+        b->set_missing(true);
+      } else if (!bytes) {
         spdlog::warn("{}: asked for unknown blob '{}'", WorkerName(id), sha.substr(0, 80));
         b->set_missing(true);
       } else {
@@ -720,10 +880,30 @@ struct Master::Impl {
     }
   }
 
+  // Fails every running session that reads the blob `sha256`, whose file `error`
+  // says is gone or changed since the session was submitted.
+  void BlobLost(const std::string& sha256, const std::string& error) {
+    for (const auto& sid : session_order) {
+      SessionRec* s = sessions[sid].get();
+      if (!s->running()) continue;
+      bool reads = s->input_shas.count(sha256) != 0;
+      for (const auto& [node, outs] : s->outputs) {
+        for (const auto& o : outs) reads = reads || o.sha256() == sha256;
+      }
+      if (!reads) continue;
+      Fail(s, s->input_shas.count(sha256) != 0
+                  ? "take file " + error + "; submit the session again to redo what depends on it"
+                  : "job output " + error);
+    }
+  }
+
   void OnResult(const std::string& id, runtime::JobResult r) {
     const std::string peer = WorkerName(id);
     auto w = workers.find(id);
-    if (w != workers.end()) w->second.Forget(r.job_id());
+    if (w != workers.end()) {
+      w->second.Forget(r.job_id());
+      w->second.stuck.erase(r.job_id());  // a late result: the worker is free again
+    }
     auto found = FindJob(r.job_id());
     if (!found) {
       const std::string what = "result for unknown job id '" + r.job_id().substr(0, 200) + "'";
@@ -773,17 +953,16 @@ struct Master::Impl {
         return [this, s, node, id, name, result, stored] {
           Accepted(s, node, id, name, *result, *stored);
         };
-      } catch (const core::InputError& e) {
-        return [this, s, node, id, peer, result, what = std::string(e.what())] {
-          spdlog::warn("{}: bad result for {}: {}", peer, result->job_id(), what);
-          const JobNode& n = s->graph->node(node);
-          if (s->running() && n.state == JobState::kRunning && s->running_on.count(node) &&
-              s->running_on[node] == id) {
-            s->running_on.erase(node);
-            s->graph->Requeue(node);
-            ++s->requeued;
-            spdlog::warn("re-queued job {} after a bad result", result->job_id());
-          }
+      } catch (const core::StorageError& e) {
+        // The master's disk, not the worker: every result would fail the same way.
+        return [this, s, result, what = std::string(e.what())] {
+          Fail(s, "cannot store the result of job " + result->job_id() + ": " + what);
+        };
+      } catch (const std::exception& e) {
+        // A result its stage cannot read (an InputError, or a library's own exception
+        // on bytes it cannot parse): the worker's fault; another may do better.
+        return [this, id, peer, result, what = std::string(e.what())] {
+          Requeue(id, peer + " sent a bad result (" + what + ")", result->job_id(), true);
         };
       }
     });
@@ -813,7 +992,11 @@ struct Master::Impl {
       if (other != workers.end()) other->second.Forget(r.job_id());
     }
     ++s->jobs_by_worker[name];
-    Completed(s, node, stored.outputs, r.seconds(), stored.decoded);
+    try {
+      Completed(s, node, stored.outputs, r.seconds(), stored.decoded);
+    } catch (const core::InputError& e) {
+      Fail(s, "job " + r.job_id() + ": " + e.what());  // its journal record could not be written
+    }
   }
 
   // Idle workers first get the highest-priority ready jobs; then, while ready jobs are
@@ -821,18 +1004,39 @@ struct Master::Impl {
   // sent ahead (many jobs an instant), which they fetch the inputs of while they
   // compute and start the moment their job ends. The long one-per-instant stages are
   // never sent ahead: one waiting behind another job could keep an idle worker idle.
+  //
+  // A job goes only to a worker whose blob cache holds all its inputs at once; when no
+  // worker connected has such a cache, its session fails naming the sizes. Workers
+  // still running a job that timed out get work only when every worker is.
   void Dispatch() {
+    bool all_stuck = true;
+    for (const auto& [id, w] : workers) all_stuck = all_stuck && !w.stuck.empty();
     for (int ahead = 0; ahead <= options.jobs_ahead; ++ahead) {
       for (auto& [id, w] : workers) {
-        if (int(w.jobs.size()) != ahead) continue;
+        if (int(w.jobs.size()) != ahead || (!w.stuck.empty() && !all_stuck)) continue;
         SessionRec* best = nullptr;
         int node = -1;
         if (!NextJob(ahead > 0, &best, &node)) return;
         runtime::Job job = MakeJob(best, node, w);
+        int64_t bytes = 0;
+        for (const auto& b : job.blobs()) bytes += int64_t(b.size());
+        if (bytes > (w.cache_mb << 20)) {
+          int64_t largest = 0;
+          for (const auto& [other, x] : workers) largest = std::max(largest, x.cache_mb);
+          if (bytes > (largest << 20)) {
+            Fail(best, fmt::format("job {} needs {:.1f} MiB of inputs at once, more than the "
+                                   "blob cache of any worker connected (largest: {} MiB; "
+                                   "dome-worker --cache-mb)",
+                                   job.id(), double(bytes) / double(1 << 20), largest));
+            return;  // the next turn dispatches the other sessions' jobs
+          }
+          continue;  // another worker can take it
+        }
         best->graph->MarkRunning(node);
         best->running_on[node] = id;
+        best->input_bytes[node] = bytes;
         Touch(best, node);
-        w.jobs.push_back(job.id());
+        w.Add(job.id());
         runtime::Envelope env;
         *env.mutable_job() = std::move(job);
         SendToWorker(id, env);
@@ -1039,6 +1243,7 @@ struct Master::Impl {
         for (const auto& [id, w] : workers) SendToWorker(id, hb);
         next_heartbeat = now + std::chrono::milliseconds(interval);
       }
+      TimeOutJobs();
       Dispatch();
       if (Clock::now() >= next_journal_sync) {
         SyncJournals();

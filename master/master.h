@@ -51,7 +51,22 @@ struct MasterOptions {
   std::string events_endpoint = "tcp://*:5557";   // PUB of StatusEvents
   int heartbeat_interval_ms = 1000;               // between heartbeats to each worker, ms
   int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
-  int max_job_losses = 5;      // a job lost with this many workers fails its session
+  int max_job_losses = 5;      // a job lost (worker lost, timed out, bad result) this often fails
+                               // its session
+  // A worker job (not the master's stages) that has not answered this long after it
+  // started on its worker is dropped there and re-queued elsewhere, counting as a loss.
+  // 0 derives it from the job's kind and size: before any job of its stage finished in
+  // the session, job_timeout_min_s + job_timeout_first_s_per_mib per MiB of its inputs;
+  // after, job_timeout_factor times the slowest seconds per input MiB seen for that stage
+  // times its inputs' MiB, and at least job_timeout_min_s. Seconds.
+  double job_timeout_s = 0;
+  double job_timeout_min_s = 60;
+  double job_timeout_first_s_per_mib = 10;
+  double job_timeout_factor = 10;
+  // The memory one worker job may need, MiB; a session whose fusion slab (voxels of
+  // slab_planes planes, 8 bytes each) needs more is refused at submit with the figure.
+  // 0: this machine's physical memory.
+  int64_t max_job_mb = 0;
   // Jobs sent to a busy worker beyond the one it runs (count), so that it fetches
   // their inputs while it computes and starts the next without a round trip; only jobs
   // of stages that may be sent ahead (StageDescriptor::send_ahead: stereo, fusion), and

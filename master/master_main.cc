@@ -9,8 +9,8 @@
 #include "core/logging.h"
 #include "core/memory.h"
 #include "io/file_util.h"
-#include "net/security.h"
 #include "master/master.h"
+#include "net/security.h"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -35,6 +35,25 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--writer-threads", o.writer_threads,
                  "threads checking and writing results (0 = half the hardware threads)")
+      ->capture_default_str();
+  app.add_option("--job-timeout-s", o.job_timeout_s,
+                 "seconds a worker job may run before it is re-queued elsewhere (0: derived "
+                 "from its stage and input size, see --job-timeout-min-s)")
+      ->capture_default_str();
+  app.add_option("--job-timeout-min-s", o.job_timeout_min_s,
+                 "derived time-outs: the least, s; a stage's first job gets this plus "
+                 "--job-timeout-first-s-per-mib per MiB of its inputs, later ones "
+                 "--job-timeout-factor times the slowest rate seen")
+      ->capture_default_str();
+  app.add_option("--job-timeout-first-s-per-mib", o.job_timeout_first_s_per_mib,
+                 "derived time-outs: seconds per input MiB before a stage's first job ends")
+      ->capture_default_str();
+  app.add_option("--job-timeout-factor", o.job_timeout_factor,
+                 "derived time-outs: times the slowest seconds per input MiB seen")
+      ->capture_default_str();
+  app.add_option("--max-job-mb", o.max_job_mb,
+                 "memory a worker job may use, MiB; larger fusion slabs are refused at "
+                 "submit (0: this machine's memory)")
       ->capture_default_str();
   app.add_option("--max-message-bytes", o.socket.max_message_bytes,
                  "largest message accepted, bytes")

@@ -3,9 +3,11 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <deque>
 #include <future>
+#include <map>
 #include <set>
 #include <thread>
 #include <vector>
@@ -21,7 +23,9 @@ using Clock = std::chrono::steady_clock;
 
 void WorkerOptions::Check() const {
   core::Require(!master.empty(), "--master", "names no master endpoint");
-  core::Require(cache_mb >= 0, "--cache-mb", "must not be negative");
+  core::Require(
+      cache_mb >= 1, "--cache-mb",
+      "must be at least 1 MiB (it holds a job's inputs at once), got " + std::to_string(cache_mb));
   core::Require(heartbeat_interval_ms > 0, "--heartbeat-ms", "must be positive");
   core::Require(heartbeat_liveness > 0, "--liveness", "must be positive");
   core::Require(reconnect_max_ms >= heartbeat_interval_ms, "--reconnect-max-ms",
@@ -30,15 +34,21 @@ void WorkerOptions::Check() const {
   socket.Check();
 }
 
+// Replies for one blob that do not hash to its address before the jobs needing it are
+// failed (count).
+constexpr int kMaxCorruptReplies = 3;
+
 struct Worker::Impl {
   zmq::context_t* context;
   WorkerOptions options;
   std::unique_ptr<zmq::socket_t> socket;
   net::BlobCache cache;
   WorkerStats stats;
-  std::deque<runtime::Job> queue;   // jobs received, not started
-  std::set<std::string> requested;  // blobs asked for, not yet received
-  pipeline::JobMemo memo;           // used by the running job only; outlives it
+  std::deque<runtime::Job> queue;      // jobs received, not started
+  std::set<std::string> requested;     // blobs asked for, not yet received
+  std::map<std::string, int> corrupt;  // blob -> replies that did not hash to its address
+  std::string running_id;              // the job on the job thread; "" when none
+  pipeline::JobMemo memo;              // used by the running job only; outlives it
   std::future<runtime::JobResult> running;
   Clock::time_point master_expiry, next_heartbeat;
   int backoff_ms;
@@ -85,6 +95,15 @@ struct Worker::Impl {
   void MaybeStart() {
     if (queue.empty()) return;
     const runtime::Job& job = queue.front();
+    int64_t bytes = 0;
+    for (const auto& b : job.blobs()) bytes += int64_t(b.size());
+    if (bytes > (options.cache_mb << 20)) {
+      // The master sends such a job only to a worker that said its cache is larger.
+      FailQueued(job.id(), "its inputs (" + std::to_string(bytes >> 20) +
+                               " MiB) do not fit in this worker's --cache-mb " +
+                               std::to_string(options.cache_mb));
+      return;
+    }
     for (const auto& b : job.blobs()) {
       const std::string& sha = b.sha256();
       if (requested.count(sha) != 0 || cache.Get(sha)) continue;
@@ -106,6 +125,7 @@ struct Worker::Impl {
     }
     runtime::Job j = std::move(queue.front());
     queue.pop_front();
+    running_id = j.id();
     running = std::async(std::launch::async, [this, j = std::move(j), held = std::move(held)]() {
       runtime::JobResult result;
       result.set_job_id(j.id());
@@ -125,10 +145,55 @@ struct Worker::Impl {
     });
   }
 
+  // Answers a queued job it cannot run with a failed result, so that nothing waits for
+  // it; the master fails its session with `why`.
+  void FailQueued(std::string job_id, const std::string& why) {  // a copy: it may be in the queue
+    for (auto it = queue.begin(); it != queue.end(); ++it) {
+      if (it->id() != job_id) continue;
+      queue.erase(it);
+      runtime::Envelope env;
+      env.mutable_result()->set_job_id(job_id);
+      env.mutable_result()->set_ok(false);
+      env.mutable_result()->set_error(why);
+      spdlog::warn("job {} not run: {}", job_id, why);
+      ++stats.failed_jobs;
+      Send(env);
+      return;
+    }
+  }
+
+  // Fails every queued job that needs blob `sha`.
+  void FailJobsNeeding(const std::string& sha, const std::string& why) {
+    std::vector<std::string> ids;
+    for (const auto& j : queue) {
+      for (const auto& r : j.blobs()) {
+        if (r.sha256() == sha) {
+          ids.push_back(j.id());
+          break;
+        }
+      }
+    }
+    for (const auto& id : ids) FailQueued(id, why);
+  }
+
   void OnMessage(const runtime::Envelope& env) {
     switch (env.body_case()) {
       case runtime::Envelope::kHeartbeat:
         break;
+      case runtime::Envelope::kDropJob: {
+        const auto& d = env.drop_job();
+        const auto before = queue.size();
+        queue.erase(std::remove_if(queue.begin(), queue.end(),
+                                   [&](const runtime::Job& j) { return j.id() == d.job_id(); }),
+                    queue.end());
+        if (queue.size() != before) {
+          spdlog::info("master: dropped job {}: {}", d.job_id(), d.reason());
+        } else if (d.job_id() == running_id) {
+          spdlog::warn("master: dropped job {} while it runs ({}); its result will be late",
+                       d.job_id(), d.reason());
+        }
+        break;
+      }
       case runtime::Envelope::kJob:
         spdlog::debug("job {}", env.job().id());
         queue.push_back(env.job());
@@ -137,20 +202,24 @@ struct Worker::Impl {
         for (const auto& b : env.blob_reply().blobs()) {
           requested.erase(b.sha256());
           if (b.missing()) {
-            spdlog::warn("master: has no blob {}; dropping the jobs that need it", b.sha256());
-            std::deque<runtime::Job> keep;
-            for (auto& j : queue) {
-              bool needs = false;
-              for (const auto& r : j.blobs()) needs |= r.sha256() == b.sha256();
-              if (!needs) keep.push_back(std::move(j));
-            }
-            queue.swap(keep);
+            FailJobsNeeding(b.sha256(), "the master has no blob " + b.sha256().substr(0, 12) +
+                                            "... (its file is gone or changed)");
             continue;
           }
           if (net::Sha256Hex(b.data()) != b.sha256()) {
-            spdlog::warn("master: blob {} does not hash to its address; asking again", b.sha256());
+            // Asked again (MaybeStart) a few times: a reply damaged on its way is rare.
+            if (++corrupt[b.sha256()] >= kMaxCorruptReplies) {
+              FailJobsNeeding(b.sha256(), "the master sent blob " + b.sha256().substr(0, 12) +
+                                              "... " + std::to_string(kMaxCorruptReplies) +
+                                              " times with bytes that do not hash to its address");
+              corrupt.erase(b.sha256());
+            } else {
+              spdlog::warn("master: blob {} does not hash to its address; asking again",
+                           b.sha256());
+            }
             continue;
           }
+          corrupt.erase(b.sha256());
           ++stats.blobs_fetched;
           stats.bytes_fetched += int64_t(b.data().size());
           cache.Put(b.sha256(), std::make_shared<const std::string>(b.data()));
@@ -212,6 +281,7 @@ struct Worker::Impl {
           running.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
         runtime::Envelope env;
         *env.mutable_result() = running.get();
+        running_id.clear();
         ++stats.jobs;
         if (!env.result().ok()) {
           ++stats.failed_jobs;

@@ -4,6 +4,7 @@
 //  * Bad input or bad configuration -- a file, a JSON field, a command-line flag, a
 //    network peer -- throws dome::core::InputError. Its message always names *where*
 //    (file path, "file: field", "peer tcp://...") and *what* was expected.
+//    Writes this process cannot make throw its subclass StorageError.
 //  * Programmer errors (broken invariants) abort via DOME_CHECK with file:line.
 //    DOME_CHECK is never used on data that comes from outside the process.
 #pragma once
@@ -27,6 +28,16 @@ class InputError : public std::runtime_error {
 
  private:
   std::string where_;
+};
+
+// A file this process writes could not be written (disk full, read-only or missing
+// folder, quota): the storage's fault, not the data's. An InputError, so every
+// handler of bad input reports it; the master tells it apart to fail a session on it
+// rather than re-queue the job whose outputs it was writing (a full disk fails every
+// worker's result the same way). `where` is the file.
+class StorageError : public InputError {
+ public:
+  using InputError::InputError;
 };
 
 // Throws InputError(where, what) unless `condition` holds.

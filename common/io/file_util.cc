@@ -74,10 +74,10 @@ void CommitTempFile(const std::filesystem::path& tmp, const std::filesystem::pat
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     std::remove(tmp.c_str());
-    throw core::InputError(path.string(),
-                           "cannot write (rename of the finished temporary "
-                           "file failed): " +
-                               ErrnoText(err));
+    throw core::StorageError(path.string(),
+                             "cannot write (rename of the finished temporary "
+                             "file failed): " +
+                                 ErrnoText(err));
   }
 }
 
@@ -86,8 +86,8 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view byt
   const std::filesystem::path tmp = TempSiblingPath(path);
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (f == nullptr) {
-    throw core::InputError(path.string(), "cannot write into folder " + ParentOf(path).string() +
-                                              ": " + ErrnoText(errno));
+    throw core::StorageError(path.string(), "cannot write into folder " + ParentOf(path).string() +
+                                                ": " + ErrnoText(errno));
   }
   const bool wrote = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
   const int write_err = errno;
@@ -95,8 +95,8 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view byt
   const int close_err = errno;
   if (!wrote || !closed) {
     std::remove(tmp.c_str());
-    throw core::InputError(path.string(),
-                           "write failed: " + ErrnoText(!wrote ? write_err : close_err));
+    throw core::StorageError(path.string(),
+                             "write failed: " + ErrnoText(!wrote ? write_err : close_err));
   }
   CommitTempFile(tmp, path);
 }

@@ -23,15 +23,16 @@ std::string ReadFileBytes(const std::filesystem::path& path);
 void RequireParentFolder(const std::filesystem::path& path);
 
 // Writes `bytes` to `path` atomically (temporary sibling + rename). Throws
-// core::InputError naming the file or folder on any failure (missing or read-only
-// folder, disk full); no temporary file is left behind.
+// core::InputError naming the file when its folder is missing, core::StorageError
+// naming the file with the system's reason when the write fails (read-only folder,
+// disk full); no temporary file is left behind.
 void WriteFileAtomically(const std::filesystem::path& path, std::string_view bytes);
 
 // A fresh name in the folder of `path` for a temporary file ("<name>.tmp-<pid>-<n>").
 std::filesystem::path TempSiblingPath(const std::filesystem::path& path);
 
 // Renames the finished temporary `tmp` over `path`; removes `tmp` and throws
-// core::InputError naming `path` when that fails.
+// core::StorageError naming `path` when that fails.
 void CommitTempFile(const std::filesystem::path& tmp, const std::filesystem::path& path);
 
 }  // namespace dome::io

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
+#include <set>
 
 #include "core/error.h"
 #include "io/file_util.h"
@@ -69,6 +71,16 @@ std::vector<std::string> SessionInstants(const runtime::Session& session, const 
   return out;
 }
 
+namespace {
+bool HasPngSignature(const fs::path& path) {
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[8] = {0};
+  in.read(reinterpret_cast<char*>(head), 8);
+  return in.gcount() == 8 && std::equal(head, head + 8, kSignature);
+}
+}  // namespace
+
 SessionPlan PlanSession(
     const runtime::Session& spec,
     const std::function<runtime::BlobRef(const fs::path&, const std::string&)>& add_file) {
@@ -90,10 +102,27 @@ SessionPlan PlanSession(
     stereo::SelectCluster(plan.take.rig, c, plan.options.stereo.cluster);
   }
   plan.rig = add_file(plan.take.RigPath(), "rig.json");
+  const std::set<std::string> known(plan.cameras.begin(), plan.cameras.end());
   for (const auto& in : plan.instants) {
+    // What `dome info` refuses, refused here too, before any job runs: a frame of a
+    // camera the rig does not have would otherwise be ignored without a word.
+    const fs::path folder = plan.take.dir / "frames" / in;
+    for (const auto& e : fs::directory_iterator(folder)) {
+      const fs::path p = e.path();
+      core::Require(e.is_regular_file() && p.extension() == ".png", p.string(),
+                    "unexpected entry (expected <camera>.png files)");
+      core::Require(known.count(p.stem().string()) != 0, p.string(),
+                    "unknown camera id '" + p.stem().string() + "' (not in rig.json)");
+    }
     std::vector<runtime::BlobRef> row;
     for (const auto& c : plan.cameras) {
-      row.push_back(add_file(plan.take.FramePath(in, c), "frames/" + in + "/" + c + ".png"));
+      const fs::path path = plan.take.FramePath(in, c);
+      row.push_back(add_file(path, "frames/" + in + "/" + c + ".png"));
+      // The first bytes only: decoding every frame at submit costs as much as a stereo
+      // job's reading; a truncated PNG is found by the job that decodes it.
+      core::Require(row.back().size() > 0, path.string(), "empty file (0 bytes), expected a PNG");
+      core::Require(HasPngSignature(path), path.string(),
+                    "not a PNG (it does not start with the PNG signature)");
     }
     plan.frames.push_back(std::move(row));
   }
@@ -125,6 +154,16 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.SerializeToCodedStream(&coded);
   coded.Trim();
   return net::Sha256Hex(bytes);
+}
+
+std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
+  std::string addresses = "rig " + plan.rig.sha256() + "\n";
+  if (instant < plan.frames.size()) {
+    for (size_t c = 0; c < plan.frames[instant].size(); ++c) {
+      addresses += plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
+    }
+  }
+  return net::Sha256Hex(addresses);
 }
 
 }  // namespace dome::pipeline

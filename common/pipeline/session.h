@@ -71,4 +71,10 @@ SessionPlan PlanSession(const runtime::Session& spec,
 // folder, instants and every resolved option (not its id, not its output folder).
 std::string SessionDigest(const SessionPlan& plan);
 
+// What a job of instant `instant` (index into plan.instants) is made from, beyond the
+// options: the SHA-256 of the rig's and that instant's frames' content addresses. The
+// journal keeps it with each record, so that a take whose files changed under the
+// same path redoes exactly the instants whose inputs changed.
+std::string InstantInputsDigest(const SessionPlan& plan, size_t instant);
+
 }  // namespace dome::pipeline

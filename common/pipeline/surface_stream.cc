@@ -1,5 +1,7 @@
 #include "pipeline/surface_stream.h"
 
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 
 #include "core/error.h"
@@ -116,6 +118,17 @@ void SurfaceStream::Run() {
           return TakeSlab(index);
         },
         smooth_);
+    if (surface.vertices.empty()) {
+      // Not an error (an instant may be empty), but usually a volume that misses the
+      // scene: say so where the user looks.
+      const Eigen::Vector3d hi =
+          grid_.origin_mm + Eigen::Vector3d(grid_.nx, grid_.ny, grid_.nz) * grid_.voxel_size_mm;
+      spdlog::warn(
+          "{}: the surface is empty: no camera saw a surface inside the volume [{:.0f} {:.0f} "
+          "{:.0f}] .. [{:.0f} {:.0f} {:.0f}] mm; it may miss the scene (dome run --box)",
+          (dir_ / kMeshPly).string(), grid_.origin_mm.x(), grid_.origin_mm.y(), grid_.origin_mm.z(),
+          hi.x(), hi.y(), hi.z());
+    }
     const std::string ply = EncodeMeshPly(surface);
     fs::create_directories(dir_);
     io::WriteFileAtomically(dir_ / kMeshPly, ply);

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <string>
 
+#include "core/json.h"
+#include "io/file_util.h"
 #include "take_fixture.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
@@ -211,6 +213,48 @@ TEST(Cli, ImportPanopticWholeDomeCalibrationIsARigOnlyTake) {
       RunDomeBinary("import panoptic " + json.string() + " --out " + (tmp / "dome").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("520 camera(s), rig only (no images)"), std::string::npos) << r.output;
+}
+
+// Resume keys on the inputs' contents, not the take's path: a frame rewritten with
+// other bytes redoes exactly its instant, and the outputs are those of a fresh run.
+TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", out = tmp / "out", fresh = tmp / "fresh";
+  ASSERT_EQ(RunDomeBinary("synth --preset small --instants 2 --out " + take.string()).exit_code, 0);
+  const std::string flags = " --workers 2 --no-texture --no-preview";
+  const Result first = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  std::vector<std::string> instants;
+  for (const auto& e : fs::directory_iterator(take / "frames")) {
+    instants.push_back(e.path().filename().string());
+  }
+  std::sort(instants.begin(), instants.end());
+  ASSERT_EQ(instants.size(), 2u);
+  // The second instant's frames become the first's: other bytes, same paths.
+  for (const auto& e : fs::directory_iterator(take / "frames" / instants[0])) {
+    fs::copy_file(e.path(), take / "frames" / instants[1] / e.path().filename(),
+                  fs::copy_options::overwrite_existing);
+  }
+  const Result again = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("instant " + instants[1] + ": the take's rig or frames changed"),
+            std::string::npos)
+      << again.output;
+  EXPECT_EQ(again.output.find("instant " + instants[0] + ": the take's rig or frames changed"),
+            std::string::npos)
+      << again.output;
+  const core::Json report = core::Json::parse(io::ReadFileBytes(out / "report.json"));
+  const int total = report.value("jobs", -1);
+  ASSERT_GT(total, 0) << report.dump();
+  EXPECT_EQ(report.value("jobs_resumed_from_journal", -1), total / 2) << report.dump();
+  ASSERT_EQ(RunDomeBinary("run " + take.string() + " --out " + fresh.string() + flags).exit_code,
+            0);
+  for (const auto& instant : instants) {
+    for (const char* mesh : {"mesh.ply", "mesh_decimated.ply"}) {
+      EXPECT_EQ(io::ReadFileBytes(out / instant / mesh), io::ReadFileBytes(fresh / instant / mesh))
+          << instant << "/" << mesh;
+    }
+  }
 }
 
 }  // namespace

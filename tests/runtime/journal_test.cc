@@ -30,6 +30,24 @@ TEST(Journal, RecordsSurviveReopening) {
   EXPECT_EQ(j.done().count("t0/surface"), 1u);
 }
 
+TEST(Journal, InputsDigestsAreKeptWithTheirRecords) {
+  testing::TempDir dir;
+  const auto path = dir.path() / "journal.log";
+  {
+    Journal j(path, "d");
+    JournalEntry e{{{"stereo", std::string(64, 'a')}}, std::string(64, 'f')};
+    j.RecordDone("t0/stereo/c1", e);
+    j.RecordDone("t0/stereo/c2", {});
+  }
+  EXPECT_NE(io::ReadFileBytes(path).find("done t0/stereo/c1 @" + std::string(64, 'f') +
+                                         " stereo=" + std::string(64, 'a') + "\n"),
+            std::string::npos);
+  Journal j(path, "d");
+  EXPECT_EQ(j.done().at("t0/stereo/c1").inputs, std::string(64, 'f'));
+  EXPECT_EQ(j.done().at("t0/stereo/c1").outputs.size(), 1u);
+  EXPECT_EQ(j.done().at("t0/stereo/c2").inputs, "");
+}
+
 TEST(Journal, TornLastRecordIsIgnoredAndTheNextStartsOnItsOwnLine) {
   testing::TempDir dir;
   const auto path = dir.path() / "journal.log";
@@ -62,7 +80,7 @@ TEST(Journal, AnotherSessionsJournalIsMovedAside) {
   Journal j(path, "two");
   EXPECT_TRUE(j.done().empty());
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "journal.log.old"));
-  EXPECT_EQ(io::ReadFileBytes(path), "dome-journal 1 two\n");
+  EXPECT_EQ(io::ReadFileBytes(path), "dome-journal 2 two\n");
 }
 
 TEST(Journal, RecordsWrittenButNotYetSyncedSurviveAKilledProcess) {
