@@ -205,16 +205,19 @@ struct Master::Impl {
         control_socket(*ctx, zmq::socket_type::router),
         events_socket(*ctx, zmq::socket_type::pub),
         offload(WriterThreads(o)) {
-    Bind(&workers_socket, options.worker_endpoint, "--bind", &endpoints.workers);
-    Bind(&control_socket, options.control_endpoint, "--control", &endpoints.control);
-    Bind(&events_socket, options.events_endpoint, "--events", &endpoints.events);
+    Bind(&workers_socket, options.worker_endpoint, "--bind", net::kRoleWorker, &endpoints.workers);
+    Bind(&control_socket, options.control_endpoint, "--control", net::kRoleClient,
+         &endpoints.control);
+    Bind(&events_socket, options.events_endpoint, "--events", net::kRoleClient, &endpoints.events);
     handshake_log = std::make_unique<net::HandshakeLog>(
         ctx,
         std::vector<std::pair<zmq::socket_t*, std::string>>{
             {&workers_socket, "worker"}, {&control_socket, "control"}, {&events_socket, "events"}});
     if (!options.capture_endpoint.empty()) {
+      net::SocketOptions capture = options.socket;
+      capture.zap_domain = net::kRoleCapture;
       capture_ingest =
-          HostCaptureIngest(context, options.capture_endpoint, options.capture_take, options.socket,
+          HostCaptureIngest(context, options.capture_endpoint, options.capture_take, capture,
                             [this](const runtime::StatusEvent& ev) {
                               runtime::Envelope env;
                               *env.mutable_status() = ev;
@@ -230,9 +233,13 @@ struct Master::Impl {
     return std::max(1, int(std::thread::hardware_concurrency()) / 2);
   }
 
+  // The socket's ZAP domain is `role`: with keys, only peers allowed that role get in
+  // (net/security.h).
   void Bind(zmq::socket_t* s, const std::string& endpoint, const std::string& flag,
-            std::string* bound) {
-    net::ConfigureSocket(s, options.socket);
+            const char* role, std::string* bound) {
+    net::SocketOptions socket = options.socket;
+    socket.zap_domain = role;
+    net::ConfigureSocket(s, socket);
     if (s == &workers_socket) s->set(zmq::sockopt::router_mandatory, 1);
     try {
       s->bind(endpoint);
@@ -307,7 +314,22 @@ struct Master::Impl {
 
   // ---- sessions -----------------------------------------------------------------------
 
+  // Refuses an output folder outside MasterOptions::out_root, before anything is made.
+  void CheckOutRoot(const std::string& out) const {
+    if (options.out_root.empty()) return;
+    std::error_code ec;
+    const fs::path root = fs::weakly_canonical(fs::absolute(options.out_root), ec);
+    const fs::path path = fs::weakly_canonical(fs::absolute(out), ec);
+    auto [r, p] = std::mismatch(root.begin(), root.end(), path.begin(), path.end());
+    // A trailing empty component ("/srv/dome/") matches anything below.
+    const bool inside = !ec && (r == root.end() || (std::next(r) == root.end() && r->empty()));
+    core::Require(inside, "session: out",
+                  "'" + out + "' is outside the master's output root " + root.string() +
+                      " (dome-master --out-root); give a folder inside it");
+  }
+
   std::string Submit(const runtime::Session& spec) {
+    CheckOutRoot(spec.out());
     auto s = std::make_unique<SessionRec>();
     s->loop_busy_at_start = loop_busy_s;
     s->id = NewSessionId();

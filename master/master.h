@@ -81,6 +81,10 @@ struct MasterOptions {
   // capture_take (required with it).
   std::string capture_endpoint;
   std::string capture_take;
+  // When set, every session's output folder must lie inside this folder (after
+  // following symbolic links and ".."); others are refused at submit. "": anywhere this
+  // process may write (the embedded `dome run`; dome-master warns at start).
+  std::string out_root;
   // The stages every session runs (the workers must run the same set).
   std::shared_ptr<const pipeline::StageSet> stages = pipeline::DefaultStages();
 

@@ -1,5 +1,7 @@
 // dome-master: the scheduler daemon (master/master.h). Its sockets are CURVE
 // servers with a ZAP allow-list (net/security.h) unless started with --insecure.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
@@ -55,6 +57,9 @@ int main(int argc, char** argv) {
                  "memory a worker job may use, MiB; larger fusion slabs are refused at "
                  "submit (0: this machine's memory)")
       ->capture_default_str();
+  app.add_option("--out-root", o.out_root,
+                 "sessions may write only inside this folder (their Session.out); refused "
+                 "outside it. Unset: anywhere this user may write");
   app.add_option("--max-message-bytes", o.socket.max_message_bytes,
                  "largest message accepted, bytes")
       ->capture_default_str();
@@ -79,6 +84,10 @@ int main(int argc, char** argv) {
     // Declared before the master so that it outlives the master's sockets.
     std::unique_ptr<dome::net::ZapHandler> zap;
     if (!insecure) zap = std::make_unique<dome::net::ZapHandler>(&context, allowed, false);
+    if (o.out_root.empty()) {
+      spdlog::warn(
+          "no --out-root: a client may have this master write sessions anywhere its user may");
+    }
     dome::scheduler::Master master(&context, o);
     const auto& e = master.endpoints();
     std::printf("workers %s\ncontrol %s\nevents %s\n", e.workers.c_str(), e.control.c_str(),

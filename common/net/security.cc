@@ -27,17 +27,19 @@ namespace {
 
 constexpr size_t kZ85KeyChars = 40;
 
-// Splits a key-file line into its first word and the rest. Z85 uses '#', so a line is
-// a comment only when its first word is not a key and starts with '#'; after a key,
-// only a comment may follow. Returns "" for blank and comment lines.
+// Splits a key-file line into its first word and the rest before a comment. Z85 uses
+// '#', so a line is a comment only when its first word is not a key and starts with
+// '#'; after a key, roles and a comment may follow. Returns "" for blank and comment
+// lines.
 std::string KeyToken(const std::string& line, std::string* rest) {
   std::istringstream in(line);
   std::string token;
   in >> token;
   std::string more;
   std::getline(in, more);
+  // After the key: its roles (words without '#'), then perhaps a comment.
+  more = more.substr(0, more.find('#'));
   more.erase(0, more.find_first_not_of(" \t\r"));
-  if (!more.empty() && more[0] == '#') more.clear();
   if (rest) *rest = more;
   if (!IsZ85Key(token) && !token.empty() && token[0] == '#') return "";
   return token;
@@ -57,20 +59,41 @@ std::string ReadText(const fs::path& path, const std::string& what) {
 // The keys of a key file, each with its line number; blank and comment lines are
 // skipped. A line that is not one Z85 key (plus an optional comment) is named
 // FILE:LINE with `expected`.
-std::vector<std::pair<std::string, int>> ReadKeyLines(const fs::path& path, const std::string& what,
-                                                      const std::string& expected) {
+struct KeyLine {
+  std::string key;
+  std::string rest;  // what follows the key before a comment: its roles
+  int line = 0;
+};
+std::vector<KeyLine> ReadKeyLines(const fs::path& path, const std::string& what,
+                                  const std::string& expected) {
   std::istringstream in(ReadText(path, what));
-  std::vector<std::pair<std::string, int>> keys;
+  std::vector<KeyLine> keys;
   std::string line;
   for (int line_no = 1; std::getline(in, line); ++line_no) {
     std::string rest;
     const std::string token = KeyToken(line, &rest);
     if (token.empty()) continue;
-    core::Require(IsZ85Key(token) && rest.empty(), path.string() + ":" + std::to_string(line_no),
-                  expected);
-    keys.emplace_back(token, line_no);
+    core::Require(IsZ85Key(token), path.string() + ":" + std::to_string(line_no), expected);
+    const auto end = rest.find_last_not_of(" \t\r");
+    keys.push_back({token, end == std::string::npos ? "" : rest.substr(0, end + 1), line_no});
   }
   return keys;
+}
+
+// "worker,client" -> {worker, client}; throws naming `where` for an unknown role.
+std::set<std::string> ParseRoles(const std::string& text, const std::string& where) {
+  std::set<std::string> roles;
+  std::string word;
+  std::istringstream in(text);
+  while (std::getline(in, word, ',')) {
+    word.erase(0, word.find_first_not_of(" \t"));
+    word.erase(word.find_last_not_of(" \t") + 1);
+    if (word.empty()) continue;
+    core::Require(IsRole(word), where,
+                  "unknown role '" + word.substr(0, 40) + "'; expected worker, client or capture");
+    roles.insert(word);
+  }
+  return roles;
 }
 
 // The single key of a key file (comment lines allowed).
@@ -78,9 +101,11 @@ std::string ReadSingleKey(const fs::path& path, const std::string& what) {
   const auto keys = ReadKeyLines(
       path, what, "expected a Z85 CURVE key (40 characters, as written by `dome keygen`)");
   core::Require(!keys.empty(), path.string(), "holds no key; expected the " + what);
-  core::Require(keys.size() == 1, path.string() + ":" + std::to_string(keys[1].second),
+  core::Require(keys.size() == 1, path.string() + ":" + std::to_string(keys[1].line),
                 "a second key; a " + what + " holds one Z85 key");
-  return keys[0].first;
+  // A .pub line may name the key's roles (dome keygen --role): checked, not needed here.
+  ParseRoles(keys[0].rest, path.string() + ":" + std::to_string(keys[0].line));
+  return keys[0].key;
 }
 
 std::string Z85(const uint8_t* bytes32) {
@@ -116,7 +141,7 @@ std::string PublicKeyOf(const std::string& secret_key, const std::string& where)
   return pub;
 }
 
-void WriteKeyPair(const std::string& prefix, const KeyPair& keys) {
+void WriteKeyPair(const std::string& prefix, const KeyPair& keys, const std::string& roles) {
   const std::string secret = prefix + ".key", pub = prefix + ".pub";
   for (const auto& f : {secret, pub}) {
     core::Require(!fs::exists(f), f,
@@ -133,7 +158,7 @@ void WriteKeyPair(const std::string& prefix, const KeyPair& keys) {
     if (!ok) throw core::InputError(path, std::string("cannot write: ") + std::strerror(errno));
   };
   write(secret, keys.secret_key + "\n", 0600);
-  write(pub, keys.public_key + "\n", 0644);
+  write(pub, keys.public_key + (roles.empty() ? "" : " " + roles) + "\n", 0644);
 }
 
 KeyPair ReadSecretKeyFile(const fs::path& path) {
@@ -160,13 +185,25 @@ std::string ReadPublicKeyFile(const fs::path& path) {
   return ReadSingleKey(path, "public key file");
 }
 
-std::set<std::string> ReadAllowList(const fs::path& path) {
-  std::set<std::string> keys;
-  for (const auto& [key, line] :
+bool IsRole(const std::string& role) {
+  return role == kRoleWorker || role == kRoleClient || role == kRoleCapture;
+}
+
+AllowList ReadAllowList(const fs::path& path) {
+  AllowList keys;
+  for (const auto& k :
        ReadKeyLines(path, "allow-list",
-                    "expected one Z85 CURVE public key a line (40 characters, a .pub file's "
-                    "line), optionally followed by '# comment'")) {
-    keys.insert(key);
+                    "expected a Z85 CURVE public key (40 characters) and its roles a line "
+                    "(a .pub file's line from `dome keygen PREFIX --role ROLE`), optionally "
+                    "followed by '# comment'")) {
+    const std::string where = path.string() + ":" + std::to_string(k.line);
+    std::set<std::string> roles = ParseRoles(k.rest, where);
+    // A key without roles used to be let in everywhere: a worker's key could submit and
+    // cancel, a client's could take jobs. Each key now says what it may do.
+    core::Require(!roles.empty(), where,
+                  "the key names no role; expected 'KEY ROLE[,ROLE]' with roles worker, "
+                  "client or capture (dome keygen PREFIX --role ROLE writes such a .pub)");
+    keys[k.key].insert(roles.begin(), roles.end());
   }
   core::Require(!keys.empty(), path.string(),
                 "lists no public key; nobody could connect (add the workers' and clients' .pub "
@@ -197,10 +234,8 @@ void ApplyClientKeys(const std::string& master_key_file, const std::string& key_
   socket->secret_key = own.secret_key;
 }
 
-std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
-                                      const std::string& secret_key_file,
-                                      const std::string& allow_file, bool insecure,
-                                      SocketOptions* socket) {
+AllowList ApplyServerKeys(const std::string& keys_dir, const std::string& secret_key_file,
+                          const std::string& allow_file, bool insecure, SocketOptions* socket) {
   const bool any = !keys_dir.empty() || !secret_key_file.empty() || !allow_file.empty();
   if (insecure) {
     core::Require(!any, "--insecure", "conflicts with --keys, --secret-key and --allow (choose)");
@@ -266,14 +301,14 @@ class LogThrottle {
 
 struct ZapHandler::Impl {
   zmq::socket_t socket;
-  std::set<std::string> allowed;
+  AllowList allowed;
   bool allow_plaintext;
   std::atomic<bool> stop{false};
   std::atomic<int64_t> accepted{0}, refused{0};
   std::thread thread;
   LogThrottle throttle;  // per peer and key
 
-  Impl(zmq::context_t* context, std::set<std::string> keys, bool plaintext)
+  Impl(zmq::context_t* context, AllowList keys, bool plaintext)
       : socket(*context, zmq::socket_type::rep),
         allowed(std::move(keys)),
         allow_plaintext(plaintext) {
@@ -311,13 +346,25 @@ struct ZapHandler::Impl {
       text = "malformed ZAP request";
       spdlog::warn("ZAP: malformed request of {} frames refused", f.size());
     } else {
-      const std::string address = f[3].to_string(), mechanism = f[5].to_string();
+      const std::string domain = f[2].to_string(), address = f[3].to_string(),
+                        mechanism = f[5].to_string();
       if (mechanism == "CURVE" && f.size() == 7 && f[6].size() == 32) {
         const std::string key = Z85(static_cast<const uint8_t*>(f[6].data()));
-        if (allowed.count(key)) {
+        auto it = allowed.find(key);
+        if (it != allowed.end() && it->second.count(domain)) {
           code = "200";
           text = "OK";
-          spdlog::debug("ZAP: CURVE client {} from {} accepted", key, address);
+          spdlog::debug("ZAP: CURVE client {} from {} accepted as {}", key, address, domain);
+        } else if (it != allowed.end()) {
+          text = "public key not allowed the role " + domain;
+          if (auto n = throttle.ShouldLog(address + " " + key + " " + domain)) {
+            std::string roles;
+            for (const auto& r : it->second) roles += (roles.empty() ? "" : ",") + r;
+            spdlog::warn(
+                "refused CURVE client from {} on the {} socket: public key {} is allowed only "
+                "as {}{}",
+                address, domain, key, roles, LogThrottle::Repeats(*n));
+          }
         } else {
           text = "public key not on the allow-list";
           if (auto n = throttle.ShouldLog(address + " " + key)) {
@@ -346,7 +393,7 @@ struct ZapHandler::Impl {
   }
 };
 
-ZapHandler::ZapHandler(zmq::context_t* context, std::set<std::string> allowed, bool allow_plaintext)
+ZapHandler::ZapHandler(zmq::context_t* context, AllowList allowed, bool allow_plaintext)
     : impl_(std::make_unique<Impl>(context, std::move(allowed), allow_plaintext)) {
   impl_->thread = std::thread([this] { impl_->Serve(); });
 }

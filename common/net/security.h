@@ -9,14 +9,21 @@
 //   PREFIX.key  the secret key, Z85 (40 characters) on one line; mode 0600. A secret
 //               key file that the group or others may read is refused.
 //   PREFIX.pub  the public key, Z85 on one line; may be shared freely.
-// Allow-list file: one Z85 public key a line (a .pub file's line, optionally followed
-// by a `# name` comment); blank lines and other lines starting with # are ignored (Z85
-// itself uses '#': a line whose first word is a key is a key). Errors name FILE:LINE.
+// Allow-list file: one Z85 public key and its roles a line, "KEY ROLE[,ROLE]" (a .pub
+// file's line from `dome keygen PREFIX --role ROLE`), optionally followed by a
+// `# name` comment; blank lines and other lines starting with # are ignored (Z85 itself
+// uses '#': a line whose first word is a key is a key). Errors name FILE:LINE.
+//
+// Roles: `worker` (the master's worker socket: take jobs, read frames), `client` (the
+// control and events sockets: submit, list, cancel, watch), `capture` (the capture
+// socket: publish frames). Each server socket has its role as its ZAP domain; the
+// handler admits a key on a socket only with that role.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -44,9 +51,10 @@ std::string PublicKeyOf(const std::string& secret_key, const std::string& where)
 // True when `key` is 40 characters of Z85 that decode to 32 bytes.
 bool IsZ85Key(const std::string& key);
 
-// Writes PREFIX.key (mode 0600) and PREFIX.pub. Throws InputError naming the file when
-// either exists already (keys are never overwritten) or cannot be written.
-void WriteKeyPair(const std::string& prefix, const KeyPair& keys);
+// Writes PREFIX.key (mode 0600) and PREFIX.pub: the public key, then `roles`
+// ("worker,client") when given, the allow-list's line. Throws InputError naming the
+// file when either exists already (keys are never overwritten) or cannot be written.
+void WriteKeyPair(const std::string& prefix, const KeyPair& keys, const std::string& roles = "");
 
 // Reads a secret key file and derives its public key. Throws InputError naming the
 // file when it is missing, readable by group or others, or holds no Z85 key.
@@ -55,9 +63,18 @@ KeyPair ReadSecretKeyFile(const std::filesystem::path& path);
 // Reads a public key file (one Z85 key). Throws InputError naming the file.
 std::string ReadPublicKeyFile(const std::filesystem::path& path);
 
+inline constexpr const char* kRoleWorker = "worker";
+inline constexpr const char* kRoleClient = "client";
+inline constexpr const char* kRoleCapture = "capture";
+bool IsRole(const std::string& role);
+
+// Z85 public key -> the roles it is allowed.
+using AllowList = std::map<std::string, std::set<std::string>>;
+
 // Reads an allow-list. Throws InputError naming FILE:LINE for a line that is not a
-// Z85 key, and the file when it is missing or lists no key.
-std::set<std::string> ReadAllowList(const std::filesystem::path& path);
+// Z85 key with at least one known role, and the file when it is missing or lists no
+// key.
+AllowList ReadAllowList(const std::filesystem::path& path);
 
 // The client side from the --master-key FILE (the master's .pub) and --key FILE (this
 // side's .key) flags: sets socket->server_key, public_key and secret_key. With
@@ -70,10 +87,8 @@ void ApplyClientKeys(const std::string& master_key_file, const std::string& key_
 // --secret-key FILE and --allow FILE: sets socket->secret_key and returns the
 // allow-list for the ZapHandler. With `insecure` and no keys: plaintext, an empty
 // list. Throws InputError naming the missing or conflicting flag, or the bad file.
-std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
-                                      const std::string& secret_key_file,
-                                      const std::string& allow_file, bool insecure,
-                                      SocketOptions* socket);
+AllowList ApplyServerKeys(const std::string& keys_dir, const std::string& secret_key_file,
+                          const std::string& allow_file, bool insecure, SocketOptions* socket);
 
 // The ZAP handler of one ZeroMQ context: a REP socket bound to
 // inproc://zeromq.zap.01, served on its own thread from construction to destruction.
@@ -82,9 +97,10 @@ std::set<std::string> ApplyServerKeys(const std::string& keys_dir,
 // server socket). Refusals are logged (warn) with the peer's address and key.
 class ZapHandler {
  public:
-  // `allowed`: Z85 public keys let in. `allow_plaintext`: accept NULL peers (the
-  // --insecure mode); PLAIN is always refused (dome never sends passwords).
-  ZapHandler(zmq::context_t* context, std::set<std::string> allowed, bool allow_plaintext);
+  // `allowed`: Z85 public keys let in, each on the sockets of its roles (the ZAP
+  // domain). `allow_plaintext`: accept NULL peers on every socket (the --insecure
+  // mode); PLAIN is always refused (dome never sends passwords).
+  ZapHandler(zmq::context_t* context, AllowList allowed, bool allow_plaintext);
   ~ZapHandler();
   ZapHandler(const ZapHandler&) = delete;
   ZapHandler& operator=(const ZapHandler&) = delete;

@@ -36,7 +36,8 @@ struct SocketOptions {
   std::string public_key;
   std::string secret_key;
   std::string server_key;
-  // The ZAP domain of CURVE server sockets (the ZAP handler sees it in each request).
+  // The ZAP domain of CURVE server sockets (the ZAP handler sees it in each request):
+  // the master sets each socket's role (net/security.h).
   std::string zap_domain = "dome";
 
   bool curve_server() const { return server_key.empty() && !secret_key.empty(); }

@@ -273,8 +273,9 @@ TEST_F(MasterIngest, ASecureMasterTakesFramesOnlyFromAgentsOnItsAllowList) {
   dome::testing::TempDir work;
   const std::string keys = work.File("keys");
   fs::create_directories(keys);
-  for (const char* name : {"master", "allowed", "stranger"})
-    net::WriteKeyPair(keys + "/" + name, net::GenerateKeyPair());
+  net::WriteKeyPair(keys + "/master", net::GenerateKeyPair());
+  net::WriteKeyPair(keys + "/allowed", net::GenerateKeyPair(), "capture");
+  net::WriteKeyPair(keys + "/stranger", net::GenerateKeyPair(), "capture");
   io::WriteFileAtomically(keys + "/allowed_keys", io::ReadFileBytes(keys + "/allowed.pub"));
   const MasterPorts ports;
   MasterProcess master(ports, work / "take", work.File("master.log"),

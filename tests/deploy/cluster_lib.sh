@@ -13,9 +13,11 @@ make_small_take() {
 # allow-list $work/keys/allowed_keys with the worker's and the client's public keys.
 make_keys() {
   mkdir -p "$work/keys" && chmod 700 "$work/keys"
-  local who
-  for who in master worker client; do
-    "$bin/bin/dome" keygen "$work/keys/$who" >"$work/keygen.log" 2>&1 ||
+  local args
+  # The master's own key has no role; each other key's .pub line names its role.
+  for args in "master" "worker --role worker" "client --role client"; do
+    # shellcheck disable=SC2086 # the role flags split on purpose
+    "$bin/bin/dome" keygen "$work/keys/"$args >"$work/keygen.log" 2>&1 ||
       { echo "FAIL: dome keygen"; cat "$work/keygen.log"; return 1; }
   done
   cat "$work/keys/worker.pub" "$work/keys/client.pub" >"$work/keys/allowed_keys"

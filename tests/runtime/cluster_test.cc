@@ -132,9 +132,9 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
 TEST_F(Cluster, MasterAndThreeWorkerProcessesMatchTheEmbeddedRun) {
   const fs::path keys = root_ / "keys";
   fs::create_directories(keys);
-  for (const char* who : {"master", "worker", "client"}) {
-    net::WriteKeyPair((keys / who).string(), net::GenerateKeyPair());
-  }
+  net::WriteKeyPair((keys / "master").string(), net::GenerateKeyPair());
+  net::WriteKeyPair((keys / "worker").string(), net::GenerateKeyPair(), "worker");
+  net::WriteKeyPair((keys / "client").string(), net::GenerateKeyPair(), "client");
   io::WriteFileAtomically(keys / "allowed_keys", io::ReadFileBytes(keys / "worker.pub") +
                                                      io::ReadFileBytes(keys / "client.pub"));
   const std::string client_keys = " --master-key " + (keys / "master.pub").string() + " --key " +

@@ -297,5 +297,33 @@ TEST_F(NeverHang, AVolumeNoWorkerJobCanHoldIsRefusedAtSubmitLeavingNothing) {
   EXPECT_FALSE(fs::exists(out)) << "a refused submit creates nothing";
 }
 
+TEST_F(NeverHang, OutputFoldersOutsideTheOutRootAreRefusedCreatingNothing) {
+  const fs::path allowed = root_ / "out_root";
+  fs::create_directories(allowed);
+  fs::create_symlink(root_, allowed / "escape");  // a link inside that points outside
+  Master m = StartMaster("master_out_root", {"--out-root", allowed.string()});
+  for (const fs::path& out :
+       {root_ / "outside", allowed / ".." / "dotdot", allowed / "escape" / "x"}) {
+    std::string error;
+    try {
+      Submit(m, MakeSession(out));
+    } catch (const core::InputError& e) {
+      error = e.what();
+    }
+    EXPECT_NE(error.find("session: out: '" + out.string() +
+                         "' is outside the master's output "
+                         "root " +
+                         allowed.string() + " (dome-master --out-root)"),
+              std::string::npos)
+        << error;
+    EXPECT_FALSE(fs::exists(out)) << out;
+  }
+  auto w = StartWorker(m, "o1");
+  const fs::path inside = allowed / "a" / "b";
+  const auto final = WaitForEnd(m, Submit(m, MakeSession(inside)), 120);
+  EXPECT_EQ(final.state(), "done") << final.error();
+  ExpectSameOutputs(reference_, inside);
+}
+
 }  // namespace
 }  // namespace dome

@@ -85,23 +85,33 @@ TEST(Keys, AllowListBadLineIsNamedByFileAndLine) {
   testing::TempDir dir;
   const net::KeyPair a = net::GenerateKeyPair(), b = net::GenerateKeyPair();
   const std::string file = dir.File("allowed_keys");
-  io::WriteFileAtomically(file, "# workers\n" + a.public_key + "  # w1\n\n" + b.public_key + "\n" +
-                                    a.secret_key.substr(0, 39) + "\n");
+  io::WriteFileAtomically(file, "# workers\n" + a.public_key + " worker  # w1\n\n" + b.public_key +
+                                    " client\n" + a.secret_key.substr(0, 39) + " worker\n");
   ExpectInputError([&] { net::ReadAllowList(file); }, {file + ":5", "Z85"});
-  io::WriteFileAtomically(file, "# workers\n" + a.public_key + "  # w1\n\n" + b.public_key + "\n");
+  io::WriteFileAtomically(file, "# workers\n" + a.public_key + " worker  # w1\n\n" + b.public_key +
+                                    " client,capture\n");
   const auto keys = net::ReadAllowList(file);
-  EXPECT_EQ(keys, (std::set<std::string>{a.public_key, b.public_key}));
+  EXPECT_EQ(keys,
+            (net::AllowList{{a.public_key, {"worker"}}, {b.public_key, {"client", "capture"}}}));
   io::WriteFileAtomically(file, "# nobody yet\n");
   ExpectInputError([&] { net::ReadAllowList(file); }, {file, "lists no public key"});
   io::WriteFileAtomically(file, a.public_key + " " + b.public_key + "\n");
-  ExpectInputError([&] { net::ReadAllowList(file); }, {file + ":1"});
+  ExpectInputError([&] { net::ReadAllowList(file); }, {file + ":1", "unknown role"});
+  // A key without a role (an allow-list of before roles) is refused, saying how.
+  io::WriteFileAtomically(file, a.public_key + "  # w1\n");
+  ExpectInputError([&] { net::ReadAllowList(file); },
+                   {file + ":1", "names no role", "dome keygen PREFIX --role ROLE"});
+  io::WriteFileAtomically(file, a.public_key + " worker,admin\n");
+  ExpectInputError([&] { net::ReadAllowList(file); },
+                   {file + ":1", "unknown role 'admin'; expected worker, client or capture"});
   // Z85 has '#' in its alphabet (never first in a group of five): a key holding one is
   // a key, and a key commented out with a leading '#' is a comment.
   const std::string hash_inside = "0000#" + std::string(35, '0');
   ASSERT_TRUE(net::IsZ85Key(hash_inside));
   io::WriteFileAtomically(file, "#" + a.public_key + " commented out\n" + hash_inside +
-                                    " # w2\r\n" + b.public_key + "\t#tab comment\n");
-  EXPECT_EQ(net::ReadAllowList(file), (std::set<std::string>{hash_inside, b.public_key}));
+                                    " worker # w2\r\n" + b.public_key + " client\t#tab comment\n");
+  EXPECT_EQ(net::ReadAllowList(file),
+            (net::AllowList{{hash_inside, {"worker"}}, {b.public_key, {"client"}}}));
 }
 
 TEST(Keys, BinariesRefuseToStartWithoutKeysUnlessInsecure) {
@@ -140,9 +150,10 @@ TEST(Keys, BinariesRefuseToStartWithoutKeysUnlessInsecure) {
 class SecureMaster : public ::testing::Test {
  protected:
   void SetUp() override {
-    for (const char* who : {"master", "worker", "client", "stranger"}) {
-      net::WriteKeyPair(dir_.File(who), net::GenerateKeyPair());
-    }
+    net::WriteKeyPair(dir_.File("master"), net::GenerateKeyPair());
+    net::WriteKeyPair(dir_.File("worker"), net::GenerateKeyPair(), "worker");
+    net::WriteKeyPair(dir_.File("client"), net::GenerateKeyPair(), "client");
+    net::WriteKeyPair(dir_.File("stranger"), net::GenerateKeyPair(), "worker,client");
     // Workers and clients allowed; "stranger" has a valid key pair that is not listed.
     io::WriteFileAtomically(dir_ / "allowed_keys",
                             "# dome allow-list\n" + io::ReadFileBytes(dir_ / "worker.pub") +
@@ -172,7 +183,7 @@ class SecureMaster : public ::testing::Test {
     return o;
   }
   std::string PublicKey(const std::string& who) {
-    return Trimmed(io::ReadFileBytes(dir_ / (who + ".pub")));
+    return net::ReadPublicKeyFile(dir_ / (who + ".pub"));
   }
   runtime::ControlReply List(const std::string& who, int timeout_ms = 10000) {
     runtime::ControlRequest req;
@@ -323,6 +334,50 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
             "done");
   for (auto& s : subs) s->set(zmq::sockopt::linger, 0);
   for (auto& d : dealers) d->set(zmq::sockopt::linger, 0);
+}
+
+// A key acts only in the roles its allow-list line gives it: a worker's key cannot
+// submit, list or cancel; a client's key cannot join as a worker and read frames.
+TEST_F(SecureMaster, EachKeyIsLetInOnlyOnTheSocketsOfItsRoles) {
+  ExpectInputError([&] { List("worker", 1500); }, {"no answer"});
+  runtime::Envelope hello;
+  hello.mutable_hello()->set_threads(1);
+  hello.mutable_hello()->set_name("client-as-worker");
+  zmq::socket_t dealer(context_, zmq::socket_type::dealer);
+  net::ConfigureSocket(&dealer, Keys("client"));
+  dealer.set(zmq::sockopt::linger, 0);
+  dealer.connect(workers_);
+  dealer.send(zmq::buffer(net::EncodeEnvelope(hello)), zmq::send_flags::dontwait);
+  // Heartbeats would come within 200 ms to a worker that joined.
+  zmq::pollitem_t item{dealer.handle(), 0, ZMQ_POLLIN, 0};
+  zmq::poll(&item, 1, std::chrono::milliseconds(1000));
+  EXPECT_FALSE(item.revents & ZMQ_POLLIN) << "a client's key was answered on the worker socket";
+  // The client itself is served on the control socket.
+  EXPECT_TRUE(List("client").sessions().empty());
+  const std::string log = master_->Log();
+  EXPECT_EQ(log.find("worker client-as-worker joined"), std::string::npos) << log;
+  EXPECT_NE(log.find("on the client socket: public key " + PublicKey("worker") +
+                     " is allowed only as worker"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("on the worker socket: public key " + PublicKey("client") +
+                     " is allowed only as client"),
+            std::string::npos)
+      << log;
+}
+
+TEST(Keys, KeygenWritesTheRolesAfterThePublicKey) {
+  testing::TempDir dir;
+  const auto made = RunDomeBinary("keygen " + dir.File("w") + " --role worker --role capture");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::string line = Trimmed(io::ReadFileBytes(dir.File("w.pub")));
+  EXPECT_EQ(line, net::ReadPublicKeyFile(dir.File("w.pub")) + " worker,capture");
+  io::WriteFileAtomically(dir / "allowed", line + "\n");
+  EXPECT_EQ(net::ReadAllowList(dir / "allowed").begin()->second,
+            (std::set<std::string>{"worker", "capture"}));
+  const auto bad = RunDomeBinary("keygen " + dir.File("x") + " --role admin");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("--role"), std::string::npos) << bad.output;
 }
 
 TEST(InsecureMaster, ServesPlaintextPeersOnlyWhenAskedTo) {
