@@ -41,7 +41,9 @@ void DrainStatusEvents(zmq::socket_t* sub, const std::string& events, int64_t ma
 runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoint,
                               const runtime::ControlRequest& request, int timeout_ms,
                               const net::SocketOptions& options) {
-  const std::string where = "master " + endpoint;
+  // The embedded master's in-process endpoint means nothing to a user.
+  const std::string where =
+      endpoint.rfind("inproc://", 0) == 0 ? std::string("master") : "master " + endpoint;
   zmq::socket_t socket(*context, zmq::socket_type::req);
   net::ConfigureSocket(&socket, options);
   try {

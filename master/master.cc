@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/memory.h"
 #include "io/file_util.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
@@ -27,6 +29,7 @@
 #include "master/journal.h"
 #include "master/offload.h"
 #include "net/content_hash.h"
+#include "net/log_throttle.h"
 #include "net/security.h"
 #include "pipeline/session.h"
 #include "schema/json.h"
@@ -52,6 +55,8 @@ void MasterOptions::Check() const {
                 "must not be negative, got " + std::to_string(job_timeout_first_s_per_mib));
   core::Require(std::isfinite(job_timeout_factor) && job_timeout_factor >= 1, "job_timeout_factor",
                 "must be at least 1, got " + std::to_string(job_timeout_factor));
+  core::Require(std::isfinite(release_memory_s) && release_memory_s >= 0, "release_memory_s",
+                "must be 0 (never) or a positive number of seconds");
   core::Require(max_job_mb >= 0, "max_job_mb",
                 "must be 0 (this machine's memory) or a positive MiB count, got " +
                     std::to_string(max_job_mb));
@@ -67,6 +72,30 @@ void MasterOptions::Check() const {
 namespace {
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+// What a refusal is about, for throttling its log lines: the message without its
+// quoted parts and numbers of three digits or more ("message of 4500000 bytes ..." and
+// "unknown job id 'x'" each count as one cause however they vary; "protocol version
+// 4" stays apart from "protocol version 3091264").
+std::string Cause(const std::string& message) {
+  std::string cause;
+  bool quoted = false;
+  for (size_t i = 0; i < message.size();) {
+    const char c = message[i];
+    if (c == '\'') quoted = !quoted;
+    size_t digits = 0;
+    while (i + digits < message.size() && std::isdigit((unsigned char)message[i + digits])) {
+      ++digits;
+    }
+    if (digits >= 3 || (quoted && c != '\'')) {
+      i += std::max<size_t>(digits, 1);
+      continue;
+    }
+    cause.append(message, i, std::max<size_t>(digits, 1));
+    i += std::max<size_t>(digits, 1);
+  }
+  return cause;
+}
 
 std::string NewSessionId() {
   static std::mt19937_64 rng(std::random_device{}());
@@ -177,6 +206,11 @@ struct SessionRec {
 // the loop, and records lost to a power cut only redo their (idempotent) jobs.
 constexpr auto kJournalSyncInterval = std::chrono::milliseconds(50);
 
+// The longest message the events socket takes (Bind): the handshake and a
+// subscription to "", in plaintext and in CURVE's framing.
+constexpr int kMaxSubscriptionBytes = 64;
+constexpr int kMaxCurveSubscriptionBytes = 512;
+
 }  // namespace
 
 struct Master::Impl {
@@ -193,7 +227,9 @@ struct Master::Impl {
   BlobStore blobs;
   Clock::time_point next_heartbeat = Clock::now();
   Clock::time_point next_journal_sync = Clock::now();
-  double loop_busy_s = 0;  // the loop's time outside poll, summed over its turns
+  double loop_busy_s = 0;                     // the loop's time outside poll, summed over its turns
+  Clock::time_point now_trim = Clock::now();  // next ReleaseFreedMemory
+  net::LogThrottle peer_log;                  // refusals of peers' messages, per peer
   // Last member: destroyed first, so its threads stop before what their work touches.
   Offload offload;
 
@@ -240,6 +276,20 @@ struct Master::Impl {
     net::SocketOptions socket = options.socket;
     socket.zap_domain = role;
     net::ConfigureSocket(s, socket);
+    if (s == &events_socket) {
+      // Status events carry no topic: every subscriber subscribes to everything ("").
+      // A subscription is a message to this socket (ZMTP 3.1: the SUBSCRIBE command, 10
+      // bytes, and its topic); capping what the socket takes drops a peer that sends a
+      // long topic, so that no peer has the master keep them: held, 10,000 distinct
+      // 10 KB topics took about 650 MB of ZeroMQ's subscription trie. The cap must pass
+      // the handshake's READY command (about 40 bytes: the socket type and identity), so
+      // plaintext topics of up to 54 bytes get through; CURVE frames its handshake and
+      // messages in commands of a few hundred bytes, so there it is 512 (from peers the
+      // allow-list lets in as clients). Set before bind: a listener copies the options
+      // its connections get.
+      s->set(zmq::sockopt::maxmsgsize,
+             int64_t{socket.curve_server() ? kMaxCurveSubscriptionBytes : kMaxSubscriptionBytes});
+    }
     if (s == &workers_socket) s->set(zmq::sockopt::router_mandatory, 1);
     try {
       s->bind(endpoint);
@@ -876,7 +926,9 @@ struct Master::Impl {
       std::optional<std::string> bytes;
       std::string error;
       if (net::IsSha256Hex(sha)) bytes = blobs.Read(sha, &error);
-      if (!bytes && !error.empty()) {
+      if (!bytes && error.empty() && !peer_log.ShouldLog(id + " blob")) {
+        b->set_missing(true);  // an unknown blob again: answered, not logged
+      } else if (!bytes && !error.empty()) {
         // The file behind a blob the master holds is gone or changed: what depends on
         // it cannot be made from the bytes the session was submitted with.
         BlobLost(sha, error);
@@ -1173,8 +1225,10 @@ struct Master::Impl {
       if (frames.empty()) return;
       const std::string id = frames[0].to_string();
       if (frames.size() != 2) {
-        spdlog::warn("{}: refused a message of {} frames on the worker socket (expected 1)",
-                     net::PeerName(id), frames.size() - 1);
+        if (auto n = peer_log.ShouldLog(id + " frames")) {
+          spdlog::warn("{}: refused a message of {} frames on the worker socket (expected 1){}",
+                       net::PeerName(id), frames.size() - 1, net::LogThrottle::Repeats(*n));
+        }
         Refuse(&workers_socket, id, "expected one frame per message", false);
         continue;
       }
@@ -1183,7 +1237,10 @@ struct Master::Impl {
                                                     options.socket.max_message_bytes);
         OnWorkerMessage(id, env);
       } catch (const core::InputError& e) {
-        spdlog::warn("refused on the worker socket: {}", e.what());
+        if (auto n = peer_log.ShouldLog(id + " " + Cause(e.what()))) {
+          spdlog::warn("refused on the worker socket: {}{}", e.what(),
+                       net::LogThrottle::Repeats(*n));
+        }
         Refuse(&workers_socket, id, e.what(), false);
         // A known worker's refused message may have been its result (over the cap):
         // its job would never finish, so it counts as lost with that worker.
@@ -1207,8 +1264,10 @@ struct Master::Impl {
       // REQ clients: [id, empty, payload]; DEALER clients: [id, payload].
       const bool req = frames.size() == 3 && frames[1].size() == 0;
       if (!(req || frames.size() == 2)) {
-        spdlog::warn("{}: refused a message of {} frames on the control socket", peer,
-                     frames.size() - 1);
+        if (auto n = peer_log.ShouldLog(id + " frames")) {
+          spdlog::warn("{}: refused a message of {} frames on the control socket{}", peer,
+                       frames.size() - 1, net::LogThrottle::Repeats(*n));
+        }
         Refuse(&control_socket, id, "expected [empty, request] frames", frames.size() >= 3);
         continue;
       }
@@ -1219,7 +1278,10 @@ struct Master::Impl {
         core::Require(env.has_control(), peer, "sent a message that is not a control request");
         reply = OnControl(env.control());
       } catch (const core::InputError& e) {
-        spdlog::warn("refused on the control socket: {}", e.what());
+        if (auto n = peer_log.ShouldLog(id + " " + Cause(e.what()))) {
+          spdlog::warn("refused on the control socket: {}{}", e.what(),
+                       net::LogThrottle::Repeats(*n));
+        }
         Refuse(&control_socket, id, e.what(), req);
         continue;
       }
@@ -1248,6 +1310,13 @@ struct Master::Impl {
       if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
       if (capture_ingest && (items[2].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
+      if (options.release_memory_s > 0 && now_trim <= Clock::now()) {
+        // Memory a peer's messages took (a flood of large ones) goes back to the system
+        // rather than staying in the heap for good.
+        core::ReleaseFreedMemory();
+        now_trim = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(options.release_memory_s));
+      }
       offload.Collect();
       PollMasterStages();
       const auto now = Clock::now();

@@ -81,6 +81,10 @@ struct MasterOptions {
   // capture_take (required with it).
   std::string capture_endpoint;
   std::string capture_take;
+  // Every this many seconds the loop returns the heap's free pages to the system
+  // (core::ReleaseFreedMemory), so that what peers sent does not stay resident; 0:
+  // never (the embedded `dome run`, whose workers reuse their freed buffers).
+  double release_memory_s = 0;
   // When set, every session's output folder must lie inside this folder (after
   // following symbolic links and ".."); others are refused at submit. "": anywhere this
   // process may write (the embedded `dome run`; dome-master warns at start).

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   dome::core::RetainFreedMemory();
   CLI::App app{"dome-master: schedules stereo and fusion jobs to dome-workers over ZeroMQ"};
   dome::scheduler::MasterOptions o;
+  o.release_memory_s = 5;  // a daemon: what peers sent goes back to the system
   std::string log_level = "info", endpoints_file, keys_dir, secret_key, allow;
   bool insecure = false;
   app.add_option("--bind", o.worker_endpoint, "ROUTER endpoint workers connect to")

@@ -282,6 +282,19 @@ struct Worker::Impl {
         runtime::Envelope env;
         *env.mutable_result() = running.get();
         running_id.clear();
+        const size_t bytes = env.ByteSizeLong();
+        if (int64_t(bytes) > options.socket.max_message_bytes) {
+          // The master would refuse it (or its socket drop it unread) and take this
+          // worker for lost, again and again: say what happened instead.
+          const std::string id = env.result().job_id();
+          env.mutable_result()->Clear();
+          env.mutable_result()->set_job_id(id);
+          env.mutable_result()->set_ok(false);
+          env.mutable_result()->set_error(
+              "its result is " + std::to_string(bytes) + " bytes, over the message cap of " +
+              std::to_string(options.socket.max_message_bytes) +
+              " bytes (--max-message-bytes, on the master and its workers alike)");
+        }
         ++stats.jobs;
         if (!env.result().ok()) {
           ++stats.failed_jobs;

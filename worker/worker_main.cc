@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
   app.add_option("--reconnect-max-ms", o.reconnect_max_ms, "longest reconnect back-off, ms")
       ->capture_default_str();
   app.add_option("--name", o.name, "name in the master's logs (default host:pid)");
+  app.add_option("--max-message-bytes", o.socket.max_message_bytes,
+                 "largest message sent or accepted, bytes (the master's --max-message-bytes)")
+      ->capture_default_str();
   app.add_option("--master-key", master_key, "the master's public key file (CURVE)");
   app.add_option("--key", key,
                  "this worker's secret key file, its .pub on the master's allow-list");

@@ -15,4 +15,10 @@ void RetainFreedMemory() {
 #endif
 }
 
+void ReleaseFreedMemory() {
+#ifdef M_TRIM_THRESHOLD
+  malloc_trim(0);
+#endif
+}
+
 }  // namespace dome::core

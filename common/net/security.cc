@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "net/log_throttle.h"
 #include "net/wire.h"
 #include "spdlog/spdlog.h"
 
@@ -264,40 +265,6 @@ AllowList ApplyServerKeys(const std::string& keys_dir, const std::string& secret
 }
 
 // ---- ZAP ---------------------------------------------------------------------------
-
-namespace {
-
-// Refused peers retry every reconnect interval: one log line per key (a peer and its
-// cause) every kLogEvery, with the count of refusals in between.
-class LogThrottle {
- public:
-  // The refusals of `key` since its last log line, or nothing when it is too soon.
-  std::optional<int64_t> ShouldLog(const std::string& key) {
-    const auto now = std::chrono::steady_clock::now();
-    auto [it, fresh] = logged_.try_emplace(key, Logged{now, 0});
-    if (!fresh && now - it->second.last < kLogEvery) {
-      ++it->second.since;
-      return std::nullopt;
-    }
-    const int64_t n = it->second.since;
-    it->second = Logged{now, 0};
-    if (logged_.size() > 10000) logged_.clear();  // bounded, whatever the peers do
-    return n;
-  }
-  static std::string Repeats(int64_t n) {
-    return n > 0 ? " (" + std::to_string(n) + " more refusals since the last line)" : "";
-  }
-
- private:
-  static constexpr std::chrono::seconds kLogEvery{10};
-  struct Logged {
-    std::chrono::steady_clock::time_point last;
-    int64_t since = 0;
-  };
-  std::map<std::string, Logged> logged_;
-};
-
-}  // namespace
 
 struct ZapHandler::Impl {
   zmq::socket_t socket;

@@ -1,9 +1,13 @@
 #include "net/wire.h"
 
+#include <google/protobuf/stubs/logging.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <mutex>
 #include <vector>
 
 #include "core/error.h"
@@ -58,6 +62,15 @@ runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer
     throw core::InputError(peer, "message of " + std::to_string(bytes.size()) +
                                      " bytes is over the cap of " + std::to_string(max_bytes));
   }
+  // libprotobuf prints its own line to stderr for every malformed string field, one a
+  // message a peer sends, unthrottled; the refusal below says what matters.
+  static std::once_flag quiet;
+  std::call_once(quiet, [] {
+    google::protobuf::SetLogHandler(
+        [](google::protobuf::LogLevel, const char* file, int line, const std::string& message) {
+          spdlog::debug("libprotobuf {}:{}: {}", file, line, message);
+        });
+  });
   runtime::Envelope envelope;
   if (!envelope.ParseFromArray(bytes.data(), int(bytes.size()))) {
     throw core::InputError(peer, "message of " + std::to_string(bytes.size()) +

@@ -83,12 +83,20 @@ TEST_F(Faults, FrozenWorkerIsRequeuedAndItsLateResultDropped) {
   ASSERT_EQ(final.state(), "done") << final.error() << m.process->Log();
   ExpectSameOutputs(reference_, out);
   // The frozen worker may have held more than one job (a job running, the next one
-  // assigned): the late result dropped is one of them.
-  EXPECT_NE(m.process->Log().find("late or duplicate result for " + id + "/"), std::string::npos)
-      << m.process->Log();
+  // assigned): the late result dropped is one of them. It is a duplicate while the
+  // session runs, or a result of a session already done when the other worker
+  // finished everything first.
+  const std::string duplicate = "late or duplicate result for " + id + "/";
+  const std::string after_end = "of done session " + id + " dropped";
+  ASSERT_TRUE(Eventually([&] {
+    const std::string log = m.process->Log();
+    return log.find(duplicate) != std::string::npos || log.find(after_end) != std::string::npos;
+  })) << m.process->Log();
   const std::string report = io::ReadFileBytes(out / "report.json");
   EXPECT_GE(ReportInt(report, "jobs_requeued"), 1) << report;
-  EXPECT_GE(ReportInt(report, "duplicate_results_dropped"), 1) << report;
+  if (m.process->Log().find(duplicate) != std::string::npos) {
+    EXPECT_GE(ReportInt(report, "duplicate_results_dropped"), 1) << report;
+  }
 }
 
 TEST_F(Faults, KilledMasterRestartsFromItsJournal) {

@@ -297,6 +297,17 @@ TEST_F(NeverHang, AVolumeNoWorkerJobCanHoldIsRefusedAtSubmitLeavingNothing) {
   EXPECT_FALSE(fs::exists(out)) << "a refused submit creates nothing";
 }
 
+TEST_F(NeverHang, AResultOverTheMessageCapFailsTheSessionSayingSo) {
+  // A depth map of the small take is about 150 KB on the wire.
+  Master m = StartMaster("master_cap", {"--max-message-bytes", "100000"});
+  auto w = StartWorker(m, "m1", {"--max-message-bytes", "100000"});
+  const auto final = WaitForEnd(m, Submit(m, MakeSession(root_ / "cap")), 60);
+  ASSERT_EQ(final.state(), "failed") << m.process->Log();
+  EXPECT_NE(final.error().find("over the message cap of 100000 bytes (--max-message-bytes"),
+            std::string::npos)
+      << final.error();
+}
+
 TEST_F(NeverHang, OutputFoldersOutsideTheOutRootAreRefusedCreatingNothing) {
   const fs::path allowed = root_ / "out_root";
   fs::create_directories(allowed);

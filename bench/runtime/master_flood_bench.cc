@@ -1,0 +1,178 @@
+// The resident memory of a dome-master process under abuse, round after round:
+//
+//   master_flood_bench [--rounds 5] [--subscriptions 10000] [--topic-bytes 10240]
+//                      [--fuzz 13000] [--check 0.10]
+//
+// Starts bin/dome-master (beside this binary; plaintext, loopback, free ports). Each
+// round connects 10 SUB sockets to the events port with --subscriptions distinct
+// topics of --topic-bytes in all, waits until the master holds them, disconnects
+// them, then sends --fuzz malformed and oversized messages to the worker and control
+// ports from DEALERs that then disconnect. After each round (and before the first)
+// it prints the master's VmRSS from /proc as one JSON line. With --check F it exits 1
+// when the last round's RSS exceeds the first round's by more than the fraction F:
+// what a peer sends must not stay in the master after the peer is gone.
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+#include <zmq.hpp>
+
+#include "io/file_util.h"
+#include "net/wire.h"
+
+namespace fs = std::filesystem;
+using namespace dome;
+
+namespace {
+
+std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (name == argv[i]) return argv[i + 1];
+  }
+  return fallback;
+}
+
+// VmRSS of `pid`, MiB.
+double RssMb(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  while (in >> key) {
+    if (key == "VmRSS:") {
+      double kb = 0;
+      in >> kb;
+      return kb / 1024.0;
+    }
+    std::string rest;
+    std::getline(in, rest);
+  }
+  return -1;
+}
+
+void Subscribe(zmq::context_t* context, const std::string& events, int count, int topic_bytes) {
+  constexpr int kSockets = 10;
+  static int round = 0;
+  ++round;
+  std::vector<std::unique_ptr<zmq::socket_t>> subs;
+  for (int s = 0; s < kSockets; ++s) {
+    subs.push_back(std::make_unique<zmq::socket_t>(*context, zmq::socket_type::sub));
+    subs.back()->set(zmq::sockopt::linger, 0);
+    subs.back()->connect(events);
+  }
+  for (int i = 0; i < count; ++i) {
+    // Distinct in every round too: nothing is shared with an earlier round's topics.
+    std::string topic = "r" + std::to_string(round) + "-" + std::to_string(i) + "-";
+    topic.resize(size_t(topic_bytes), 'x');
+    subs[size_t(i % kSockets)]->set(zmq::sockopt::subscribe, topic);
+  }
+  // The subscriptions travel to the master while these sockets live.
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+}
+
+void Fuzz(zmq::context_t* context, const std::string& workers, const std::string& control,
+          int count) {
+  std::vector<std::unique_ptr<zmq::socket_t>> peers;
+  for (const std::string& endpoint : {workers, control}) {
+    for (int p = 0; p < 4; ++p) {
+      peers.push_back(std::make_unique<zmq::socket_t>(*context, zmq::socket_type::dealer));
+      peers.back()->set(zmq::sockopt::linger, 0);
+      peers.back()->set(zmq::sockopt::sndhwm, 0);
+      peers.back()->connect(endpoint);
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  uint64_t state = 88172645463325252ull;
+  for (int i = 0; i < count; ++i) {
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    // Mostly short garbage, every 100th over the master's message cap.
+    std::string bytes(i % 100 == 0 ? 5000000 : 16 + state % 2000, char(state));
+    for (size_t k = 0; k < bytes.size() && k < 64; ++k) bytes[k] = char(state >> (k % 56));
+    peers[size_t(i) % peers.size()]->send(zmq::buffer(bytes), zmq::send_flags::dontwait);
+  }
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int rounds = std::stoi(Flag(argc, argv, "--rounds", "5"));
+  const int subscriptions = std::stoi(Flag(argc, argv, "--subscriptions", "10000"));
+  const int topic_bytes = std::stoi(Flag(argc, argv, "--topic-bytes", "10240"));
+  const int fuzz = std::stoi(Flag(argc, argv, "--fuzz", "13000"));
+  const double check = std::stod(Flag(argc, argv, "--check", "-1"));
+  const fs::path dir = fs::temp_directory_path() / ("dome_flood_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path endpoints = dir / "endpoints";
+  const std::string master = (fs::path(argv[0]).parent_path() / "dome-master").string();
+  std::vector<std::string> args = {master,
+                                   "--bind",
+                                   "tcp://127.0.0.1:*",
+                                   "--control",
+                                   "tcp://127.0.0.1:*",
+                                   "--events",
+                                   "tcp://127.0.0.1:*",
+                                   "--insecure",
+                                   "--log-level",
+                                   "error",
+                                   "--endpoints-file",
+                                   endpoints.string()};
+  std::vector<char*> argv_master;
+  for (auto& a : args) argv_master.push_back(a.data());
+  argv_master.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, master.c_str(), nullptr, nullptr, argv_master.data(), environ) != 0) {
+    std::fprintf(stderr, "master_flood_bench: cannot start %s\n", master.c_str());
+    return 2;
+  }
+  for (int i = 0; i < 500 && !fs::exists(endpoints); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::string workers, control, events;
+  std::istringstream(io::ReadFileBytes(endpoints)) >> workers >> control >> events;
+  zmq::context_t context;
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::vector<double> rss = {RssMb(pid)};
+  std::printf("{\"round\": 0, \"rss_mb\": %.1f}\n", rss.back());
+  for (int r = 1; r <= rounds; ++r) {
+    Subscribe(&context, events, subscriptions, topic_bytes);
+    const double held = RssMb(pid);  // before the subscribers go
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    Fuzz(&context, workers, control, fuzz);
+    // What stays: the least RSS over the 6 s after (the master returns freed memory to
+    // the system every 5 s).
+    double least = RssMb(pid);
+    for (int i = 0; i < 12; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      least = std::min(least, RssMb(pid));
+    }
+    rss.push_back(least);
+    std::printf(
+        "{\"round\": %d, \"rss_mb_while_subscribed\": %.1f, \"rss_mb\": %.1f, "
+        "\"subscriptions\": %d, \"topic_bytes\": %d, \"fuzz_messages\": %d}\n",
+        r, held, rss.back(), subscriptions, topic_bytes, fuzz);
+    std::fflush(stdout);
+  }
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  fs::remove_all(dir);
+  if (check >= 0 && rss.size() > 2) {
+    const double growth = rss.back() / rss[1] - 1.0;
+    std::printf("{\"growth_after_round_1\": %.3f, \"limit\": %.3f}\n", growth, check);
+    if (growth > check) return 1;
+  }
+  return 0;
+}
