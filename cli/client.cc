@@ -6,6 +6,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -104,6 +105,9 @@ std::string FormatStatus(const runtime::SessionStatus& s) {
 
 namespace {
 
+// How long a watch keeps asking a master that stopped answering (restarting), s.
+constexpr int kRestartPatienceS = 60;
+
 runtime::SessionStatus QueryStatus(zmq::context_t* context, const std::string& control,
                                    const std::string& id, const net::SocketOptions& options) {
   runtime::ControlRequest req;
@@ -129,9 +133,30 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   const auto start = Clock::now();
   auto next_poll = start;
   int first_done = -1;
+  std::optional<Clock::time_point> silent_since;  // the master stopped answering then
   while (true) {
     if (Clock::now() >= next_poll) {
-      const runtime::SessionStatus st = QueryStatus(context, control, id, options);
+      runtime::SessionStatus st;
+      try {
+        st = QueryStatus(context, control, id, options);
+        silent_since.reset();
+      } catch (const core::InputError& e) {
+        // A master restarting (systemd brings it back in seconds; with --state it
+        // resumes the session under its id): keep asking for a while, saying so once.
+        const bool no_answer = std::string(e.what()).find("no answer within") != std::string::npos;
+        if (!no_answer) throw;
+        if (!silent_since) {
+          silent_since = Clock::now();
+          if (out != nullptr) {
+            std::fprintf(out, "master %s not answering; asking again for up to %d s\n",
+                         control.c_str(), kRestartPatienceS);
+            std::fflush(out);
+          }
+        }
+        if (Clock::now() - *silent_since > std::chrono::seconds(kRestartPatienceS)) throw;
+        next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);
+        continue;
+      }
       if (st.state() != "running") return st;
       if (first_done < 0) first_done = st.jobs_done();
       next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);

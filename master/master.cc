@@ -16,6 +16,7 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <sstream>
 #include <thread>
 #include <vector>
 
@@ -261,6 +262,7 @@ struct Master::Impl {
                             });
       endpoints.capture = capture_ingest->endpoint();
     }
+    LoadState();
   }
 
   static int WriterThreads(const MasterOptions& o) {
@@ -378,12 +380,99 @@ struct Master::Impl {
                       " (dome-master --out-root); give a folder inside it");
   }
 
-  std::string Submit(const runtime::Session& spec) {
+  // ---- sessions kept across restarts (MasterOptions::state_dir) ----------------------
+
+  fs::path StateFile(const std::string& id, const char* ext) const {
+    return fs::path(options.state_dir) / "sessions" / (id + ext);
+  }
+
+  // Records a session submitted (its spec) or ended (its state and reason); a failure
+  // to write is logged: the session itself is not affected.
+  void KeepState(const SessionRec& s, bool ended) {
+    if (options.state_dir.empty()) return;
+    try {
+      if (ended) {
+        io::WriteFileAtomically(StateFile(s.id, ".end"),
+                                std::string(StateName(s.state)) + "\n" + s.error + "\n");
+      } else {
+        io::WriteFileAtomically(StateFile(s.id, ".json"), schema::PrintJson(s.plan.spec) + "\n");
+      }
+    } catch (const core::InputError& e) {
+      spdlog::error("session {}: cannot keep its state: {}", s.id, e.what());
+    }
+  }
+
+  // The sessions of an earlier master on the same state folder: those that ended are
+  // listed as they ended; the others are submitted again under their ids.
+  void LoadState() {
+    if (options.state_dir.empty()) return;
+    const fs::path dir = fs::path(options.state_dir) / "sessions";
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec)
+      throw core::StorageError(dir.string(), "cannot create the state folder: " + ec.message());
+    std::vector<std::pair<fs::file_time_type, fs::path>> specs;
+    for (const auto& e : fs::directory_iterator(dir)) {
+      if (e.path().extension() == ".json") specs.emplace_back(e.last_write_time(ec), e.path());
+    }
+    std::sort(specs.begin(), specs.end());  // submitted first, listed first
+    int resumed = 0;
+    for (const auto& [time, path] : specs) {
+      const std::string id = path.stem().string();
+      runtime::Session spec;
+      try {
+        schema::ParseJson(io::ReadFileBytes(path), path.string(), "session", &spec);
+      } catch (const core::InputError& e) {
+        spdlog::error("state: {}; skipped", e.what());
+        continue;
+      }
+      const fs::path end = StateFile(id, ".end");
+      if (fs::exists(end, ec)) {
+        auto s = std::make_unique<SessionRec>();
+        s->id = id;
+        s->plan.spec = spec;
+        std::istringstream in(io::ReadFileBytes(end));
+        std::string state;
+        std::getline(in, state);
+        std::getline(in, s->error);
+        s->state = state == "done"        ? SessionState::kDone
+                   : state == "cancelled" ? SessionState::kCancelled
+                                          : SessionState::kFailed;
+        s->finished_s = 0;
+        session_order.push_back(id);
+        sessions[id] = std::move(s);
+        continue;
+      }
+      try {
+        Submit(spec, id);
+        ++resumed;
+      } catch (const core::InputError& e) {
+        // Listed as failed with the reason (its take gone, say), not dropped unseen.
+        auto s = std::make_unique<SessionRec>();
+        s->id = id;
+        s->plan.spec = spec;
+        s->state = SessionState::kFailed;
+        s->error = std::string("cannot resume after a master restart: ") + e.what();
+        s->finished_s = 0;
+        spdlog::error("session {}: {}", id, s->error);
+        KeepState(*s, true);
+        session_order.push_back(id);
+        sessions[id] = std::move(s);
+      }
+    }
+    if (!specs.empty()) {
+      spdlog::info("state {}: {} sessions known, {} resumed", options.state_dir, specs.size(),
+                   resumed);
+    }
+  }
+
+  // `id`: the session's id when resumed from the state folder; "" for a new one.
+  std::string Submit(const runtime::Session& spec, const std::string& id_to_resume = "") {
     CheckOutRoot(spec.out());
     auto s = std::make_unique<SessionRec>();
     s->loop_busy_at_start = loop_busy_s;
-    s->id = NewSessionId();
-    while (sessions.count(s->id) != 0) s->id = NewSessionId();
+    s->id = id_to_resume.empty() ? NewSessionId() : id_to_resume;
+    while (id_to_resume.empty() && sessions.count(s->id) != 0) s->id = NewSessionId();
     s->plan = pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
       return blobs.AddFile(path, name);
     });
@@ -427,6 +516,7 @@ struct Master::Impl {
     session_order.push_back(id);
     SessionRec* raw = s.get();
     sessions[id] = std::move(s);
+    KeepState(*raw, false);
     Publish(*raw, -1, "submitted");
     Advance(raw);
     return id;
@@ -675,6 +765,7 @@ struct Master::Impl {
     s->error = error;
     s->finished_s = s->Now();
     spdlog::error("session {} failed: {}", s->id, error);
+    KeepState(*s, true);
     DropQueued(s);
     AbortMasterStages(s);
     Publish(*s, -1, error);
@@ -710,6 +801,7 @@ struct Master::Impl {
       return;
     }
     s->state = SessionState::kDone;
+    KeepState(*s, true);
     spdlog::info(
         "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
         s->finished_s, s->graph->size(), s->requeued, s->duplicates);
@@ -1191,6 +1283,7 @@ struct Master::Impl {
           if (req.has_cancel() && s->running()) {
             s->state = SessionState::kCancelled;
             s->finished_s = s->Now();
+            KeepState(*s, true);
             DropQueued(s);
             AbortMasterStages(s);
             spdlog::info("session {} cancelled", id);

@@ -85,6 +85,11 @@ struct MasterOptions {
   // (core::ReleaseFreedMemory), so that what peers sent does not stay resident; 0:
   // never (the embedded `dome run`, whose workers reuse their freed buffers).
   double release_memory_s = 0;
+  // When set, the master keeps each session it was given here (STATE/sessions/<id>.json,
+  // the Session as submitted; <id>.end, its final state and reason once it ended) and,
+  // started again on the same folder, resumes the sessions that had not ended under
+  // their ids (from their journals) and answers status for the ended ones. "": none.
+  std::string state_dir;
   // When set, every session's output folder must lie inside this folder (after
   // following symbolic links and ".."); others are refused at submit. "": anywhere this
   // process may write (the embedded `dome run`; dome-master warns at start).

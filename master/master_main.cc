@@ -58,6 +58,9 @@ int main(int argc, char** argv) {
                  "memory a worker job may use, MiB; larger fusion slabs are refused at "
                  "submit (0: this machine's memory)")
       ->capture_default_str();
+  app.add_option("--state", o.state_dir,
+                 "folder where the master keeps its sessions; started again on it, it resumes "
+                 "those that had not ended, under their ids");
   app.add_option("--out-root", o.out_root,
                  "sessions may write only inside this folder (their Session.out); refused "
                  "outside it. Unset: anywhere this user may write");

@@ -106,17 +106,16 @@ class ClusterFixture : public ::testing::Test {
     std::string workers, control, events;
   };
   Master StartMaster(const std::string& name, std::vector<std::string> extra = {},
-                     const std::string& workers = "tcp://127.0.0.1:*") {
+                     const std::string& workers = "tcp://127.0.0.1:*",
+                     const std::string& control = "tcp://127.0.0.1:*",
+                     const std::string& events = "tcp://127.0.0.1:*") {
     namespace fs = std::filesystem;
     Master m;
     const fs::path file = root_ / (name + ".endpoints");
     fs::remove(file);
-    std::vector<std::string> args = {"--bind",           workers,
-                                     "--control",        "tcp://127.0.0.1:*",
-                                     "--events",         "tcp://127.0.0.1:*",
-                                     "--heartbeat-ms",   "200",
-                                     "--liveness",       "3",
-                                     "--endpoints-file", file.string()};
+    std::vector<std::string> args = {"--bind",     workers, "--control",        control,
+                                     "--events",   events,  "--heartbeat-ms",   "200",
+                                     "--liveness", "3",     "--endpoints-file", file.string()};
     args.insert(args.end(), extra.begin(), extra.end());
     // Plaintext unless the test gives keys (--keys DIR).
     if (std::find(extra.begin(), extra.end(), "--keys") == extra.end())
@@ -183,6 +182,14 @@ class ClusterFixture : public ::testing::Test {
       if (s.stage() == stage) return s.done();
     }
     return -1;
+  }
+
+  // A loopback endpoint free now (bound to port 0 and let go): for a master restarted
+  // where its clients know it.
+  std::string FreeEndpoint() {
+    zmq::socket_t s(context_, zmq::socket_type::router);
+    s.bind("tcp://127.0.0.1:*");
+    return s.get(zmq::sockopt::last_endpoint);
   }
 
   zmq::context_t context_;

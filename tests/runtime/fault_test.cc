@@ -159,5 +159,38 @@ TEST_F(Faults, WorkerJoiningMidSessionGetsJobs) {
   EXPECT_EQ(by_first + by_second + int(instants_.size()), final.jobs_total()) << report;
 }
 
+TEST_F(Faults, ARestartedMasterResumesItsSessionsByItselfAndWatchGoesOn) {
+  const fs::path state = root_ / "state";
+  const std::string workers = FreeEndpoint(), control = FreeEndpoint(), events = FreeEndpoint();
+  Master m1 = StartMaster("master_state1", {"--state", state.string()}, workers, control, events);
+  auto w = StartWorker(m1, "s1");
+  const fs::path out = root_ / "state_out";
+  const std::string id = Submit(m1, MakeSession(out));
+  ChildProcess watch("dome", {"watch", id, "--master", control, "--events", events, "--insecure"},
+                     (root_ / "state_watch.log").string());
+  ASSERT_TRUE(WaitFor(m1, id, [](const auto& st) { return st.instants(0).done(); }));
+  m1.process->Kill();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the watch notices
+  // Nobody submits again: the new master on the same state folder resumes the session
+  // under its id, and the watch (and the worker) find it where it was.
+  Master m2 = StartMaster("master_state2", {"--state", state.string()}, workers, control, events);
+  const auto final = WaitForEnd(m2, id);
+  ASSERT_EQ(final.state(), "done") << final.error() << m2.process->Log();
+  ExpectSameOutputs(reference_, out);
+  EXPECT_NE(m2.process->Log().find("1 sessions known, 1 resumed"), std::string::npos)
+      << m2.process->Log();
+  EXPECT_NE(m2.process->Log().find("session " + id + ": resumed from "), std::string::npos)
+      << m2.process->Log();
+  // The watch started on the first master ends with the second's final status.
+  EXPECT_EQ(watch.Wait(), 0) << watch.Log();
+  EXPECT_NE(watch.Log().find("session " + id + "  done"), std::string::npos) << watch.Log();
+  // A third master lists the ended session as it ended, and resumes nothing.
+  m2.process->Stop();
+  Master m3 = StartMaster("master_state3", {"--state", state.string()});
+  EXPECT_EQ(Status(m3, id).state(), "done");
+  EXPECT_NE(m3.process->Log().find("1 sessions known, 0 resumed"), std::string::npos)
+      << m3.process->Log();
+}
+
 }  // namespace
 }  // namespace dome
