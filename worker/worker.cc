@@ -17,6 +17,7 @@
 #include "core/timer.h"
 #include "net/blob_cache.h"
 #include "net/content_hash.h"
+#include "net/security.h"
 
 namespace dome::worker {
 using Clock = std::chrono::steady_clock;
@@ -42,6 +43,7 @@ struct Worker::Impl {
   zmq::context_t* context;
   WorkerOptions options;
   std::unique_ptr<zmq::socket_t> socket;
+  std::unique_ptr<net::HandshakeLog> handshake_log;  // after the socket: destroyed first
   net::BlobCache cache;
   WorkerStats stats;
   std::deque<runtime::Job> queue;      // jobs received, not started
@@ -70,8 +72,15 @@ struct Worker::Impl {
   }
 
   void Connect() {
+    handshake_log.reset();  // before the socket it watches goes
     socket = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::dealer);
     net::ConfigureSocket(socket.get(), options.socket);
+    if (options.socket.curve_client()) {
+      // A master that refuses this worker's key answers nothing: say why in the log.
+      handshake_log = std::make_unique<net::HandshakeLog>(
+          context, std::vector<std::pair<zmq::socket_t*, std::string>>{{socket.get(), "worker"}},
+          true);
+    }
     socket->connect(options.master);
     requested.clear();
     runtime::Envelope env;

@@ -281,6 +281,34 @@ CameraReport CalibrateCamera(const geometry::RigCamera& prior, const fs::path& s
                          calibrated);
 }
 
+// Dots narrower than this cannot be placed to the precision calibration needs, px:
+// their centroids wander by a good part of a pixel, and Tsai's closed form then fails
+// in ways that do not say why (points "behind the camera").
+constexpr double kMinDotDiameterPx = 3.0;
+
+// When the dots of a view's image are too small to calibrate from, why; "" otherwise.
+std::string SmallDotsHint(const fs::path& view_path, const DotDetectorOptions& detector) {
+  try {
+    const CalibView view = ReadCalibView(view_path);
+    const cv::Mat gray = io::ReadImage(view.image, io::ImageMode::kGray8);
+    std::vector<double> areas;
+    for (const Blob& b : DetectBlobs(gray, detector)) {
+      if (!b.cut) areas.push_back(b.area_px);
+    }
+    if (areas.empty()) return "";
+    std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
+    const double diameter = 2.0 * std::sqrt(areas[areas.size() / 2] / M_PI);
+    if (diameter >= kMinDotDiameterPx) return "";
+    return fmt::format(
+        "; the dots of {} ({}x{} px) are only {:.1f} px across, and calibration needs at "
+        "least {:.0f} px to place their centres: capture or render the calibration images "
+        "larger",
+        view.image.string(), gray.cols, gray.rows, diameter, kMinDotDiameterPx);
+  } catch (const core::InputError&) {
+    return "";  // the error being explained names what is wrong with the view
+  }
+}
+
 CameraReport CalibrateCamera(const geometry::RigCamera& prior,
                              const std::vector<fs::path>& stage1_views, const fs::path& stage2_view,
                              const CalibrateOptions& options, geometry::TsaiCamera* calibrated) {
@@ -453,11 +481,26 @@ CalibrationResult CalibrateTake(const fs::path& take_dir, const geometry::Rig& p
             CalibrateCamera(prior.cameras[i], stage1, calib / "stage2" / (id + ".json"), options,
                             &result.rig.cameras[i].model);
       } catch (const core::InputError& e) {
-        if (!options.keep_going) throw;
+        // Tiny dots fail deep inside the solution: say that they are the cause.
+        std::string hint;
+        try {
+          const std::vector<fs::path> views = ViewPaths(calib / "stage1", id);
+          if (!views.empty()) hint = SmallDotsHint(views[0], options.detector);
+        } catch (const core::InputError&) {
+          // No view to look at: the error says so itself.
+        }
+        std::string what = e.what();
+        if (!e.where().empty() && what.rfind(e.where() + ": ", 0) == 0) {
+          what = what.substr(e.where().size() + 2);
+        }
+        if (!options.keep_going) {
+          if (hint.empty()) throw;
+          throw core::InputError(e.where(), what + hint);
+        }
         CameraReport& r = result.cameras[i];
         r.id = id;
         r.flagged = r.failed = true;
-        r.flag_reason = std::string("calibration failed: ") + e.what();
+        r.flag_reason = std::string("calibration failed: ") + e.what() + hint;
       }
     }
   });

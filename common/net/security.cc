@@ -379,6 +379,11 @@ namespace {
 
 // Why a handshake failed, from a monitor event and its value (zmq_socket_monitor(3)).
 std::string HandshakeFailure(uint16_t event, uint32_t value) {
+  if (event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+    return "it refused this side's public key (ZAP status " + std::to_string(value) +
+           "): the key is not on the master's allow-list, or not with the role of the socket "
+           "it connects to (worker, client or capture; `dome keygen --role`)";
+  }
   if (event == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) {
     if (value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH) {
       return "the peer speaks another security mechanism (plaintext against CURVE or the "
@@ -410,6 +415,7 @@ struct HandshakeLog::Impl {
   std::atomic<bool> stop{false};
   std::atomic<int64_t> failures{0};
   LogThrottle throttle;
+  bool client = false;
   std::thread thread;
 
   void Serve() {
@@ -436,21 +442,32 @@ struct HandshakeLog::Impl {
       ++failures;
       const std::string why = HandshakeFailure(event, value);
       if (auto n = throttle.ShouldLog(w->name + " " + why)) {
-        spdlog::warn("refused a peer on the {} socket ({}): {}{}", w->name, address.to_string(),
-                     why, LogThrottle::Repeats(*n));
+        if (client) {
+          spdlog::error("the master at {} refused this {}: {}{}", address.to_string(), w->name, why,
+                        LogThrottle::Repeats(*n));
+        } else {
+          spdlog::warn("refused a peer on the {} socket ({}): {}{}", w->name, address.to_string(),
+                       why, LogThrottle::Repeats(*n));
+        }
       }
     }
   }
 };
 
 HandshakeLog::HandshakeLog(zmq::context_t* context,
-                           const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets)
+                           const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets,
+                           bool client)
     : impl_(std::make_unique<Impl>()) {
-  // Failures the ZAP handler refuses are logged by it; these come before it is asked.
-  const int events = ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL;
+  impl_->client = client;
+  // Server side: failures the ZAP handler refuses are logged by it; these come before
+  // it is asked. Client side: its refusal too, which nothing else reports.
+  const int events = ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                     (client ? ZMQ_EVENT_HANDSHAKE_FAILED_AUTH : 0);
+  static std::atomic<uint64_t> serial{0};
   for (const auto& [socket, name] : sockets) {
-    char endpoint[64];
-    std::snprintf(endpoint, sizeof endpoint, "inproc://dome.handshake.%p", socket->handle());
+    char endpoint[96];
+    std::snprintf(endpoint, sizeof endpoint, "inproc://dome.handshake.%p.%llu", socket->handle(),
+                  (unsigned long long)serial++);
     if (zmq_socket_monitor(socket->handle(), endpoint, events) != 0) {
       throw core::InputError(
           name + " socket", std::string("cannot monitor handshakes: ") + zmq_strerror(zmq_errno()));

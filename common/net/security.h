@@ -118,11 +118,15 @@ class ZapHandler {
 // (mechanism mismatch), a peer encrypting to another server key, a malformed greeting.
 // One thread reads the monitors of `sockets` (each with its name for the log, e.g.
 // "worker") from construction to destruction; lines are throttled per socket and cause
-// like the ZAP handler's. The sockets must outlive it.
+// like the ZAP handler's. The sockets must outlive it. With `client`, the sockets are
+// a worker's or client's connections to the master, and the master refusing this
+// side's key (ZAP) is logged too, as an error naming the master: otherwise the side
+// sees only silence.
 class HandshakeLog {
  public:
   HandshakeLog(zmq::context_t* context,
-               const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets);
+               const std::vector<std::pair<zmq::socket_t*, std::string>>& sockets,
+               bool client = false);
   ~HandshakeLog();
   HandshakeLog(const HandshakeLog&) = delete;
   HandshakeLog& operator=(const HandshakeLog&) = delete;

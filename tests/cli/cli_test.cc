@@ -144,6 +144,23 @@ TEST(Cli, SynthSmallTakePassesInfo) {
 
 // `dome calibrate --points`: each missing or contradictory flag and each degenerate
 // point file is named, exit 1, and no rig is written.
+// The small preset's calibration images are 160x120: its dots are a couple of pixels
+// across, too few to calibrate from, and the error says that is the cause.
+TEST(Cli, CalibratingImagesWithTinyDotsSaysTheDotsAreTooSmall) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 1 --no-tape --out " + take.string()).exit_code,
+      0);
+  const Result r = RunDomeBinary("calibrate " + take.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("(160x120 px) are only "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" px across, and calibration needs at least 3 px to place their "
+                          "centres: capture or render the calibration images larger"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(Cli, CalibratePointsFlagsAndDegenerateFilesAreNamed) {
   const testing::TempDir tmp;
   const fs::path few = tmp / "few.txt", line = tmp / "line.txt", rig = tmp / "rig.json";

@@ -366,6 +366,23 @@ TEST_F(SecureMaster, EachKeyIsLetInOnlyOnTheSocketsOfItsRoles) {
       << log;
 }
 
+TEST_F(SecureMaster, AWorkerWhoseKeyIsRefusedSaysSoInItsLog) {
+  ChildProcess worker(
+      "dome-worker",
+      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "refused",
+       "--master-key", dir_.File("master.pub"), "--key", dir_.File("client.key")},
+      dir_.File("refused_worker.log"));
+  const auto end = Clock::now() + std::chrono::seconds(10);
+  while (Clock::now() < end && worker.Log().find("refused this worker") == std::string::npos) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_NE(worker.Log().find("the master at " + workers_ +
+                              " refused this worker: it refused "
+                              "this side's public key"),
+            std::string::npos)
+      << worker.Log();
+}
+
 TEST(Keys, KeygenWritesTheRolesAfterThePublicKey) {
   testing::TempDir dir;
   const auto made = RunDomeBinary("keygen " + dir.File("w") + " --role worker --role capture");
