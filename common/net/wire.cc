@@ -1,5 +1,7 @@
 #include "net/wire.h"
 
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
 #include <google/protobuf/stubs/logging.h>
 #include <spdlog/spdlog.h>
 
@@ -49,8 +51,130 @@ std::string BoundEndpoint(const zmq::socket_t& socket) {
   return socket.get(zmq::sockopt::last_endpoint);
 }
 
+namespace {
+
+// The length of the valid UTF-8 sequence at text[i] (RFC 3629: no overlong forms, no
+// surrogates, nothing above U+10FFFF), or 0.
+size_t Utf8Sequence(std::string_view text, size_t i) {
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(text[k]); };
+  const unsigned char c = byte(i);
+  if (c < 0x80) return 1;
+  size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xBF;  // range of the second byte
+  if (c >= 0xC2 && c <= 0xDF) {
+    n = 2;
+  } else if (c >= 0xE0 && c <= 0xEF) {
+    n = 3;
+    if (c == 0xE0) lo = 0xA0;
+    if (c == 0xED) hi = 0x9F;
+  } else if (c >= 0xF0 && c <= 0xF4) {
+    n = 4;
+    if (c == 0xF0) lo = 0x90;
+    if (c == 0xF4) hi = 0x8F;
+  } else {
+    return 0;
+  }
+  if (i + n > text.size() || byte(i + 1) < lo || byte(i + 1) > hi) return 0;
+  for (size_t k = 2; k < n; ++k) {
+    if ((byte(i + k) & 0xC0) != 0x80) return 0;
+  }
+  return n;
+}
+
+// U+10FF00 + b, in UTF-8: F4 8F (BC + b / 64) (80 + b % 64).
+bool IsEscape(std::string_view text, size_t i) {
+  return i + 4 <= text.size() && static_cast<unsigned char>(text[i]) == 0xF4 &&
+         static_cast<unsigned char>(text[i + 1]) == 0x8F &&
+         static_cast<unsigned char>(text[i + 2]) >= 0xBC &&
+         (static_cast<unsigned char>(text[i + 3]) & 0xC0) == 0x80;
+}
+
+void AppendEscape(unsigned char b, std::string* out) {
+  out->push_back(char(0xF4));
+  out->push_back(char(0x8F));
+  out->push_back(char(0xBC + (b >> 6)));
+  out->push_back(char(0x80 + (b & 0x3F)));
+}
+
+// Every string field of `m` and its messages through `f` (bytes fields untouched).
+void MapStrings(google::protobuf::Message* m, std::string (*f)(std::string_view)) {
+  const auto* d = m->GetDescriptor();
+  const auto* r = m->GetReflection();
+  for (int i = 0; i < d->field_count(); ++i) {
+    const auto* field = d->field(i);
+    const auto type = field->type();
+    if (type == google::protobuf::FieldDescriptor::TYPE_STRING) {
+      if (field->is_repeated()) {
+        for (int k = 0; k < r->FieldSize(*m, field); ++k) {
+          const std::string& v = r->GetRepeatedStringReference(*m, field, k, nullptr);
+          std::string mapped = f(v);
+          if (mapped != v) r->SetRepeatedString(m, field, k, std::move(mapped));
+        }
+      } else if (r->HasField(*m, field) || !field->has_presence()) {
+        const std::string& v = r->GetStringReference(*m, field, nullptr);
+        std::string mapped = f(v);
+        if (mapped != v) r->SetString(m, field, std::move(mapped));
+      }
+    } else if (type == google::protobuf::FieldDescriptor::TYPE_MESSAGE) {
+      if (field->is_repeated()) {
+        for (int k = 0; k < r->FieldSize(*m, field); ++k) {
+          MapStrings(r->MutableRepeatedMessage(m, field, k), f);
+        }
+      } else if (r->HasField(*m, field)) {
+        MapStrings(r->MutableMessage(m, field), f);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::string EscapeUtf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size();) {
+    const size_t n = IsEscape(text, i) ? 0 : Utf8Sequence(text, i);
+    if (n == 0) {
+      // Not UTF-8, or a code point of the escapes: each byte alone.
+      const size_t bytes = IsEscape(text, i) ? 4 : 1;
+      for (size_t k = 0; k < bytes; ++k)
+        AppendEscape(static_cast<unsigned char>(text[i + k]), &out);
+      i += bytes;
+      continue;
+    }
+    out.append(text.substr(i, n));
+    i += n;
+  }
+  return out;
+}
+
+std::string UnescapeUtf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size();) {
+    if (IsEscape(text, i)) {
+      const auto third = static_cast<unsigned char>(text[i + 2]);
+      const auto fourth = static_cast<unsigned char>(text[i + 3]);
+      out.push_back(char(((third - 0xBC) << 6) | (fourth & 0x3F)));
+      i += 4;
+    } else {
+      out.push_back(text[i++]);
+    }
+  }
+  return out;
+}
+
 std::string EncodeEnvelope(runtime::Envelope envelope) {
   envelope.set_version(kProtocolVersion);
+  MapStrings(&envelope, [](std::string_view s) {
+    // The common case (valid UTF-8, no escapes) without building a copy.
+    for (size_t i = 0; i < s.size();) {
+      const size_t n = IsEscape(s, i) ? 0 : Utf8Sequence(s, i);
+      if (n == 0) return EscapeUtf8(s);
+      i += n;
+    }
+    return std::string(s);
+  });
   std::string bytes;
   envelope.SerializeToString(&bytes);
   return bytes;
@@ -84,6 +208,9 @@ runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer
   if (envelope.body_case() == runtime::Envelope::BODY_NOT_SET) {
     throw core::InputError(peer, "envelope without a message body");
   }
+  MapStrings(&envelope, [](std::string_view s) {
+    return s.find('\xF4') == std::string_view::npos ? std::string(s) : UnescapeUtf8(s);
+  });
   return envelope;
 }
 

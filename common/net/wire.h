@@ -53,11 +53,22 @@ void ConfigureSocket(zmq::socket_t* socket, const SocketOptions& options);
 // The endpoint a socket actually bound (resolves "tcp://127.0.0.1:*" to the port).
 std::string BoundEndpoint(const zmq::socket_t& socket);
 
-// Serializes with the protocol version set.
+// Text that is not UTF-8 on the wire. Protobuf `string` fields must be UTF-8, but a
+// Linux path is any bytes (a take folder named with byte 0xE9) and an error may quote
+// a file's bytes. EscapeUtf8 maps each byte that is not part of valid UTF-8 -- and each
+// byte of a code point U+10FF00..U+10FFFF, so that the mapping stays one to one -- to
+// the private-use code point U+10FF00 + byte; UnescapeUtf8 maps them back. Valid UTF-8
+// without those code points passes through unchanged.
+std::string EscapeUtf8(std::string_view text);
+std::string UnescapeUtf8(std::string_view text);
+
+// Serializes with the protocol version set; every string field, at any depth, through
+// EscapeUtf8.
 std::string EncodeEnvelope(runtime::Envelope envelope);
 
-// Parses one payload. Throws core::InputError naming `peer` when it is over
-// `max_bytes`, not an Envelope, of another protocol version, or has no body.
+// Parses one payload, every string field through UnescapeUtf8 (the bytes the sender
+// had). Throws core::InputError naming `peer` when it is over `max_bytes`, not an
+// Envelope, of another protocol version, or has no body.
 runtime::Envelope DecodeEnvelope(std::string_view bytes, const std::string& peer,
                                  int64_t max_bytes);
 

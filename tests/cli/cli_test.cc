@@ -144,6 +144,22 @@ TEST(Cli, SynthSmallTakePassesInfo) {
 
 // `dome calibrate --points`: each missing or contradictory flag and each degenerate
 // point file is named, exit 1, and no rig is written.
+// A Linux folder name may be any bytes: a take and an output folder named with byte
+// 0xE9 (not UTF-8) run like any other, the paths crossing the runtime's wire unchanged.
+TEST(Cli, RunOnFoldersWhoseNamesAreNotUtf8) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take\xE9", out = tmp / "out\xE9";
+  ASSERT_EQ(RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out '" +
+                          take.string() + "'")
+                .exit_code,
+            0);
+  const Result r = RunDomeBinary("run '" + take.string() + "' --out '" + out.string() +
+                                 "' --workers 2 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "00-00-10-00" / "mesh_decimated.ply")) << r.output;
+  EXPECT_EQ(r.output.find("not a dome runtime envelope"), std::string::npos) << r.output;
+}
+
 // The small preset's calibration images are 160x120: its dots are a couple of pixels
 // across, too few to calibrate from, and the error says that is the cause.
 TEST(Cli, CalibratingImagesWithTinyDotsSaysTheDotsAreTooSmall) {

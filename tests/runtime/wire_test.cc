@@ -39,6 +39,40 @@ TEST(Wire, RoundTripAndRefusals) {
 }
 
 // One receive for every socket: all parts of a message, nothing when none waits.
+// Text that is not UTF-8 (a Linux path may be any bytes) crosses the wire unchanged.
+TEST(Wire, BytesThatAreNotUtf8CrossTheWireUnchanged) {
+  // Valid UTF-8 passes through as it is.
+  for (const std::string text : {"", "plain", "caf\xC3\xA9 \xE2\x82\xAC \xF0\x9F\x8E\xA5"}) {
+    EXPECT_EQ(EscapeUtf8(text), text);
+    EXPECT_EQ(UnescapeUtf8(text), text);
+  }
+  // Every byte value, lone continuation bytes, truncated, overlong and surrogate
+  // sequences, and the escapes' own code points: escaped to valid UTF-8, then back.
+  std::string all;
+  for (int b = 0; b < 256; ++b) all.push_back(char(b));
+  for (const std::string text :
+       {all, std::string("take\xE9"), std::string("\xC0\xAF"), std::string("\xED\xA0\x80"),
+        std::string("\xE2\x82"), std::string("\xF4\x8F\xBC\x80 literal"),
+        std::string("\xF4\x90\x80\x80")}) {
+    const std::string escaped = EscapeUtf8(text);
+    runtime::Envelope probe;
+    probe.mutable_refusal()->set_reason(escaped);
+    std::string bytes;
+    ASSERT_TRUE(probe.SerializeToString(&bytes));
+    runtime::Envelope parsed;
+    EXPECT_TRUE(parsed.ParseFromString(bytes)) << "escaped text is valid UTF-8";
+    EXPECT_EQ(UnescapeUtf8(escaped), text);
+  }
+  // Through a whole envelope: a session whose take folder has byte 0xE9 in its name.
+  runtime::Envelope env;
+  auto* session = env.mutable_control()->mutable_submit()->mutable_session();
+  session->set_take("/data/take\xE9");
+  session->add_instants("00-00-00-\xFF");
+  const runtime::Envelope back = DecodeEnvelope(EncodeEnvelope(env), "test", 1 << 20);
+  EXPECT_EQ(back.control().submit().session().take(), "/data/take\xE9");
+  EXPECT_EQ(back.control().submit().session().instants(0), "00-00-00-\xFF");
+}
+
 TEST(Wire, ReceiveFramesTakesEveryPartOfOneMessage) {
   zmq::context_t context;
   zmq::socket_t a(context, zmq::socket_type::pair), b(context, zmq::socket_type::pair);
@@ -79,8 +113,7 @@ TEST(ContentHash, Sha256OfKnownVectors) {
   // FIPS 180-4 examples.
   EXPECT_EQ(net::Sha256Hex("abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  EXPECT_EQ(net::Sha256Hex(""),
-            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(net::Sha256Hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
   EXPECT_TRUE(net::IsSha256Hex(net::Sha256Hex("x")));
   EXPECT_FALSE(net::IsSha256Hex("../etc/passwd"));
 }
