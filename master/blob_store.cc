@@ -1,5 +1,7 @@
 #include "master/blob_store.h"
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "io/file_util.h"
 #include "net/content_hash.h"
@@ -14,7 +16,12 @@ runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& nam
   ref.set_size(bytes.size());
   ref.set_name(name);
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_.try_emplace(ref.sha256(), Entry{path, bytes.size(), name, false});
+  auto [it, fresh] = entries_.try_emplace(ref.sha256(), Entry{{path}, bytes.size(), name, false});
+  if (!fresh && !it->second.owned) {
+    auto& paths = it->second.paths;
+    paths.erase(std::remove(paths.begin(), paths.end(), path), paths.end());
+    paths.push_back(path);
+  }
   return ref;
 }
 
@@ -31,7 +38,7 @@ runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& byt
     io::WriteFileAtomically(path, bytes);
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_[ref.sha256()] = Entry{path, bytes.size(), name, true};
+  entries_[ref.sha256()] = Entry{{path}, bytes.size(), name, true};
   return ref;
 }
 
@@ -47,37 +54,40 @@ bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
   }
   if (net::Sha256Hex(bytes) != sha256) return false;
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_[sha256] = Entry{path, bytes.size(), sha256, true};
+  entries_[sha256] = Entry{{path}, bytes.size(), sha256, true};
   return true;
 }
 
 std::optional<std::string> BlobStore::Read(const std::string& sha256, std::string* error) const {
   if (error) error->clear();
-  fs::path path;
+  std::vector<fs::path> paths;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(sha256);
     if (it == entries_.end()) return std::nullopt;
-    path = it->second.path;
+    paths = it->second.paths;
   }
-  std::string bytes;
-  try {
-    bytes = io::ReadFileBytes(path);
-  } catch (const core::InputError& e) {
-    if (error) *error = e.what();
-    return std::nullopt;
-  }
-  // Hashing what is served costs about a millisecond a megabyte; serving bytes under
-  // an address they do not have would make every worker ask again without end.
-  if (net::Sha256Hex(bytes) != sha256) {
-    if (error) {
-      *error = path.string() +
-               ": changed since it was read at submit (its bytes no longer hash to " +
-               sha256.substr(0, 12) + "...)";
+  // The most recent file first; any that still holds the bytes will do.
+  std::string first_error;
+  for (auto p = paths.rbegin(); p != paths.rend(); ++p) {
+    std::string bytes;
+    try {
+      bytes = io::ReadFileBytes(*p);
+    } catch (const core::InputError& e) {
+      if (first_error.empty()) first_error = e.what();
+      continue;
     }
-    return std::nullopt;
+    // Hashing what is served costs about a millisecond a megabyte; serving bytes under
+    // an address they do not have would make every worker ask again without end.
+    if (net::Sha256Hex(bytes) == sha256) return bytes;
+    if (first_error.empty()) {
+      first_error = p->string() +
+                    ": changed since it was read at submit (its bytes no longer hash to " +
+                    sha256.substr(0, 12) + "...)";
+    }
   }
-  return bytes;
+  if (error) *error = first_error;
+  return std::nullopt;
 }
 
 std::optional<runtime::BlobRef> BlobStore::Find(const std::string& sha256) const {
@@ -97,7 +107,7 @@ void BlobStore::Drop(const std::string& sha256) {
   if (it == entries_.end()) return;
   if (it->second.owned) {
     std::error_code ec;
-    fs::remove(it->second.path, ec);
+    fs::remove(it->second.paths.front(), ec);
   }
   entries_.erase(it);
 }

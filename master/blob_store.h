@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "runtime.pb.h"
 
@@ -34,7 +35,9 @@ class BlobStore {
 
  private:
   struct Entry {
-    std::filesystem::path path;
+    // Where the bytes lie: an output's one file, or every take file added with these
+    // bytes, most recent last (two takes share a rig; one may go while the other runs).
+    std::vector<std::filesystem::path> paths;
     uint64_t size = 0;
     std::string name;
     bool owned = false;  // written by AddBytes: removed by Drop
