@@ -9,6 +9,10 @@
 namespace dome::scheduler {
 namespace fs = std::filesystem;
 
+namespace {
+constexpr size_t kPathsPerBlob = 4;  // take files kept per blob (AddFile)
+}  // namespace
+
 runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& name) {
   const std::string bytes = io::ReadFileBytes(path);
   runtime::BlobRef ref;
@@ -18,9 +22,12 @@ runtime::BlobRef BlobStore::AddFile(const fs::path& path, const std::string& nam
   std::lock_guard<std::mutex> lock(mutex_);
   auto [it, fresh] = entries_.try_emplace(ref.sha256(), Entry{{path}, bytes.size(), name, false});
   if (!fresh && !it->second.owned) {
+    // The few most recent files with these bytes: enough for takes that share a file,
+    // bounded for a take whose frames are all the same bytes (a static scene).
     auto& paths = it->second.paths;
     paths.erase(std::remove(paths.begin(), paths.end(), path), paths.end());
     paths.push_back(path);
+    if (paths.size() > kPathsPerBlob) paths.erase(paths.begin());
   }
   return ref;
 }

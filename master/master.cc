@@ -467,16 +467,30 @@ struct Master::Impl {
   }
 
   // `id`: the session's id when resumed from the state folder; "" for a new one.
-  std::string Submit(const runtime::Session& spec, const std::string& id_to_resume = "") {
+  // What a submit reads and hashes (the take's rig and every frame: seconds for a take
+  // of thousands of instants); thread-safe, so that it runs beside the loop.
+  pipeline::SessionPlan Plan(const runtime::Session& spec) const {
     CheckOutRoot(spec.out());
+    pipeline::SessionPlan plan =
+        pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
+          return const_cast<BlobStore&>(blobs).AddFile(path, name);
+        });
+    CheckJobMemory(plan);
+    return plan;
+  }
+
+  std::string Submit(const runtime::Session& spec, const std::string& id_to_resume = "") {
+    return Start(spec, Plan(spec), id_to_resume);
+  }
+
+  // A planned session starts: its folder, journal (resuming what it records) and graph.
+  std::string Start(const runtime::Session& spec, pipeline::SessionPlan plan,
+                    const std::string& id_to_resume = "") {
     auto s = std::make_unique<SessionRec>();
     s->loop_busy_at_start = loop_busy_s;
     s->id = id_to_resume.empty() ? NewSessionId() : id_to_resume;
     while (id_to_resume.empty() && sessions.count(s->id) != 0) s->id = NewSessionId();
-    s->plan = pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
-      return blobs.AddFile(path, name);
-    });
-    CheckJobMemory(s->plan);
+    s->plan = std::move(plan);
     std::error_code ec;
     const bool existed = fs::exists(s->out(), ec);
     fs::create_directories(s->out(), ec);
@@ -1259,15 +1273,48 @@ struct Master::Impl {
     return st;
   }
 
+  // A submit is planned beside the loop (reading and hashing every frame of the take:
+  // 2.9 s for 8,000 instants, long enough for the loop to miss its workers' heartbeats)
+  // and started on it; the client gets its answer then.
+  void SubmitBesideTheLoop(const std::string& peer_id, bool req, const runtime::Session& spec) {
+    offload.Post([this, peer_id, req, spec]() -> std::function<void()> {
+      auto plan = std::make_shared<pipeline::SessionPlan>();
+      std::string error;
+      try {
+        *plan = Plan(spec);
+      } catch (const core::InputError& e) {
+        error = e.what();
+      } catch (const std::exception& e) {
+        error = std::string("master: ") + e.what();
+      }
+      return [this, peer_id, req, spec, plan, error] {
+        runtime::ControlReply reply;
+        reply.set_ok(error.empty());
+        reply.set_error(error);
+        if (error.empty()) {
+          try {
+            reply.set_session_id(Start(spec, std::move(*plan)));
+            *reply.add_sessions() = Status(*sessions[reply.session_id()]);
+          } catch (const std::exception& e) {
+            reply.set_ok(false);
+            reply.set_error(dynamic_cast<const core::InputError*>(&e)
+                                ? std::string(e.what())
+                                : std::string("master: ") + e.what());
+          }
+        }
+        runtime::Envelope env;
+        *env.mutable_control_reply() = reply;
+        Reply(&control_socket, peer_id, req, env);
+      };
+    });
+  }
+
+  // Status, cancel and list (a submit: SubmitBesideTheLoop).
   runtime::ControlReply OnControl(const runtime::ControlRequest& req) {
     runtime::ControlReply reply;
     reply.set_ok(true);
     try {
       switch (req.kind_case()) {
-        case runtime::ControlRequest::kSubmit:
-          reply.set_session_id(Submit(req.submit().session()));
-          *reply.add_sessions() = Status(*sessions[reply.session_id()]);
-          break;
         case runtime::ControlRequest::kStatus:
         case runtime::ControlRequest::kCancel: {
           const std::string& id =
@@ -1369,6 +1416,10 @@ struct Master::Impl {
         const runtime::Envelope env = net::DecodeEnvelope(frames.back().to_string_view(), peer,
                                                           options.socket.max_message_bytes);
         core::Require(env.has_control(), peer, "sent a message that is not a control request");
+        if (env.control().has_submit()) {
+          SubmitBesideTheLoop(id, req, env.control().submit().session());
+          continue;  // answered when planned
+        }
         reply = OnControl(env.control());
       } catch (const core::InputError& e) {
         if (auto n = peer_log.ShouldLog(id + " " + Cause(e.what()))) {

@@ -308,6 +308,41 @@ TEST_F(NeverHang, AResultOverTheMessageCapFailsTheSessionSayingSo) {
       << final.error();
 }
 
+// Submitting a take of thousands of instants reads and hashes every frame; that work
+// runs beside the master's loop, which meanwhile keeps answering its workers.
+TEST_F(NeverHang, ASubmitOfThousandsOfInstantsKeepsTheWorkersConnected) {
+  const int kInstants = 4000;  // about a second to plan here: past the workers' 600 ms liveness
+  const fs::path big = root_ / "take_big";
+  fs::create_directories(big / "frames");
+  fs::copy_file(take_ / "rig.json", big / "rig.json");
+  for (int n = 0; n < kInstants; ++n) {
+    char name[16];
+    std::snprintf(name, sizeof name, "00-%02d-%02d-%02d", n / 1500, n / 25 % 60, n % 25);
+    fs::create_directories(big / "frames" / name);
+    for (const auto& e : fs::directory_iterator(take_ / "frames" / instants_[0])) {
+      fs::create_hard_link(e.path(), big / "frames" / name / e.path().filename());
+    }
+  }
+  Master m = StartMaster("master_big");
+  auto w = StartWorker(m, "b1");
+  for (int i = 0; i < 200 && m.process->Log().find("worker b1 joined") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  runtime::Session session = MakeSession(root_ / "big");
+  session.set_take(big.string());
+  session.clear_instants();
+  const auto start = std::chrono::steady_clock::now();
+  const std::string id = Submit(m, session);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  runtime::ControlRequest cancel;
+  cancel.mutable_cancel()->set_session_id(id);
+  client::Request(&context_, m.control, cancel);
+  std::printf("submit of 4000 instants: %.2f s\n", seconds);
+  EXPECT_EQ(Status(m, id).state(), "cancelled");
+  EXPECT_EQ(m.process->Log().find("lost (no heartbeat"), std::string::npos) << m.process->Log();
+}
+
 TEST_F(NeverHang, OutputFoldersOutsideTheOutRootAreRefusedCreatingNothing) {
   const fs::path allowed = root_ / "out_root";
   fs::create_directories(allowed);
