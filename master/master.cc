@@ -498,6 +498,13 @@ struct Master::Impl {
       throw core::StorageError(s->out().string(),
                                "cannot create the output folder: " + ec.message());
     }
+    // A master killed mid-write left temporary files beside what it was writing.
+    if (existed) {
+      if (const int n = io::RemoveStaleTempFiles(s->out())) {
+        spdlog::info("session {}: removed {} temporary files a killed process left in {}", s->id, n,
+                     s->out().string());
+      }
+    }
     try {
       // The session as submitted, derived values included: `dome run OUT/session.json`
       // runs it again with the same options.

@@ -1,6 +1,6 @@
 // A bounded soak of the runtime with faults injected (real processes on loopback):
 //
-//   soak_bench OUT [--sessions 200] [--seed 1]
+//   soak_bench OUT [--sessions 200] [--seed 1] [--faults kill9-master,garbage]
 //
 // Makes the small synthetic take (one instant) and its undisturbed result with the
 // embedded `dome run`, then starts bin/dome-master (plaintext, --state, fixed ports,
@@ -175,9 +175,13 @@ int main(int argc, char** argv) {
   const fs::path disk = out / "disk";
   fs::create_directories(disk);
 
-  const std::vector<std::string> faults = {"none",         "kill9-worker", "stop-worker",
-                                           "kill9-master", "change-frame", "delete-frame",
-                                           "garbage",      "disk-full"};
+  std::vector<std::string> faults = {"none",         "kill9-worker", "stop-worker", "kill9-master",
+                                     "change-frame", "delete-frame", "garbage",     "disk-full"};
+  if (const std::string only = Flag(argc, argv, "--faults", ""); !only.empty()) {
+    faults.clear();  // a comma-separated subset, to soak one kind
+    std::istringstream in(only);
+    for (std::string f; std::getline(in, f, ',');) faults.push_back(f);
+  }
   std::map<std::string, std::map<std::string, int>> ends;  // fault -> state -> count
   int left_running = 0, differing = 0;
   double rss_first = -1;
@@ -260,14 +264,28 @@ int main(int argc, char** argv) {
     }
     ++ends[fault][state];
     if (state == "running") ++left_running;
-    if (state == "done" && Outputs(session_out) != expected) {
-      ++differing;
-      std::fprintf(stderr, "soak_bench: session %d (%s) done with other outputs\n", i,
-                   fault.c_str());
+    bool keep = false;
+    if (state == "done") {
+      const auto got = Outputs(session_out);
+      if (got != expected) {
+        ++differing;
+        keep = true;  // left for a look
+        std::string files;
+        for (const auto& [rel, bytes] : expected) {
+          auto it = got.find(rel);
+          if (it == got.end() || it->second != bytes) files += " " + rel;
+        }
+        for (const auto& [rel, bytes] : got) {
+          if (!expected.count(rel)) files += " +" + rel;
+        }
+        std::fprintf(stderr,
+                     "soak_bench: session %d %s (%s) done with other outputs:%s (kept in %s)\n", i,
+                     id.c_str(), fault.c_str(), files.c_str(), session_out.c_str());
+      }
     }
     if (mounted) ::umount2(disk.c_str(), MNT_DETACH);
     fs::remove_all(copy);
-    if (!mounted) fs::remove_all(session_out);
+    if (!mounted && !keep) fs::remove_all(session_out);
     if (rss_first < 0) rss_first = RssMb(c.master);
   }
   const double rss_last = RssMb(c.master);

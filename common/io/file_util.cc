@@ -1,5 +1,6 @@
 #include "io/file_util.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -68,6 +69,31 @@ std::filesystem::path TempSiblingPath(const std::filesystem::path& path) {
   std::filesystem::path tmp = path;
   tmp += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
   return tmp;
+}
+
+int RemoveStaleTempFiles(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  int removed = 0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    // "<name>.tmp-<pid>-<n>"
+    const auto at = name.rfind(".tmp-");
+    if (at == std::string::npos) continue;
+    const std::string rest = name.substr(at + 5);
+    const auto dash = rest.find('-');
+    if (dash == std::string::npos || dash == 0 || dash + 1 == rest.size() ||
+        rest.find_first_not_of("0123456789-") != std::string::npos) {
+      continue;
+    }
+    const long pid = std::stol(rest.substr(0, dash));
+    const bool alive = pid == long(::getpid()) || ::kill(pid_t(pid), 0) == 0 || errno == EPERM;
+    if (alive) continue;
+    std::error_code rm;
+    if (fs::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
 }
 
 void CommitTempFile(const std::filesystem::path& tmp, const std::filesystem::path& path) {

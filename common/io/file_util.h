@@ -31,6 +31,12 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view byt
 // A fresh name in the folder of `path` for a temporary file ("<name>.tmp-<pid>-<n>").
 std::filesystem::path TempSiblingPath(const std::filesystem::path& path);
 
+// Removes the temporary files (TempSiblingPath's names) under `dir`, at any depth,
+// whose writing process is gone: a process killed mid-write leaves its temporary file
+// beside the file it never finished. Files of live processes are kept. Returns how
+// many it removed; errors (a file gone meanwhile) are skipped.
+int RemoveStaleTempFiles(const std::filesystem::path& dir);
+
 // Renames the finished temporary `tmp` over `path`; removes `tmp` and throws
 // core::StorageError naming `path` when that fails.
 void CommitTempFile(const std::filesystem::path& tmp, const std::filesystem::path& path);
