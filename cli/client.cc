@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/parallel_for.h"
+#include "io/file_util.h"
 #include "net/wire.h"
 #include "worker/worker.h"
 
@@ -101,6 +102,21 @@ std::string FormatStatus(const runtime::SessionStatus& s) {
     text += "\n";
   }
   return text;
+}
+
+std::map<std::string, std::string> SessionOutputFiles(const std::filesystem::path& out) {
+  namespace fs = std::filesystem;
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(out)) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), out).string();
+    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json" ||
+        rel == "session.json") {
+      continue;
+    }
+    files[rel] = io::ReadFileBytes(e.path());
+  }
+  return files;
 }
 
 namespace {

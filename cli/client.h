@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
@@ -30,6 +31,12 @@ std::string EventsEndpointFor(const std::string& control_endpoint);
 
 // One line per instant and stage: "00-00-00-01  stereo 6/6  fusion 3/10 ...".
 std::string FormatStatus(const runtime::SessionStatus& status);
+
+// Every output file of a session's folder, relative path -> bytes: what two runs of
+// the same session must agree on byte for byte (not the journal, the blob store, the
+// report, whose timings differ, or session.json, which names the folder). For tests
+// and benchmarks that compare runs.
+std::map<std::string, std::string> SessionOutputFiles(const std::filesystem::path& out);
 
 // Follows a session until it is done, failed or cancelled: prints progress from the
 // status socket to `out` (null: silent) with job rates and an ETA, asks the control

@@ -31,6 +31,7 @@
 
 #include "io/file_util.h"
 #include "net/wire.h"
+#include "process_rss.h"
 
 namespace fs = std::filesystem;
 using namespace dome;
@@ -42,22 +43,6 @@ std::string Flag(int argc, char** argv, const std::string& name, const std::stri
     if (name == argv[i]) return argv[i + 1];
   }
   return fallback;
-}
-
-// VmRSS of `pid`, MiB.
-double RssMb(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      double kb = 0;
-      in >> kb;
-      return kb / 1024.0;
-    }
-    std::string rest;
-    std::getline(in, rest);
-  }
-  return -1;
 }
 
 void Subscribe(zmq::context_t* context, const std::string& events, int count, int topic_bytes) {
@@ -144,19 +129,19 @@ int main(int argc, char** argv) {
   std::istringstream(io::ReadFileBytes(endpoints)) >> workers >> control >> events;
   zmq::context_t context;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  std::vector<double> rss = {RssMb(pid)};
+  std::vector<double> rss = {bench::ProcessRssMb(pid)};
   std::printf("{\"round\": 0, \"rss_mb\": %.1f}\n", rss.back());
   for (int r = 1; r <= rounds; ++r) {
     Subscribe(&context, events, subscriptions, topic_bytes);
-    const double held = RssMb(pid);  // before the subscribers go
+    const double held = bench::ProcessRssMb(pid);  // before the subscribers go
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     Fuzz(&context, workers, control, fuzz);
     // What stays: the least RSS over the 6 s after (the master returns freed memory to
     // the system every 5 s).
-    double least = RssMb(pid);
+    double least = bench::ProcessRssMb(pid);
     for (int i = 0; i < 12; ++i) {
       std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      least = std::min(least, RssMb(pid));
+      least = std::min(least, bench::ProcessRssMb(pid));
     }
     rss.push_back(least);
     std::printf(

@@ -167,12 +167,12 @@ int Dispatch(const fs::path& out, int num_workers, int jobs, const fs::path& bin
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   core::PrintJsonLine({{"mode", "dispatch"},
-             {"workers", num_workers},
-             {"workers_seen", seen},
-             {"jobs", jobs},
-             {"state", status.state()},
-             {"seconds", seconds},
-             {"jobs_per_s", jobs / seconds}});
+                       {"workers", num_workers},
+                       {"workers_seen", seen},
+                       {"jobs", jobs},
+                       {"state", status.state()},
+                       {"seconds", seconds},
+                       {"jobs_per_s", jobs / seconds}});
   return status.state() == "done" ? 0 : 1;
 }
 
@@ -197,11 +197,11 @@ int Memory(int cameras, int instants, int slabs) {
   }
   const int64_t after = ResidentKiB();
   core::PrintJsonLine({{"mode", "memory"},
-             {"cameras", cameras},
-             {"instants", instants},
-             {"slabs", slabs},
-             {"jobs", graph.size()},
-             {"master_bookkeeping_mib", (after - before) / 1024.0}});
+                       {"cameras", cameras},
+                       {"instants", instants},
+                       {"slabs", slabs},
+                       {"jobs", graph.size()},
+                       {"master_bookkeeping_mib", (after - before) / 1024.0}});
   return 0;
 }
 
@@ -230,8 +230,7 @@ double ProcessCpuSeconds() {
 // absent or null.
 double ReportNumber(const core::Json& report, const std::string& pointer) {
   const core::Json::json_pointer p(pointer);
-  return report.contains(p) && report.at(p).is_number() ? report.at(p).get<double>()
-                                                        : std::nan("");
+  return report.contains(p) && report.at(p).is_number() ? report.at(p).get<double>() : std::nan("");
 }
 
 EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
@@ -256,20 +255,21 @@ EndToEndFigures EndToEnd(const fs::path& take, const fs::path& out, int workers,
   f.cpu_seconds = cpu_seconds;
   f.seconds = ReportNumber(report, "/seconds");
   f.worker_job_seconds = ReportNumber(report, "/worker_job_seconds");
-  core::PrintJsonLine({{"mode", "e2e"},
-             {"workers", workers},
-             {"state", st.state()},
-             {"instants", ReportNumber(report, "/instants")},
-             {"seconds", f.seconds},
-             {"seconds_per_instant", ReportNumber(report, "/seconds_per_instant")},
-             {"worker_job_seconds", f.worker_job_seconds},
-             {"utilisation", f.worker_job_seconds / (workers * f.seconds)},
-             {"master_loop_busy_fraction", ReportNumber(report, "/master_loop/busy_fraction")},
-             {"master_loop_longest_turn_s", ReportNumber(report, "/master_loop/longest_turn_s")},
-             {"bytes_to_workers", ReportNumber(report, "/bytes_to_workers")},
-             {"bytes_from_workers", ReportNumber(report, "/bytes_from_workers")},
-             {"cpu_seconds", cpu_seconds},
-             {"load_average", {load_before, load_after}}});
+  core::PrintJsonLine(
+      {{"mode", "e2e"},
+       {"workers", workers},
+       {"state", st.state()},
+       {"instants", ReportNumber(report, "/instants")},
+       {"seconds", f.seconds},
+       {"seconds_per_instant", ReportNumber(report, "/seconds_per_instant")},
+       {"worker_job_seconds", f.worker_job_seconds},
+       {"utilisation", f.worker_job_seconds / (workers * f.seconds)},
+       {"master_loop_busy_fraction", ReportNumber(report, "/master_loop/busy_fraction")},
+       {"master_loop_longest_turn_s", ReportNumber(report, "/master_loop/longest_turn_s")},
+       {"bytes_to_workers", ReportNumber(report, "/bytes_to_workers")},
+       {"bytes_from_workers", ReportNumber(report, "/bytes_from_workers")},
+       {"cpu_seconds", cpu_seconds},
+       {"load_average", {load_before, load_after}}});
   return f;
 }
 
@@ -289,15 +289,15 @@ int Scaling(const fs::path& take, const fs::path& out, int workers,
       EndToEnd(take, out / ("w" + std::to_string(workers)), workers, instants);
   const std::string n = std::to_string(workers);
   core::PrintJsonLine({{"mode", "scaling"},
-             {"workers", workers},
-             {"seconds_1", one.seconds},
-             {"seconds_" + n, many.seconds},
-             {"speedup", one.seconds / many.seconds},
-             {"parallel_efficiency", one.seconds / (workers * many.seconds)},
-             {"utilisation_1", one.worker_job_seconds / one.seconds},
-             {"utilisation_" + n, many.worker_job_seconds / (workers * many.seconds)},
-             {"cpu_seconds_1", one.cpu_seconds},
-             {"cpu_seconds_" + n, many.cpu_seconds}});
+                       {"workers", workers},
+                       {"seconds_1", one.seconds},
+                       {"seconds_" + n, many.seconds},
+                       {"speedup", one.seconds / many.seconds},
+                       {"parallel_efficiency", one.seconds / (workers * many.seconds)},
+                       {"utilisation_1", one.worker_job_seconds / one.seconds},
+                       {"utilisation_" + n, many.worker_job_seconds / (workers * many.seconds)},
+                       {"cpu_seconds_1", one.cpu_seconds},
+                       {"cpu_seconds_" + n, many.cpu_seconds}});
   return one.done && many.done ? 0 : 1;
 }
 

@@ -41,6 +41,7 @@
 #include "io/file_util.h"
 #include "net/wire.h"
 #include "pipeline/session.h"
+#include "process_rss.h"
 
 namespace fs = std::filesystem;
 using namespace dome;
@@ -76,40 +77,10 @@ void Stop(pid_t pid, int sig = SIGTERM) {
   ::waitpid(pid, nullptr, 0);
 }
 
-double RssMb(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      double kb = 0;
-      in >> kb;
-      return kb / 1024.0;
-    }
-    std::string rest;
-    std::getline(in, rest);
-  }
-  return -1;
-}
-
 std::string FreeEndpoint(zmq::context_t* context) {
   zmq::socket_t s(*context, zmq::socket_type::router);
   s.bind("tcp://127.0.0.1:*");
   return s.get(zmq::sockopt::last_endpoint);
-}
-
-// Every output file under `dir` but the journal, blobs, report and session.json.
-std::map<std::string, std::string> Outputs(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string rel = fs::relative(e.path(), dir).string();
-    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json" ||
-        rel == "session.json") {
-      continue;
-    }
-    files[rel] = io::ReadFileBytes(e.path());
-  }
-  return files;
 }
 
 struct Cluster {
@@ -163,7 +134,7 @@ int main(int argc, char** argv) {
                  out.c_str());
     return 2;
   }
-  const auto expected = Outputs(reference);
+  const auto expected = client::SessionOutputFiles(reference);
   runtime::Session base = pipeline::ReadSessionJson(reference / "session.json");
   base.clear_derived();
 
@@ -266,7 +237,7 @@ int main(int argc, char** argv) {
     if (state == "running") ++left_running;
     bool keep = false;
     if (state == "done") {
-      const auto got = Outputs(session_out);
+      const auto got = client::SessionOutputFiles(session_out);
       if (got != expected) {
         ++differing;
         keep = true;  // left for a look
@@ -286,9 +257,9 @@ int main(int argc, char** argv) {
     if (mounted) ::umount2(disk.c_str(), MNT_DETACH);
     fs::remove_all(copy);
     if (!mounted && !keep) fs::remove_all(session_out);
-    if (rss_first < 0) rss_first = RssMb(c.master);
+    if (rss_first < 0) rss_first = bench::ProcessRssMb(c.master);
   }
-  const double rss_last = RssMb(c.master);
+  const double rss_last = bench::ProcessRssMb(c.master);
   const double seconds = std::chrono::duration<double>(Clock::now() - soak_start).count();
   for (pid_t w : c.worker_pids) Stop(w);
   Stop(c.master);

@@ -36,21 +36,9 @@ inline std::string Join(const std::vector<std::string>& v) {
   return s;
 }
 
-// Every output file under `dir` (not the journal, the blob store, the report, whose
-// timings differ, or session.json, which names the output folder), relative path -> bytes.
+// Every output file under `dir` (client::SessionOutputFiles), relative path -> bytes.
 inline std::map<std::string, std::string> Outputs(const std::filesystem::path& dir) {
-  namespace fs = std::filesystem;
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string rel = fs::relative(e.path(), dir).string();
-    if (rel.rfind(".blobs", 0) == 0 || rel.rfind("journal.log", 0) == 0 || rel == "report.json" ||
-        rel == "session.json") {
-      continue;
-    }
-    files[rel] = io::ReadFileBytes(e.path());
-  }
-  return files;
+  return client::SessionOutputFiles(dir);
 }
 
 inline void ExpectSameOutputs(const std::filesystem::path& reference,
