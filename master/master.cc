@@ -469,11 +469,11 @@ struct Master::Impl {
   // `id`: the session's id when resumed from the state folder; "" for a new one.
   // What a submit reads and hashes (the take's rig and every frame: seconds for a take
   // of thousands of instants); thread-safe, so that it runs beside the loop.
-  pipeline::SessionPlan Plan(const runtime::Session& spec) const {
+  pipeline::SessionPlan Plan(const runtime::Session& spec) {
     CheckOutRoot(spec.out());
     pipeline::SessionPlan plan =
         pipeline::PlanSession(spec, [&](const fs::path& path, const std::string& name) {
-          return const_cast<BlobStore&>(blobs).AddFile(path, name);
+          return blobs.AddFile(path, name);  // BlobStore is thread-safe
         });
     CheckJobMemory(plan);
     return plan;
