@@ -160,29 +160,46 @@ std::vector<TextureView> IdealViews(const std::vector<TextureView>& views) {
   return out;
 }
 
-std::vector<ShadingView> PrepareViews(const io::Mesh& mesh, const std::vector<TextureView>& views,
-                                      const TextureOptions& options, bool keep_vertices) {
+// Everything shading needs, prepared once per mesh: the views resampled to Tsai's model
+// (IdealViews), each with its z-buffer, their FastViews, and with `for_atlas` the
+// vertices in each camera frame (the atlas's per-face culling).
+struct Prepared {
+  std::vector<TextureView> ideal;
+  std::vector<ShadingView> views;
+  std::vector<FastView> fast;
+};
+
+Prepared Prepare(const io::Mesh& mesh, const std::vector<TextureView>& views,
+                 const TextureOptions& options, bool for_atlas) {
+  options.Check();
+  for (const auto& v : views) CheckTextureView(v);
+  Prepared p;
+  p.ideal = IdealViews(views);
   const bool exact = options.exhaustive;
-  std::vector<ShadingView> out(views.size());
-  core::ParallelFor(0, int64_t(views.size()), options.num_threads, [&](int64_t b, int64_t e) {
+  const bool keep_vertices = for_atlas && !exact;
+  std::vector<ShadingView>& out = p.views;
+  out.resize(p.ideal.size());
+  core::ParallelFor(0, int64_t(p.ideal.size()), options.num_threads, [&](int64_t b, int64_t e) {
     std::vector<Eigen::Vector3d> proj;
     for (int64_t i = b; i < e; ++i) {
-      out[i].camera = &views[i].camera;
-      out[i].fast = FastView(views[i].camera);
-      if (views[i].image.channels() == 1) {
-        cv::cvtColor(views[i].image, out[i].bgr, cv::COLOR_GRAY2BGR);
+      const TextureView& view = p.ideal[i];
+      out[i].camera = &view.camera;
+      out[i].fast = FastView(view.camera);
+      if (view.image.channels() == 1) {
+        cv::cvtColor(view.image, out[i].bgr, cv::COLOR_GRAY2BGR);
       } else {
-        out[i].bgr = views[i].image;
+        out[i].bgr = view.image;
       }
-      out[i].zbuffer = RenderZBuffer(views[i].camera, out[i].fast, exact, mesh,
+      out[i].zbuffer = RenderZBuffer(view.camera, out[i].fast, exact, mesh,
                                      keep_vertices ? &out[i].vertex_camera : nullptr, &proj);
-      out[i].centre = views[i].camera.CentreWorld();
+      out[i].centre = view.camera.CentreWorld();
       out[i].fast.zbuffer = out[i].zbuffer.data();
       out[i].fast.bgr = out[i].bgr.ptr<uint8_t>(0);
       out[i].fast.bgr_step = out[i].bgr.step[0];
     }
   });
-  return out;
+  for (const auto& v : out) p.fast.push_back(v.fast);
+  return p;
 }
 
 // Weighted mean colour (BGR, 0..255) of point p with unit normal n; false if unseen.
@@ -388,12 +405,6 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
   }
 }
 
-std::vector<FastView> FastViews(const std::vector<ShadingView>& views) {
-  std::vector<FastView> out;
-  for (const auto& v : views) out.push_back(v.fast);
-  return out;
-}
-
 // Sets *out to the views that may paint some point of the face `f` (unit normal n).
 // A view is left out only when, with a margin for rounding, no point of the triangle
 // can pass one of Shade's tests for it: the cosine, in front of the camera, inside the
@@ -517,13 +528,10 @@ void CheckTextureView(const TextureView& view) {
           std::to_string(view.camera.height_px));
 }
 
-void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
-                   const TextureOptions& options) {
-  options.Check();
-  for (const auto& v : views) CheckTextureView(v);
-  const std::vector<TextureView> ideal = IdealViews(views);
-  const auto prepared = PrepareViews(*mesh, ideal, options, false);
-  const std::vector<FastView> fast = FastViews(prepared);
+namespace {
+
+// ColorVertices with the views prepared.
+void ColourWith(const Prepared& prepared, const TextureOptions& options, io::Mesh* mesh) {
   std::vector<Eigen::Vector3d> normals(mesh->vertices.size(), Eigen::Vector3d::Zero());
   for (const auto& f : mesh->faces) {
     const Eigen::Vector3d n = FaceNormal(*mesh, f);  // area-weighted
@@ -536,8 +544,8 @@ void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
           Eigen::Vector3d bgr;
           const Eigen::Vector3d n = normals[v].normalized();
           const Eigen::Vector3d p = mesh->vertices[v].cast<double>();
-          if (options.exhaustive ? Shade(p, n, prepared, options, &bgr)
-                                 : ShadeFast(p, n, fast, nullptr, options, &bgr)) {
+          if (options.exhaustive ? Shade(p, n, prepared.views, options, &bgr)
+                                 : ShadeFast(p, n, prepared.fast, nullptr, options, &bgr)) {
             mesh->colors[v] =
                 io::Color3u8(uint8_t(std::lround(bgr[2])), uint8_t(std::lround(bgr[1])),
                              uint8_t(std::lround(bgr[0])));
@@ -546,13 +554,11 @@ void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
       });
 }
 
-TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
-                               const TextureOptions& options) {
-  options.Check();
-  for (const auto& v : views) CheckTextureView(v);
-  const std::vector<TextureView> ideal = IdealViews(views);
-  const auto prepared = PrepareViews(mesh, ideal, options, !options.exhaustive);
-  const std::vector<FastView> fast = FastViews(prepared);
+// BuildTextureAtlas with the views prepared (for_atlas).
+TexturedMesh AtlasWith(const Prepared& prepared_views, const TextureOptions& options,
+                       const io::Mesh& mesh) {
+  const std::vector<ShadingView>& prepared = prepared_views.views;
+  const std::vector<FastView>& fast = prepared_views.fast;
   TexturedMesh out;
   out.mesh.vertices = mesh.vertices;
   out.mesh.faces = mesh.faces;
@@ -628,6 +634,26 @@ TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureVi
     }
   });
   return out;
+}
+
+}  // namespace
+
+void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
+                   const TextureOptions& options) {
+  ColourWith(Prepare(*mesh, views, options, false), options, mesh);
+}
+
+TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
+                               const TextureOptions& options) {
+  return AtlasWith(Prepare(mesh, views, options, true), options, mesh);
+}
+
+std::optional<TexturedMesh> ColourAndAtlas(io::Mesh* mesh, const std::vector<TextureView>& views,
+                                           const TextureOptions& options, bool atlas) {
+  const Prepared prepared = Prepare(*mesh, views, options, atlas);
+  ColourWith(prepared, options, mesh);
+  if (!atlas) return std::nullopt;
+  return AtlasWith(prepared, options, *mesh);
 }
 
 TexturedObjFiles EncodeTexturedObj(const TexturedMesh& t, const std::string& stem) {

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -70,6 +71,11 @@ struct TexturedMesh {
 
 TexturedMesh BuildTextureAtlas(const io::Mesh& mesh, const std::vector<TextureView>& views,
                                const TextureOptions& options);
+
+// ColorVertices and, with `atlas`, BuildTextureAtlas from one preparation of the views
+// (their z-buffers are the same): the same colours and atlas as the two calls.
+std::optional<TexturedMesh> ColourAndAtlas(io::Mesh* mesh, const std::vector<TextureView>& views,
+                                           const TextureOptions& options, bool atlas);
 
 // The OBJ + MTL + PNG of a textured mesh whose files are named <stem>.obj, <stem>.mtl
 // and <stem>.png (the OBJ names the MTL, the MTL the PNG): world frame, mm; per-face

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 
 #include "fusion/fusion_test_util.h"
 #include "io/image_io.h"
@@ -179,6 +180,28 @@ TEST(Texture, CulledShadingEqualsTheExhaustiveReference) {
     vertices_differing += d > 0;
   }
   EXPECT_LE(vertices_differing, int(va.vertices.size() / 1000) + 1);
+}
+
+// The texture job's one preparation of the views gives exactly the two separate calls'
+// colours and atlas; without the atlas it gives only the colours.
+TEST(Texture, ColourAndAtlasEqualsTheSeparateCalls) {
+  const TwoSphereScene scene(/*tint=*/true);
+  TextureOptions o;
+  o.num_threads = 2;
+  io::Mesh separate = scene.mesh;
+  ColorVertices(&separate, scene.views, o);
+  const TexturedMesh atlas = BuildTextureAtlas(scene.mesh, scene.views, o);
+  io::Mesh both = scene.mesh;
+  const std::optional<TexturedMesh> combined = ColourAndAtlas(&both, scene.views, o, true);
+  ASSERT_TRUE(combined.has_value());
+  EXPECT_EQ(both.colors, separate.colors);
+  EXPECT_EQ(combined->uv, atlas.uv);
+  ASSERT_EQ(combined->atlas.size(), atlas.atlas.size());
+  EXPECT_EQ(cv::norm(combined->atlas, atlas.atlas, cv::NORM_INF), 0.0);
+  EXPECT_EQ(combined->mesh.faces, atlas.mesh.faces);
+  io::Mesh colours_only = scene.mesh;
+  EXPECT_FALSE(ColourAndAtlas(&colours_only, scene.views, o, false).has_value());
+  EXPECT_EQ(colours_only.colors, separate.colors);
 }
 
 // Untinted images: every face's atlas texel at its centroid and every vertex colour
