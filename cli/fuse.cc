@@ -169,9 +169,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       const double t_mc = w.ElapsedSeconds() - (t_fusion - t_setup);  // the slabs' own time
       io::WriteFileAtomically(dir / pipeline::kMeshPly, pipeline::EncodeMeshPly(surface));
       w.Restart();
-      mesh::DecimationOptions dec;
-      dec.target_ratio = o.decimate_ratio;
-      io::Mesh decimated = pipeline::Decimate(surface, dec);
+      mesh::DecimationSummary dec_summary;
+      io::Mesh decimated = pipeline::Decimate(surface, pipeline::DecimationFor(o), &dec_summary);
       const double t_dec = w.ElapsedSeconds();
       w.Restart();
       mesh::TextureOptions tex;
@@ -203,6 +202,8 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
                                      {"voxels", {o.grid.nx, o.grid.ny, o.grid.nz}},
                                      {"triangles", surface.faces.size()},
                                      {"decimated_triangles", textured.coloured.faces.size()},
+                                     {"specks_removed", dec_summary.specks_removed},
+                                     {"speck_triangles", dec_summary.speck_triangles},
                                      {"seconds",
                                       {{"load", t_load},
                                        {"fusion", t_fusion},
@@ -258,6 +259,21 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
                   "add this times the merged area times the squared distance of the new faces "
                   "to the faces they replace to a collapse's cost; 0 = quadric only")
       ->capture_default_str();
+  dec->add_option("--speck-area-fraction", d->options.speck_area_fraction,
+                  "drop parts with less than this fraction of the largest part's area and a "
+                  "diagonal under --speck-mm first; 0 = none")
+      ->capture_default_str();
+  dec->add_option("--speck-mm", d->options.speck_diagonal_mm,
+                  "the speck rule's bounding-box diagonal, mm; 0 = none")
+      ->capture_default_str();
+  dec->add_option("--speck-gap-mm", d->options.speck_gap_mm,
+                  "keep a small part that comes this near a part that is not small, mm; 0 = "
+                  "drop small parts wherever they are")
+      ->capture_default_str();
+  dec->add_option("--prepass", d->options.prepass_factor,
+                  "meshoptimizer first, to this times the target, the input's quadrics carried "
+                  "to its vertices; then edge collapse; 0 = edge collapse only")
+      ->capture_default_str();
   dec->add_flag("--meshoptimizer", d->meshoptimizer,
                 "meshoptimizer's topology-preserving simplifier instead of edge collapse");
   dec->callback([=] {
@@ -273,17 +289,10 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
     const double cpu = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
     w.Restart();
     io::WritePly(d->out, out);
-    const nlohmann::ordered_json line = {{"triangles_in", s.triangles_in},
-                                         {"triangles_out", s.triangles_out},
-                                         {"components_removed", s.components_removed},
-                                         {"triangles_removed", s.triangles_removed},
-                                         {"components_deleted", s.components_deleted},
-                                         {"triangles_deleted", s.triangles_deleted},
-                                         {"error_mm", s.error_mm},
-                                         {"seconds", s.seconds},
-                                         {"cpu_seconds", cpu},
-                                         {"read_seconds", t_read},
-                                         {"write_seconds", w.ElapsedSeconds()}};
+    nlohmann::ordered_json line = nlohmann::ordered_json::parse(pipeline::DecimationSummaryJson(s));
+    line["cpu_seconds"] = cpu;
+    line["read_seconds"] = t_read;
+    line["write_seconds"] = w.ElapsedSeconds();
     std::printf("%s\n", line.dump().c_str());
     *exit_code = 0;
   });

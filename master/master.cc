@@ -32,6 +32,7 @@
 #include "net/content_hash.h"
 #include "net/log_throttle.h"
 #include "net/security.h"
+#include "pipeline/stages.h"
 #include "pipeline/session.h"
 #include "schema/json.h"
 
@@ -876,14 +877,41 @@ struct Master::Impl {
         std::vector<std::string>(s.plan.spec.derived().begin(), s.plan.spec.derived().end()));
     j["jobs_by_worker"] = s.jobs_by_worker;
     core::Json per_instant = core::Json::array();
+    // Clean output over the session: what the decimate stage dropped before decimating
+    // (OUT/<instant>/decimation.json, on disk also for instants resumed from the journal).
+    int64_t specks = 0, speck_triangles = 0, surface_triangles = 0, decimated = 0;
     for (int t = 0; t < instants; ++t) {
       const auto& is = s.instant_stats[t];
-      per_instant.push_back(
-          {{"instant", s.plan.instants[t]},
-           {"seconds", (is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
-           {"done_at_seconds", (is.done)}});
+      core::Json entry = {
+          {"instant", s.plan.instants[t]},
+          {"seconds", (is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
+          {"done_at_seconds", (is.done)}};
+      const fs::path summary = s.out() / s.plan.instants[t] / pipeline::kDecimationJson;
+      std::error_code ec;
+      if (fs::is_regular_file(summary, ec)) {
+        try {
+          const core::Json d = core::Json::parse(io::ReadFileBytes(summary));
+          specks += d.value("specks_removed", int64_t(0));
+          speck_triangles += d.value("speck_triangles", int64_t(0));
+          surface_triangles += d.value("triangles_in", int64_t(0));
+          decimated += 1;
+          entry["decimation"] = d;
+        } catch (const std::exception& e) {
+          spdlog::warn("session {}: {} not read into report.json: {}", s.id, summary.string(),
+                       e.what());
+        }
+      }
+      per_instant.push_back(std::move(entry));
     }
     j["per_instant"] = per_instant;
+    if (decimated > 0) {
+      j["clean"] = {{"instants", decimated},
+                    {"specks_removed", specks},
+                    {"speck_triangles", speck_triangles},
+                    {"speck_triangle_share",
+                     surface_triangles > 0 ? double(speck_triangles) / double(surface_triangles)
+                                           : 0.0}};
+    }
     // NaN figures print as null; worker names and the take path are users' text, and
     // what is not UTF-8 in them is replaced (core/json.h).
     io::WriteFileAtomically(s.out() / "report.json", core::DumpJson(j, 2) + "\n");

@@ -119,42 +119,6 @@ std::vector<Eigen::Vector3f> RelocatedPositions(const io::Mesh& mesh,
   return pos;
 }
 
-// The faces of `mesh` whose connected component (faces joined by shared vertices) has at
-// least `min_triangles` triangles and a bounding-box diagonal of at least `min_diagonal`.
-std::vector<Eigen::Vector3i> KeptComponentFaces(const io::Mesh& mesh, int64_t min_triangles,
-                                                double min_diagonal, int64_t* removed) {
-  const int nv = int(mesh.vertices.size());
-  core::DisjointSets sets(mesh.vertices.size());
-  auto find = [&](int v) { return sets.Find(v); };
-  for (const auto& f : mesh.faces) {
-    for (int m = 1; m < 3; ++m) sets.Union(f[0], f[m]);
-  }
-  std::vector<int64_t> count(nv, 0);
-  std::vector<Eigen::Vector3f> lo(nv, Eigen::Vector3f::Constant(HUGE_VALF)),
-      hi(nv, Eigen::Vector3f::Constant(-HUGE_VALF));
-  for (const auto& f : mesh.faces) {
-    const int r = find(f[0]);
-    ++count[r];
-    for (int m = 0; m < 3; ++m) {
-      lo[r] = lo[r].cwiseMin(mesh.vertices[f[m]]);
-      hi[r] = hi[r].cwiseMax(mesh.vertices[f[m]]);
-    }
-  }
-  std::vector<uint8_t> drop(nv, 0);
-  *removed = 0;
-  for (int r = 0; r < nv; ++r) {
-    if (count[r] == 0) continue;
-    drop[r] = count[r] < min_triangles || double((hi[r] - lo[r]).norm()) < min_diagonal;
-    *removed += drop[r];
-  }
-  std::vector<Eigen::Vector3i> kept;
-  kept.reserve(mesh.faces.size());
-  for (const auto& f : mesh.faces) {
-    if (!drop[find(f[0])]) kept.push_back(f);
-  }
-  return kept;
-}
-
 // Distance from each query to the nearest of `points`, through a balanced kd-tree kept
 // implicitly in the point order (node = middle of its range, split axis by depth).
 std::vector<double> NearestDistances(std::vector<Eigen::Vector3d> points,
@@ -190,6 +154,136 @@ std::vector<double> NearestDistances(std::vector<Eigen::Vector3d> points,
     out[i] = std::sqrt(best2);
   }
   return out;
+}
+
+// For each query, whether some point is within `radius` of it: the points bucketed in
+// cubic cells of that edge (sorted by cell), each query checking the 27 cells around its
+// own. (A kd-tree's nearest distance took 0.2 s for the queries of a paper instant.)
+std::vector<uint8_t> WithinDistance(const std::vector<Eigen::Vector3d>& points,
+                                    const std::vector<Eigen::Vector3d>& queries, double radius) {
+  std::vector<uint8_t> out(queries.size(), 0);
+  if (points.empty() || !(radius > 0)) return out;
+  const auto cell = [radius](const Eigen::Vector3d& p) {
+    return Eigen::Vector3i(int(std::floor(p.x() / radius)), int(std::floor(p.y() / radius)),
+                           int(std::floor(p.z() / radius)));
+  };
+  // 21 bits a coordinate: cells of any radius over any scene dome meshes come from.
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (uint64_t(uint32_t(c.x()) & 0x1fffff) << 42) |
+           (uint64_t(uint32_t(c.y()) & 0x1fffff) << 21) | uint64_t(uint32_t(c.z()) & 0x1fffff);
+  };
+  std::vector<std::pair<uint64_t, int>> sorted(points.size());
+  for (size_t i = 0; i < points.size(); ++i) sorted[i] = {key(cell(points[i])), int(i)};
+  std::sort(sorted.begin(), sorted.end());
+  const double r2 = radius * radius;
+  for (size_t q = 0; q < queries.size(); ++q) {
+    const Eigen::Vector3i c = cell(queries[q]);
+    for (int dz = -1; dz <= 1 && !out[q]; ++dz) {
+      for (int dy = -1; dy <= 1 && !out[q]; ++dy) {
+        for (int dx = -1; dx <= 1 && !out[q]; ++dx) {
+          const uint64_t k = key(c + Eigen::Vector3i(dx, dy, dz));
+          auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(k, -1));
+          for (; it != sorted.end() && it->first == k; ++it) {
+            if ((points[size_t(it->second)] - queries[q]).squaredNorm() <= r2) {
+              out[q] = 1;
+              break;
+            }
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
+// What the component filters drop: parts too small in triangles or diagonal, and specks.
+struct ComponentFilter {
+  int64_t min_triangles = 0;
+  double min_diagonal_mm = 0.0;
+  double speck_area_fraction = 0.0, speck_diagonal_mm = 0.0, speck_gap_mm = 0.0;
+  int64_t removed = 0, specks = 0, speck_triangles = 0;  // what was dropped
+};
+
+// The faces of `mesh` whose connected component (faces joined by shared vertices) passes
+// `filter` (DecimationOptions: min_component_*, speck_*); counts what it drops.
+std::vector<Eigen::Vector3i> KeptComponentFaces(const io::Mesh& mesh, ComponentFilter* filter) {
+  const int nv = int(mesh.vertices.size());
+  core::DisjointSets sets(mesh.vertices.size());
+  auto find = [&](int v) { return sets.Find(v); };
+  for (const auto& f : mesh.faces) {
+    for (int m = 1; m < 3; ++m) sets.Union(f[0], f[m]);
+  }
+  std::vector<int64_t> count(nv, 0);
+  std::vector<double> area(nv, 0.0);
+  std::vector<Eigen::Vector3f> lo(nv, Eigen::Vector3f::Constant(HUGE_VALF)),
+      hi(nv, Eigen::Vector3f::Constant(-HUGE_VALF));
+  for (const auto& f : mesh.faces) {
+    const int r = find(f[0]);
+    ++count[r];
+    const Eigen::Vector3d a = mesh.vertices[f[0]].cast<double>();
+    area[r] += 0.5 * (mesh.vertices[f[1]].cast<double>() - a)
+                         .cross(mesh.vertices[f[2]].cast<double>() - a)
+                         .norm();
+    for (int m = 0; m < 3; ++m) {
+      lo[r] = lo[r].cwiseMin(mesh.vertices[f[m]]);
+      hi[r] = hi[r].cwiseMax(mesh.vertices[f[m]]);
+    }
+  }
+  const double largest = nv > 0 ? *std::max_element(area.begin(), area.end()) : 0.0;
+  const bool specks = filter->speck_area_fraction > 0 && filter->speck_diagonal_mm > 0;
+  std::vector<uint8_t> drop(nv, 0), small(nv, 0);
+  bool any_small = false;
+  for (int r = 0; r < nv; ++r) {
+    if (count[r] == 0) continue;
+    const double diagonal = double((hi[r] - lo[r]).norm());
+    if (count[r] < filter->min_triangles || diagonal < filter->min_diagonal_mm) {
+      drop[r] = 1;
+      ++filter->removed;
+    } else if (specks && area[r] < filter->speck_area_fraction * largest &&
+               diagonal < filter->speck_diagonal_mm) {
+      small[r] = 1;
+      any_small = true;
+    }
+  }
+  if (any_small) {
+    // Each small part's nearest vertex to the vertices of the parts that are not small.
+    std::vector<double> gap(nv, HUGE_VAL);
+    if (filter->speck_gap_mm > 0) {
+      std::vector<uint8_t> used(nv, 0);
+      std::vector<Eigen::Vector3d> large_points, queries;
+      std::vector<int> query_root;
+      for (const auto& f : mesh.faces) {
+        for (int m = 0; m < 3; ++m) {
+          if (used[f[m]]) continue;
+          used[f[m]] = 1;
+          const int r = find(f[m]);
+          if (drop[r]) continue;
+          if (small[r]) {
+            queries.push_back(mesh.vertices[f[m]].cast<double>());
+            query_root.push_back(r);
+          } else {
+            large_points.push_back(mesh.vertices[f[m]].cast<double>());
+          }
+        }
+      }
+      const std::vector<uint8_t> near = WithinDistance(large_points, queries, filter->speck_gap_mm);
+      for (size_t i = 0; i < near.size(); ++i) {
+        if (near[i]) gap[query_root[i]] = 0.0;
+      }
+    }
+    for (int r = 0; r < nv; ++r) {
+      if (!small[r] || gap[r] <= filter->speck_gap_mm) continue;
+      drop[r] = 1;
+      ++filter->specks;
+      filter->speck_triangles += count[r];
+    }
+  }
+  std::vector<Eigen::Vector3i> kept;
+  kept.reserve(mesh.faces.size());
+  for (const auto& f : mesh.faces) {
+    if (!drop[find(f[0])]) kept.push_back(f);
+  }
+  return kept;
 }
 
 // Squared distance from p to the triangle abc (closest point by the Voronoi regions of
@@ -313,20 +407,84 @@ struct Quadric {
   double Weight() const { return a00 + a11 + a22; }  // sum of the plane weights
 };
 
+// The frame of the collapser's positions and quadrics: the vertex centroid (well
+// conditioned far from the world origin).
+Eigen::Vector3d QuadricOrigin(const io::Mesh& mesh) {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  for (const auto& p : mesh.vertices) origin += p.cast<double>();
+  if (!mesh.vertices.empty()) origin /= double(mesh.vertices.size());
+  return origin;
+}
+
+// Per vertex of `mesh`, the planes of `faces` around it, each weighted by its area
+// (Garland & Heckbert), in QuadricOrigin's frame.
+std::vector<Quadric> PlaneQuadrics(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces) {
+  const Eigen::Vector3d origin = QuadricOrigin(mesh);
+  std::vector<Quadric> quad(mesh.vertices.size());
+  for (const auto& f : faces) {
+    const Eigen::Vector3d p0 = mesh.vertices[f[0]].cast<double>() - origin;
+    const Eigen::Vector3d cr = (mesh.vertices[f[1]].cast<double>() - origin - p0)
+                                   .cross(mesh.vertices[f[2]].cast<double>() - origin - p0);
+    const double len = cr.norm();
+    if (!(len > 0)) continue;
+    const Eigen::Vector3d n = cr / len;
+    for (int m = 0; m < 3; ++m) quad[f[m]].AddPlane(n, -n.dot(p0), 0.5 * len);
+  }
+  return quad;
+}
+
+// The quadrics of `faces` (PlaneQuadrics) summed per kept vertex over its cluster: the
+// input vertices nearest to it in edge hops (multi-source breadth-first search from the
+// kept vertices, ties to the first reached), as if the collapses that made the kept
+// mesh had merged them into it. Vertices no kept vertex reaches add nothing.
+std::vector<Quadric> ClusterQuadrics(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
+                                     const std::vector<unsigned int>& kept_indices) {
+  const size_t nv = mesh.vertices.size();
+  std::vector<int> start(nv + 1, 0);
+  for (const auto& f : faces) {
+    for (int m = 0; m < 3; ++m) start[f[m] + 1] += 2;
+  }
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<int> adj(static_cast<size_t>(start[nv]));
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (const auto& f : faces) {
+    for (int m = 0; m < 3; ++m) {
+      adj[size_t(fill[f[m]]++)] = f[(m + 1) % 3];
+      adj[size_t(fill[f[m]]++)] = f[(m + 2) % 3];
+    }
+  }
+  std::vector<int> owner(nv, -1), queue;
+  queue.reserve(nv);
+  for (unsigned int v : kept_indices) {
+    if (owner[v] < 0) owner[v] = int(v), queue.push_back(int(v));
+  }
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const int v = queue[q];
+    for (int a = start[v]; a < start[v + 1]; ++a) {
+      if (owner[adj[a]] < 0) owner[adj[a]] = owner[v], queue.push_back(adj[a]);
+    }
+  }
+  const std::vector<Quadric> input = PlaneQuadrics(mesh, faces);
+  std::vector<Quadric> out(nv);
+  for (size_t v = 0; v < nv; ++v) {
+    if (owner[v] >= 0) out[size_t(owner[v])] += input[v];
+  }
+  return out;
+}
+
 // Greedy quadric edge collapse on a face list; positions are kept relative to the vertex
 // centroid (well conditioned far from the world origin).
 class EdgeCollapser {
  public:
+  // `input_quadrics` (optional, per vertex of `mesh`, in PlaneQuadrics' frame): the
+  // quadrics to start from instead of those of `faces`.
   EdgeCollapser(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
-                const DecimationOptions& o)
+                const DecimationOptions& o, const std::vector<Quadric>* input_quadrics = nullptr)
       : options_(o) {
     const size_t nv = mesh.vertices.size();
-    origin_.setZero();
-    for (const auto& p : mesh.vertices) origin_ += p.cast<double>();
-    if (nv > 0) origin_ /= double(nv);
+    origin_ = QuadricOrigin(mesh);
     pos_.resize(nv);
     for (size_t v = 0; v < nv; ++v) pos_[v] = mesh.vertices[v].cast<double>() - origin_;
-    quad_.resize(nv);
     stamp_.assign(nv, 0);
     alive_.assign(nv, 1);
     locked_.assign(nv, 0);
@@ -351,13 +509,7 @@ class EdgeCollapser {
     }
     face_alive_.assign(faces_.size(), 1);
     live_ = int64_t(faces_.size());
-    for (const auto& f : faces_) {
-      const Eigen::Vector3d cr = (pos_[f[1]] - pos_[f[0]]).cross(pos_[f[2]] - pos_[f[0]]);
-      const double len = cr.norm();
-      if (!(len > 0)) continue;
-      const Eigen::Vector3d n = cr / len;
-      for (int m = 0; m < 3; ++m) quad_[f[m]].AddPlane(n, -n.dot(pos_[f[0]]), 0.5 * len);
-    }
+    quad_ = input_quadrics ? *input_quadrics : PlaneQuadrics(mesh, faces_);
     ClassifyVertices();
     LabelComponents();
   }
@@ -402,6 +554,9 @@ class EdgeCollapser {
         const double w = q.Weight();
         const double error = w > 0 ? std::sqrt(std::max(0.0, q.Eval(x)) / w) : 0.0;
         if (options_.max_error_mm > 0 && error > options_.max_error_mm) continue;
+        // The shape tests before the deviation: about half the candidates that get here
+        // fail them, at a fraction of the deviation's cost.
+        if (!Collapsible(c.keep, c.gone, x)) continue;
         if (options_.deviation_weight > 0 && !c.deviation_costed) {
           // Costed lazily, at the pop (measuring the deviation takes far longer than
           // the quadric): the term only raises the cost, so the candidate goes back
@@ -418,7 +573,6 @@ class EdgeCollapser {
             continue;
           }
         }
-        if (!Collapsible(c.keep, c.gone, x)) continue;
         Collapse(c.keep, c.gone, x);
         ++changes;
         max_error_ = std::max(max_error_, error);
@@ -915,9 +1069,14 @@ class EdgeCollapser {
   int64_t components_deleted_ = 0, triangles_deleted_ = 0;
 };
 
-io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
-                               size_t target_triangles, const DecimationOptions& options,
-                               double* error_mm) {
+// meshoptimizer's topology-preserving simplification of `faces` towards
+// `target_triangles`: the kept faces as index triples into mesh.vertices (it moves no
+// vertex); *error_mm its error estimate.
+std::vector<unsigned int> MeshoptimizerSimplify(const io::Mesh& mesh,
+                                                const std::vector<Eigen::Vector3i>& faces,
+                                                size_t target_triangles,
+                                                const DecimationOptions& options,
+                                                double* error_mm) {
   std::vector<unsigned int> indices(faces.size() * 3);
   for (size_t f = 0; f < faces.size(); ++f) {
     for (int m = 0; m < 3; ++m) indices[3 * f + m] = static_cast<unsigned int>(faces[f][m]);
@@ -940,6 +1099,15 @@ io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Ve
   }
   out.resize(n_out);
   *error_mm = double(result_error) * scale;
+  return out;
+}
+
+io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
+                               size_t target_triangles, const DecimationOptions& options,
+                               double* error_mm) {
+  const std::vector<unsigned int> out =
+      MeshoptimizerSimplify(mesh, faces, target_triangles, options, error_mm);
+  const size_t n_out = out.size();
   std::vector<Eigen::Vector3f> moved;
   if (options.relocate_vertices && n_out > 0) {
     io::Mesh kept = mesh;
@@ -986,6 +1154,18 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(deviation_weight) && deviation_weight >= 0.0,
                 "decimation: deviation_weight",
                 "must be >= 0, got " + std::to_string(deviation_weight));
+  core::Require(std::isfinite(speck_area_fraction) && speck_area_fraction >= 0.0 &&
+                    speck_area_fraction < 1.0,
+                "decimation: speck_area_fraction",
+                "must be in [0, 1), got " + std::to_string(speck_area_fraction));
+  core::Require(std::isfinite(speck_diagonal_mm) && speck_diagonal_mm >= 0.0,
+                "decimation: speck_diagonal_mm",
+                "must be >= 0 mm, got " + std::to_string(speck_diagonal_mm));
+  core::Require(std::isfinite(speck_gap_mm) && speck_gap_mm >= 0.0, "decimation: speck_gap_mm",
+                "must be >= 0 mm, got " + std::to_string(speck_gap_mm));
+  core::Require(std::isfinite(prepass_factor) && (prepass_factor == 0.0 || prepass_factor > 1.0),
+                "decimation: prepass_factor",
+                "must be 0 (none) or > 1, got " + std::to_string(prepass_factor));
   core::Require(std::isfinite(component_deletion_factor) && component_deletion_factor >= 0.0,
                 "decimation: component_deletion_factor",
                 "must be >= 0, got " + std::to_string(component_deletion_factor));
@@ -1002,17 +1182,42 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
       options.target_triangles > 0
           ? options.target_triangles
           : int64_t(std::llround(options.target_ratio * double(triangles)));
-  int64_t components_removed = 0;
+  ComponentFilter filter;
+  filter.min_triangles = options.min_component_triangles;
+  filter.min_diagonal_mm = options.min_component_diagonal_mm;
+  filter.speck_area_fraction = options.speck_area_fraction;
+  filter.speck_diagonal_mm = options.speck_diagonal_mm;
+  filter.speck_gap_mm = options.speck_gap_mm;
   const std::vector<Eigen::Vector3i> faces =
-      options.min_component_triangles > 0 || options.min_component_diagonal_mm > 0
-          ? KeptComponentFaces(mesh, options.min_component_triangles,
-                               options.min_component_diagonal_mm, &components_removed)
+      options.min_component_triangles > 0 || options.min_component_diagonal_mm > 0 ||
+              (options.speck_area_fraction > 0 && options.speck_diagonal_mm > 0)
+          ? KeptComponentFaces(mesh, &filter)
           : mesh.faces;
   io::Mesh result;
   double error_mm = 0.0;
   int64_t components_deleted = 0, triangles_deleted = 0;
   if (options.method == DecimationMethod::kMeshoptimizer) {
     result = MeshoptimizerDecimate(mesh, faces, size_t(target_triangles), options, &error_mm);
+  } else if (options.prepass_factor > 0 &&
+             double(faces.size()) > options.prepass_factor * double(target_triangles)) {
+    // meshoptimizer's pass to prepass_factor x the target, its kept vertices carrying the
+    // input's quadrics, then the edge collapses to the target.
+    double prepass_error_mm = 0.0;
+    const std::vector<unsigned int> kept = MeshoptimizerSimplify(
+        mesh, faces,
+        size_t(std::llround(options.prepass_factor * double(target_triangles))), options,
+        &prepass_error_mm);
+    std::vector<Eigen::Vector3i> coarse(kept.size() / 3);
+    for (size_t f = 0; f < coarse.size(); ++f) {
+      coarse[f] = Eigen::Vector3i(int(kept[3 * f]), int(kept[3 * f + 1]), int(kept[3 * f + 2]));
+    }
+    const std::vector<Quadric> quadrics = ClusterQuadrics(mesh, faces, kept);
+    EdgeCollapser collapser(mesh, coarse, options, &quadrics);
+    collapser.Run(target_triangles);
+    result = collapser.Result();
+    error_mm = std::max(prepass_error_mm, collapser.max_error_mm());
+    components_deleted = collapser.components_deleted();
+    triangles_deleted = collapser.triangles_deleted();
   } else {
     EdgeCollapser collapser(mesh, faces, options);
     collapser.Run(target_triangles);
@@ -1024,8 +1229,10 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
   if (summary) {
     summary->triangles_in = int64_t(triangles);
     summary->triangles_out = int64_t(result.faces.size());
-    summary->components_removed = components_removed;
-    summary->triangles_removed = int64_t(triangles - faces.size());
+    summary->components_removed = filter.removed;
+    summary->triangles_removed = int64_t(triangles - faces.size()) - filter.speck_triangles;
+    summary->specks_removed = filter.specks;
+    summary->speck_triangles = filter.speck_triangles;
     summary->components_deleted = components_deleted;
     summary->triangles_deleted = triangles_deleted;
     summary->error_mm = error_mm;

@@ -54,6 +54,18 @@ struct DecimationOptions {
   int64_t min_component_triangles = 4;
   // Drop connected components whose bounding-box diagonal is below this, mm; 0 = keep.
   double min_component_diagonal_mm = 0.0;
+  // Specks, dropped before decimating: connected components whose area is below
+  // speck_area_fraction of the largest component's AND whose bounding-box diagonal is
+  // below speck_diagonal_mm. Both must hold, so a part large in extent (a bat, a pole)
+  // or in area stays however thin it is. 0 (either) = keep all. Dimensionless in [0, 1),
+  // and mm, >= 0.
+  double speck_area_fraction = 0.0;
+  double speck_diagonal_mm = 0.0;
+  // ... and no vertex of it within speck_gap_mm of a part that is not small (over either
+  // bound): a fragment beside the surface (a bat's barrel where stereo broke it off) is
+  // detail, a fragment in the air is a wrong match. mm, >= 0; 0 = small parts go
+  // wherever they are.
+  double speck_gap_mm = 0.0;
   // kEdgeCollapse: delete a whole connected component, in the same cost order as the
   // collapses, when that is cheaper than the next collapse. Its cost is that of moving
   // all its area by an error estimate of this factor times the geometric mean of its
@@ -77,6 +89,11 @@ struct DecimationOptions {
   // against 7.7 mm without, the mean 4% lower too) for about twice the time.
   // Dimensionless, >= 0; 0 = quadric only.
   double deviation_weight = 1.0;
+  // kEdgeCollapse: first simplify with meshoptimizer to this times the target (it is
+  // far faster and moves no vertex), each kept vertex starting with the quadrics of the
+  // input vertices nearest to it, so the collapses that follow still measure against
+  // the input surface; 0 = edge collapse from the input. Dimensionless, 0 or > 1.
+  double prepass_factor = 0.0;
   DecimationMethod method = DecimationMethod::kEdgeCollapse;
   // kMeshoptimizer only: place surviving interior vertices at their quadric optimum.
   bool relocate_vertices = true;
@@ -90,6 +107,8 @@ struct DecimationSummary {
   int64_t triangles_out = 0;
   int64_t components_removed = 0;  // dropped by the component filters
   int64_t triangles_removed = 0;   // their triangles
+  int64_t specks_removed = 0;      // dropped by the speck rule
+  int64_t speck_triangles = 0;     // their triangles
   int64_t components_deleted = 0;  // deleted whole during decimation
   int64_t triangles_deleted = 0;   // their triangles left at the time
   double error_mm = 0.0;           // largest error estimate of a collapse made, mm

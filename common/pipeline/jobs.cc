@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "fusion/volume.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
@@ -266,8 +267,12 @@ StageDescriptor SurfaceStage() {
 StageDescriptor DecimateStage() {
   StageDescriptor d = Descriptor("decimate", {"surface"}, OnePart);
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    const mesh::DecimationOptions o = DecimationFor(ctx.plan.options);
     runtime::DecimateJob dj;
-    dj.set_ratio(ctx.plan.options.decimate_ratio);
+    dj.set_ratio(o.target_ratio);
+    dj.set_speck_area_fraction(o.speck_area_fraction);
+    dj.set_speck_diagonal_mm(o.speck_diagonal_mm);
+    dj.set_speck_gap_mm(o.speck_gap_mm);
     SetJob(dj, {ctx.outputs("surface", 0).at(0)}, job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
@@ -275,19 +280,39 @@ StageDescriptor DecimateStage() {
     RequireBlobs(job, blobs, 1);
     mesh::DecimationOptions options;
     options.target_ratio = dj.ratio();
-    runtime::Output out;
-    out.set_name(kDecimatedPly);
-    // Ratio 1 keeps the surface as extracted: its blob is already EncodeMeshPly bytes.
-    out.set_data(options.target_ratio == 1.0
-                     ? *blobs[0]
-                     : EncodeMeshPly(
-                           pipeline::Decimate(io::ParsePly(*blobs[0], BlobName(job, 0)), options)));
-    return std::vector<runtime::Output>{out};
+    options.speck_area_fraction = dj.speck_area_fraction();
+    options.speck_diagonal_mm = dj.speck_diagonal_mm();
+    options.speck_gap_mm = dj.speck_gap_mm();
+    mesh::DecimationSummary summary;
+    std::vector<runtime::Output> outputs(2);
+    outputs[0].set_name(kDecimatedPly);
+    if (options.target_ratio == 1.0) {
+      // Ratio 1 keeps the surface as extracted (specks too): its blob is already
+      // EncodeMeshPly bytes.
+      outputs[0].set_data(*blobs[0]);
+      summary.triangles_in = summary.triangles_out =
+          int64_t(io::ParsePly(*blobs[0], BlobName(job, 0)).faces.size());
+    } else {
+      outputs[0].set_data(EncodeMeshPly(
+          pipeline::Decimate(io::ParsePly(*blobs[0], BlobName(job, 0)), options, &summary)));
+    }
+    // The summary without its time, so that the file is the same on every run.
+    summary.seconds = 0;
+    outputs[1].set_name(kDecimationJson);
+    outputs[1].set_data(DecimationSummaryJson(summary) + "\n");
+    return outputs;
   };
   d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
     const std::string& bytes = OutputBytes(r, kDecimatedPly, ctx.where);
     io::ParsePly(bytes, ctx.where);
-    return StoredResult{{ctx.blobs->Keep(bytes, kDecimatedPly)}, nullptr};
+    const std::string& summary = OutputBytes(r, kDecimationJson, ctx.where);
+    core::Require(core::Json::accept(summary), ctx.where,
+                  std::string(kDecimationJson) + " is not JSON");
+    fs::create_directories(ctx.dir);
+    io::WriteFileAtomically(ctx.dir / kDecimationJson, summary);
+    return StoredResult{
+        {ctx.blobs->Keep(bytes, kDecimatedPly), ctx.blobs->Keep(summary, kDecimationJson)},
+        nullptr};
   };
   return d;
 }

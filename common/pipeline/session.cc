@@ -29,7 +29,24 @@ void SessionOptions::Check() const {
                 "must be positive, got " + std::to_string(slab_planes));
   core::Require(decimate_ratio > 0 && decimate_ratio <= 1, "decimate_ratio",
                 "must be in (0, 1], got " + std::to_string(decimate_ratio));
+  core::Require(std::isfinite(speck_area_fraction) && speck_area_fraction >= 0 &&
+                    speck_area_fraction < 1,
+                "speck_area_fraction", "must be in [0, 1), got " + std::to_string(speck_area_fraction));
+  core::Require(std::isfinite(speck_diagonal_voxels) && speck_diagonal_voxels >= 0,
+                "speck_diagonal_voxels",
+                "must be >= 0 voxels, got " + std::to_string(speck_diagonal_voxels));
+  core::Require(std::isfinite(speck_gap_voxels) && speck_gap_voxels >= 0, "speck_gap_voxels",
+                "must be >= 0 voxels, got " + std::to_string(speck_gap_voxels));
   smooth.Check();
+}
+
+mesh::DecimationOptions DecimationFor(const SessionOptions& options) {
+  mesh::DecimationOptions d;
+  d.target_ratio = options.decimate_ratio;
+  d.speck_area_fraction = options.speck_area_fraction;
+  d.speck_diagonal_mm = options.speck_diagonal_voxels * options.grid.voxel_size_mm;
+  d.speck_gap_mm = options.speck_gap_voxels * options.grid.voxel_size_mm;
+  return d;
 }
 
 runtime::Session ReadSessionJson(const std::filesystem::path& path) {
@@ -50,6 +67,9 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   if (s.has_smooth_iterations()) o.smooth.iterations = s.smooth_iterations();
   if (s.has_smooth_lambda()) o.smooth.lambda = s.smooth_lambda();
   if (s.has_smooth_mu()) o.smooth.mu = s.smooth_mu();
+  if (s.has_speck_area_fraction()) o.speck_area_fraction = s.speck_area_fraction();
+  if (s.has_speck_diagonal_voxels()) o.speck_diagonal_voxels = s.speck_diagonal_voxels();
+  if (s.has_speck_gap_voxels()) o.speck_gap_voxels = s.speck_gap_voxels();
   try {
     o.Check();
   } catch (const core::InputError& e) {
@@ -145,6 +165,9 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_smooth_iterations(o.smooth.iterations);
   canon.set_smooth_lambda(o.smooth.lambda);
   canon.set_smooth_mu(o.smooth.mu);
+  canon.set_speck_area_fraction(o.speck_area_fraction);
+  canon.set_speck_diagonal_voxels(o.speck_diagonal_voxels);
+  canon.set_speck_gap_voxels(o.speck_gap_voxels);
   canon.set_write_previews(o.stereo.write_previews);
   canon.set_noop_jobs(plan.spec.noop_jobs());
   std::string bytes;

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "io/ply.h"
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
@@ -133,8 +134,7 @@ TextureResult Texture(io::Mesh decimated, const std::vector<mesh::TextureView>& 
                       const mesh::TextureOptions& options, bool atlas) {
   TextureResult result;
   result.coloured = std::move(decimated);
-  mesh::ColorVertices(&result.coloured, views, options);
-  if (atlas) result.atlas = mesh::BuildTextureAtlas(result.coloured, views, options);
+  result.atlas = mesh::ColourAndAtlas(&result.coloured, views, options, atlas);
   return result;
 }
 
@@ -145,6 +145,20 @@ std::vector<NamedFile> TexturedFiles(const mesh::TexturedMesh& textured) {
           {kTexturedMtl, std::move(obj.mtl)},
           {kTexturedPng, std::move(obj.png)},
           {kTexturedGlb, mesh::EncodeGlb(textured)}};
+}
+
+std::string DecimationSummaryJson(const mesh::DecimationSummary& s) {
+  const core::Json j = {{"triangles_in", s.triangles_in},
+                        {"triangles_out", s.triangles_out},
+                                    {"components_removed", s.components_removed},
+                                    {"triangles_removed", s.triangles_removed},
+                                    {"specks_removed", s.specks_removed},
+                                    {"speck_triangles", s.speck_triangles},
+                                    {"components_deleted", s.components_deleted},
+                                    {"triangles_deleted", s.triangles_deleted},
+                                    {"error_mm", s.error_mm},
+                                    {"seconds", s.seconds}};
+  return core::DumpJson(j);
 }
 
 std::string EncodeMeshPly(const io::Mesh& mesh) {

@@ -114,6 +114,14 @@ inline constexpr const char* kTexturedObj = "textured.obj";
 inline constexpr const char* kTexturedMtl = "textured.mtl";
 inline constexpr const char* kTexturedPng = "textured.png";
 inline constexpr const char* kTexturedGlb = "textured.glb";
+// What decimation did to an instant's surface: DecimationSummaryJson, one object.
+inline constexpr const char* kDecimationJson = "decimation.json";
+
+// A decimation's summary as JSON (triangles in and out; the small parts and specks
+// dropped first and the parts deleted whole, each with their triangles; the largest
+// error estimate, mm; seconds), as `dome mesh decimate` prints it and decimation.json
+// holds it.
+std::string DecimationSummaryJson(const mesh::DecimationSummary& summary);
 
 // The PLY bytes dome writes for meshes (binary little-endian, "units mm").
 std::string EncodeMeshPly(const io::Mesh& mesh);

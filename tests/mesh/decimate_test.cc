@@ -417,6 +417,37 @@ TEST(Decimate, MeshoptimizerRelocationBringsTheCoarseSurfaceCloser) {
   EXPECT_EQ(t.inconsistent_edges, 0);
 }
 
+// The meshoptimizer pass before the collapses: the exact target, a closed sphere, and
+// the collapses after it, starting from the input's quadrics, end closer to the true
+// sphere than meshoptimizer alone (its vertices stay input vertices).
+TEST(Decimate, PrepassThenCollapsesReachTheTargetCloserThanMeshoptimizerAlone) {
+  const auto v = testing::SphereVolume(60, 25.0);
+  const io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+  DecimationOptions o;
+  o.target_ratio = 0.05;
+  o.prepass_factor = 3.0;
+  DecimationSummary summary;
+  const io::Mesh both = Decimate(m, o, &summary);
+  EXPECT_EQ(int64_t(both.faces.size()), summary.triangles_out);
+  EXPECT_NEAR(double(both.faces.size()), 0.05 * double(m.faces.size()), 2.0);
+  EXPECT_EQ(both.Inconsistency(), "");
+  const MeshTopology t = AnalyzeTopology(both);
+  EXPECT_EQ(t.boundary_edges, 0);
+  EXPECT_EQ(t.non_manifold_edges, 0);
+  EXPECT_EQ(EulerCharacteristic(both), 2);
+  auto to_sphere = [](const Eigen::Vector3d& p) {
+    return std::abs((p - kSphereCentre).norm() - 50);
+  };
+  EXPECT_LT(MaxDistanceToSurface(both, to_sphere), 0.5);
+  DecimationOptions alone;
+  alone.method = DecimationMethod::kMeshoptimizer;
+  alone.target_triangles = int64_t(both.faces.size());
+  alone.relocate_vertices = false;
+  const io::Mesh coarse = Decimate(m, alone);
+  EXPECT_LT(MeanSphereError(both, kSphereCentre, 50.0),
+            0.9 * MeanSphereError(coarse, kSphereCentre, 50.0));
+}
+
 // A 30 mm sphere with `n` closed 5 mm spheres floating 10 mm off its surface (each with
 // far more triangles than the small-component filter drops).
 io::Mesh SphereWithSmallSpheres(int n, int64_t* sphere_faces) {
@@ -481,6 +512,56 @@ TEST(Decimate, FloatersAreDeletedWholeWhenCheaperThanCollapsing) {
   o.max_error_mm = 0.0;
   Decimate(m, o, &bounded);
   EXPECT_GT(bounded.components_deleted, 0);
+}
+
+// Specks: small in area and extent, and apart from the parts that are not. Around a
+// 30 mm sphere: 5 mm spheres 10 mm off its surface and one 0.3 mm off it; a long thin
+// needle as small in area. The far small spheres go, counted with their triangles; the
+// near one stays with a gap of 1.5 mm (and goes without one); the needle stays.
+TEST(Decimate, SpecksAreSmallPartsAwayFromTheSurface) {
+  int64_t sphere_faces = 0;
+  io::Mesh m = SphereWithSmallSpheres(4, &sphere_faces);
+  const int64_t four_faces = int64_t(m.faces.size()) - sphere_faces;
+  const auto small = testing::SphereVolume(8, 2.5);
+  const io::Mesh s = MarchingCubes(small.grid, small.distance, small.weight);
+  // The near one: its surface 0.5 mm from the big sphere's (radius 30 about kSphereCentre).
+  const Eigen::Vector3f near_shift(0.0f, 0.0f, 30.0f + 0.3f + 5.0f);
+  int base = int(m.vertices.size());
+  for (const auto& p : s.vertices) m.vertices.push_back(p + near_shift);
+  for (const auto& f : s.faces) m.faces.push_back(f + Eigen::Vector3i::Constant(base));
+  // The needle: 80 mm long, 0.2 mm wide, 50 mm below the sphere.
+  base = int(m.vertices.size());
+  for (int i = 0; i <= 40; ++i) {
+    m.vertices.emplace_back(-40.0f + 2.0f * i, 0.0f, -80.0f);
+    m.vertices.emplace_back(-40.0f + 2.0f * i, 0.2f, -80.0f);
+  }
+  for (int i = 0; i < 40; ++i) {
+    const int v = base + 2 * i;
+    m.faces.emplace_back(v, v + 2, v + 3);
+    m.faces.emplace_back(v, v + 3, v + 1);
+  }
+  DecimationOptions o;
+  o.target_ratio = 0.999;
+  o.component_deletion_factor = 0;
+  o.speck_area_fraction = 0.05;
+  o.speck_diagonal_mm = 20;  // the small spheres are 17.3 mm across
+  o.speck_gap_mm = 1.5;
+  DecimationSummary with_gap;
+  const io::Mesh d = Decimate(m, o, &with_gap);
+  EXPECT_EQ(with_gap.specks_removed, 4);
+  EXPECT_EQ(with_gap.speck_triangles, four_faces);
+  float lowest = 1e9f;
+  for (const auto& p : d.vertices) lowest = std::min(lowest, p.z());
+  EXPECT_LT(lowest, -79.0f);  // the needle stays
+  o.speck_gap_mm = 0;
+  DecimationSummary without;
+  Decimate(m, o, &without);
+  EXPECT_EQ(without.specks_removed, 5);  // the near one too
+  o.speck_area_fraction = 0;
+  DecimationSummary off;
+  Decimate(m, o, &off);
+  EXPECT_EQ(off.specks_removed, 0);
+  EXPECT_EQ(off.speck_triangles, 0);
 }
 
 // The component with the largest area is never deleted, however cheap the deletion.
@@ -581,6 +662,15 @@ TEST(Decimate, BadOptionsAreRejected) {
                             {"decimation: component_deletion_factor", "-0.5"});
   o.component_deletion_factor = std::nan("");
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: component_deletion_factor"});
+  o = {};
+  o.prepass_factor = 1.0;
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: prepass_factor", "> 1"});
+  o = {};
+  o.speck_area_fraction = 1.5;
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: speck_area_fraction"});
+  o = {};
+  o.speck_gap_mm = -1;
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: speck_gap_mm"});
   o = {};
   m.vertices.push_back(Eigen::Vector3f::Zero());
   m.faces.push_back(Eigen::Vector3i(0, 1, 2));

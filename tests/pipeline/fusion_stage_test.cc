@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
 #include "io/ply.h"
@@ -129,13 +130,66 @@ TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
   dj.set_ratio(1.0);
   job.set_settings(dj.SerializeAsString());
   const auto kept = RunJob(*DefaultStages(), job, blobs);
-  ASSERT_EQ(kept.size(), 1u);
+  ASSERT_EQ(kept.size(), 2u);
   EXPECT_EQ(kept[0].data(), *blobs[0]);
+  EXPECT_EQ(kept[1].name(), kDecimationJson);
+  EXPECT_EQ(core::Json::parse(kept[1].data())["triangles_out"], 800);
   dj.set_ratio(0.25);
   job.set_settings(dj.SerializeAsString());
   const auto decimated = RunJob(*DefaultStages(), job, blobs);
-  ASSERT_EQ(decimated.size(), 1u);
+  ASSERT_EQ(decimated.size(), 2u);
   EXPECT_EQ(io::ParsePly(decimated[0].data(), "decimated").faces.size(), 200u);
+}
+
+// The job's speck rule: a 2 x 2 mm square of 8 triangles floating 50 mm above the
+// 200 x 200 mm grid is dropped (0.01 % of its area, 2.8 mm across, under 20 mm), a
+// 150 mm thin strip beside it is kept (as long as the grid is wide), and
+// decimation.json counts what went.
+TEST(DecimateStage, SpecksAreDroppedAndCounted) {
+  io::Mesh m;
+  auto grid = [&](float x0, float y0, float z, int nx, int ny, float step_x, float step_y) {
+    const int base = int(m.vertices.size());
+    for (int y = 0; y <= ny; ++y) {
+      for (int x = 0; x <= nx; ++x) m.vertices.emplace_back(x0 + step_x * x, y0 + step_y * y, z);
+    }
+    for (int y = 0; y < ny; ++y) {
+      for (int x = 0; x < nx; ++x) {
+        const int v = base + y * (nx + 1) + x;
+        m.faces.emplace_back(v, v + 1, v + nx + 2);
+        m.faces.emplace_back(v, v + nx + 2, v + nx + 1);
+      }
+    }
+  };
+  grid(0, 0, 0, 20, 20, 10, 10);       // the surface: 800 triangles
+  grid(50, 50, 50, 2, 2, 1, 1);        // a speck: 8
+  grid(0, 250, 0, 15, 1, 10, 0.5f);    // a thin strip: 30
+  const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(m))};
+  runtime::Job job;
+  job.set_id("s/i/decimate");
+  job.set_stage("decimate");
+  job.add_blobs()->set_sha256(net::Sha256Hex(*blobs[0]));
+  runtime::DecimateJob dj;
+  dj.set_ratio(0.5);
+  dj.set_speck_area_fraction(0.01);
+  dj.set_speck_diagonal_mm(20.0);
+  job.set_settings(dj.SerializeAsString());
+  const auto out = RunJob(*DefaultStages(), job, blobs);
+  ASSERT_EQ(out.size(), 2u);
+  const core::Json summary = core::Json::parse(out[1].data());
+  EXPECT_EQ(summary["specks_removed"], 1);
+  EXPECT_EQ(summary["speck_triangles"], 8);
+  EXPECT_EQ(summary["triangles_in"], 838);
+  const io::Mesh d = io::ParsePly(out[0].data(), "decimated");
+  float z_max = -1, y_max = -1;
+  for (const auto& p : d.vertices) z_max = std::max(z_max, p.z()), y_max = std::max(y_max, p.y());
+  EXPECT_LT(z_max, 1e-3f);     // the speck (at z = 50 mm) is gone
+  EXPECT_GT(y_max, 250.0f);    // the strip stays
+  EXPECT_EQ(summary["triangles_out"], int64_t(d.faces.size()));
+  // Without the rule (a session's speck_area_fraction 0) nothing is dropped.
+  dj.set_speck_area_fraction(0);
+  job.set_settings(dj.SerializeAsString());
+  EXPECT_EQ(core::Json::parse(RunJob(*DefaultStages(), job, blobs)[1].data())["specks_removed"],
+            0);
 }
 
 // A job names the stage that runs it; a name no stage has is refused, naming the job.

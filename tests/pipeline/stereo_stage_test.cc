@@ -209,6 +209,35 @@ TEST(SessionOptions, SmoothingAndSpeckleFieldsReadAndAreChecked) {
                    {"s.json: speckle_step_mm", "positive"});
 }
 
+// The clean-output rule's session fields: read, turned into the decimation's mm by the
+// voxel, and checked.
+TEST(SessionOptions, SpeckFieldsReadScaleByTheVoxelAndAreChecked) {
+  TempDir dir;
+  io::WriteFileAtomically(dir / "session.json",
+                          R"({"take": "t", "speck_area_fraction": 0.02,)"
+                          R"( "speck_diagonal_voxels": 12, "speck_gap_voxels": 3,)"
+                          R"( "volume": {"voxel_size_mm": 5}})");
+  const SessionOptions o = ResolveSessionOptions(ReadSessionJson(dir / "session.json"), "s.json");
+  const mesh::DecimationOptions d = DecimationFor(o);
+  EXPECT_EQ(d.speck_area_fraction, 0.02);
+  EXPECT_EQ(d.speck_diagonal_mm, 60.0);
+  EXPECT_EQ(d.speck_gap_mm, 15.0);
+  EXPECT_EQ(d.target_ratio, o.decimate_ratio);
+  EXPECT_EQ(SessionOptions{}.speck_area_fraction, 0.01);  // on unless turned off
+  runtime::Session session;
+  session.set_speck_area_fraction(1.0);
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
+                   {"s.json: speck_area_fraction", "[0, 1)"});
+  session.set_speck_area_fraction(0);
+  session.set_speck_diagonal_voxels(-3);
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
+                   {"s.json: speck_diagonal_voxels", ">= 0"});
+  session.set_speck_diagonal_voxels(3);
+  session.set_speck_gap_voxels(std::nan(""));
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
+                   {"s.json: speck_gap_voxels"});
+}
+
 // The files a worker returns with a stereo result are checked against the result before
 // the master writes them: every file there, at its path, decoding to the result's maps.
 TEST(StereoFiles, AreCheckedAgainstTheResult) {

@@ -125,6 +125,25 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   }
   EXPECT_FALSE(report["stages"].contains("noop"));  // a stage with no jobs is not listed
   EXPECT_GT(report["seconds_per_instant"].get<double>(), 0.0);
+  // Clean output: each instant's decimation.json, in the report per instant and summed.
+  int64_t specks = 0, speck_triangles = 0, surface_triangles = 0;
+  for (const auto& entry : report["per_instant"]) {
+    const auto file = nlohmann::json::parse(io::ReadFileBytes(
+        reference_ / entry["instant"].get<std::string>() / "decimation.json"));
+    EXPECT_EQ(entry["decimation"], file) << report;
+    specks += file["specks_removed"].get<int64_t>();
+    speck_triangles += file["speck_triangles"].get<int64_t>();
+    surface_triangles += file["triangles_in"].get<int64_t>();
+  }
+  EXPECT_EQ(report["clean"]["instants"], 2) << report;
+  EXPECT_EQ(report["clean"]["specks_removed"], specks) << report;
+  EXPECT_EQ(report["clean"]["speck_triangles"], speck_triangles) << report;
+  EXPECT_NEAR(report["clean"]["speck_triangle_share"].get<double>(),
+              double(speck_triangles) / double(surface_triangles), 1e-12);
+  // The instant's file counts the triangles of its mesh.ply.
+  const auto first = nlohmann::json::parse(io::ReadFileBytes(reference_ / instant / "decimation.json"));
+  EXPECT_EQ(first["triangles_in"], int64_t(m.faces.size()));
+  EXPECT_EQ(first["triangles_out"], int64_t(d.faces.size()));
 }
 
 // As deployed: CURVE on every socket, the workers' and the client's keys allowed; three
