@@ -106,6 +106,17 @@ TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   EXPECT_EQ(memo.builds(), 3);
 }
 
+// The decimate job of `mesh` (the master's surface blob, returned in *blobs) with `dj`.
+runtime::Job DecimateJobOf(const io::Mesh& mesh, const runtime::DecimateJob& dj, JobBlobs* blobs) {
+  *blobs = {std::make_shared<const std::string>(EncodeMeshPly(mesh))};
+  runtime::Job job;
+  job.set_id("s/i/decimate");
+  job.set_stage("decimate");
+  job.add_blobs()->set_sha256(net::Sha256Hex(*(*blobs)[0]));
+  job.set_settings(dj.SerializeAsString());
+  return job;
+}
+
 TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
   // A wavy 20 x 20 grid of 800 triangles, as the master's surface blob.
   io::Mesh grid;
@@ -121,14 +132,10 @@ TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {
       grid.faces.emplace_back(v, v + 22, v + 21);
     }
   }
-  const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(grid))};
-  runtime::Job job;
-  job.set_id("s/i/decimate");
-  job.set_stage("decimate");
-  job.add_blobs()->set_sha256(net::Sha256Hex(*blobs[0]));
   runtime::DecimateJob dj;
   dj.set_ratio(1.0);
-  job.set_settings(dj.SerializeAsString());
+  JobBlobs blobs;
+  runtime::Job job = DecimateJobOf(grid, dj, &blobs);
   const auto kept = RunJob(*DefaultStages(), job, blobs);
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_EQ(kept[0].data(), *blobs[0]);
@@ -163,16 +170,12 @@ TEST(DecimateStage, SpecksAreDroppedAndCounted) {
   grid(0, 0, 0, 20, 20, 10, 10);       // the surface: 800 triangles
   grid(50, 50, 50, 2, 2, 1, 1);        // a speck: 8
   grid(0, 250, 0, 15, 1, 10, 0.5f);    // a thin strip: 30
-  const JobBlobs blobs{std::make_shared<const std::string>(EncodeMeshPly(m))};
-  runtime::Job job;
-  job.set_id("s/i/decimate");
-  job.set_stage("decimate");
-  job.add_blobs()->set_sha256(net::Sha256Hex(*blobs[0]));
   runtime::DecimateJob dj;
   dj.set_ratio(0.5);
   dj.set_speck_area_fraction(0.01);
   dj.set_speck_diagonal_mm(20.0);
-  job.set_settings(dj.SerializeAsString());
+  JobBlobs blobs;
+  runtime::Job job = DecimateJobOf(m, dj, &blobs);
   const auto out = RunJob(*DefaultStages(), job, blobs);
   ASSERT_EQ(out.size(), 2u);
   const core::Json summary = core::Json::parse(out[1].data());
