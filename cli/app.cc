@@ -36,6 +36,7 @@ int RunDome(int argc, char** argv) {
   AddCancelCommand(&app, &exit_code);
   AddListCommand(&app, &exit_code);
   AddViewCommand(&app, &exit_code);
+  AddExportCommand(&app, &exit_code);
   AddKeygenCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);

@@ -23,6 +23,7 @@ void AddWatchCommand(CLI::App* app, int* exit_code);
 void AddCancelCommand(CLI::App* app, int* exit_code);
 void AddListCommand(CLI::App* app, int* exit_code);
 void AddViewCommand(CLI::App* app, int* exit_code);
+void AddExportCommand(CLI::App* app, int* exit_code);
 void AddKeygenCommand(CLI::App* app, int* exit_code);
 
 }  // namespace dome::cli

@@ -17,6 +17,10 @@ packages=(
   libembree-dev
   python3-open3d python3-scipy python3-numpy
   libmeshoptimizer-dev python3-skimage
+  libavcodec-dev libavutil-dev libswscale-dev  # dome export: the atlases as one H.264 stream (libx264)
+  zlib1g-dev  # dome export: the 4D file's deflated meshes and CRC-32s
+  blender  # the test that Blender imports `dome export --format gltf-sequence` as one animation
+  libdraco-dev  # bench/sequence: Draco's mesh coder measured against the 4D file's
   ffmpeg  # readvitc: the independent VITC decoder the capture tests check our encoder against
   libssl-dev  # SHA-256 content addresses of the runtime's blobs (libcrypto)
   libcpp-httplib-dev  # the HTTP server of `dome view` (a kept library, not hand-written sockets)

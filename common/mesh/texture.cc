@@ -554,6 +554,28 @@ void ColourWith(const Prepared& prepared, const TextureOptions& options, io::Mes
       });
 }
 
+}  // namespace
+
+GridAtlasLayout GridAtlasLayout::For(int64_t faces, int cell_px) {
+  const int64_t cells = (faces + 1) / 2;
+  GridAtlasLayout l;
+  l.cell_px = cell_px;
+  l.columns = std::max<int>(1, int(std::ceil(std::sqrt(double(cells)))));
+  l.rows = std::max<int>(1, int((cells + l.columns - 1) / l.columns));
+  return l;
+}
+
+Eigen::Vector2d GridAtlasLayout::CornerTexel(int64_t f, int m) const {
+  const double lo = 0.5, hi = cell_px - 0.5;
+  static constexpr int kHi[2][3][2] = {{{0, 0}, {1, 0}, {0, 1}}, {{1, 1}, {0, 1}, {1, 0}}};
+  const int64_t cell = f / 2;
+  const int* corner = kHi[f % 2][m];
+  return {double(cell % columns) * cell_px + (corner[0] ? hi : lo),
+          double(cell / columns) * cell_px + (corner[1] ? hi : lo)};
+}
+
+namespace {
+
 // BuildTextureAtlas with the views prepared (for_atlas).
 TexturedMesh AtlasWith(const Prepared& prepared_views, const TextureOptions& options,
                        const io::Mesh& mesh) {
@@ -564,10 +586,10 @@ TexturedMesh AtlasWith(const Prepared& prepared_views, const TextureOptions& opt
   out.mesh.faces = mesh.faces;
   const int64_t faces = int64_t(mesh.faces.size());
   const int s = options.atlas_cell_px;
+  const GridAtlasLayout layout = GridAtlasLayout::For(faces, s);
+  const int cols = layout.columns;
   const int64_t cells = (faces + 1) / 2;
-  const int cols = std::max<int>(1, int(std::ceil(std::sqrt(double(cells)))));
-  const int rows = std::max<int>(1, int((cells + cols - 1) / cols));
-  const int W = cols * s, H = rows * s;
+  const int W = layout.width_px(), H = layout.height_px();
   out.atlas = cv::Mat(H, W, CV_8UC3, cv::Scalar(128, 128, 128));
   out.uv.resize(size_t(faces) * 3);
   // Corners of the two halves of a cell, in texel coordinates relative to the cell.
@@ -575,10 +597,8 @@ TexturedMesh AtlasWith(const Prepared& prepared_views, const TextureOptions& opt
   const Eigen::Vector2d half_uv[2][3] = {{{lo, lo}, {hi, lo}, {lo, hi}},
                                          {{hi, hi}, {lo, hi}, {hi, lo}}};
   for (int64_t f = 0; f < faces; ++f) {
-    const int64_t cell = f / 2;
-    const double x0 = double(cell % cols) * s, y0 = double(cell / cols) * s;
     for (int m = 0; m < 3; ++m) {
-      const Eigen::Vector2d t = half_uv[f % 2][m] + Eigen::Vector2d(x0, y0);
+      const Eigen::Vector2d t = layout.CornerTexel(f, m);
       out.uv[size_t(f) * 3 + m] = Eigen::Vector2f(float(t.x() / W), float(1.0 - t.y() / H));
     }
   }

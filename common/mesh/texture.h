@@ -63,6 +63,23 @@ void CheckTextureView(const TextureView& view);
 void ColorVertices(io::Mesh* mesh, const std::vector<TextureView>& views,
                    const TextureOptions& options);
 
+// The atlas layout of BuildTextureAtlas: triangle f fills half f % 2 of cell f / 2 of a
+// grid of `columns` x `rows` square cells of `cell_px` texels, filled row by row from
+// the top-left; half 0 is the triangle above the cell's anti-diagonal. Corner texel
+// positions sit half a texel inside the cell so bilinear sampling stays in it.
+struct GridAtlasLayout {
+  int cell_px = 8;
+  int columns = 1;
+  int rows = 1;
+  int width_px() const { return columns * cell_px; }
+  int height_px() const { return rows * cell_px; }
+  // The layout BuildTextureAtlas uses for `faces` triangles: the smallest grid of
+  // ceil(sqrt(cells)) columns.
+  static GridAtlasLayout For(int64_t faces, int cell_px);
+  // Corner m (0..2) of triangle f, in texels from the atlas's top-left corner.
+  Eigen::Vector2d CornerTexel(int64_t f, int m) const;
+};
+
 struct TexturedMesh {
   io::Mesh mesh;                    // positions and faces
   std::vector<Eigen::Vector2f> uv;  // 3 per face, OBJ convention (v up), in [0, 1]

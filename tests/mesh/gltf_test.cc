@@ -279,5 +279,38 @@ TEST(Gltf, BadTexturedMeshIsRejected) {
   testing::ExpectInputError([&] { EncodeGlb(t); }, {"glTF: mesh"});
 }
 
+// DecodeTexturedGlb gives back the mesh EncodeGlb was given: the same vertices (the face
+// corners welded back), faces, texture coordinates and atlas, bit for bit.
+TEST(Gltf, TexturedGlbDecodesToTheMeshItWasWrittenFrom) {
+  const TexturedMesh t = TwoTriangles();
+  const TexturedMesh back = DecodeTexturedGlb(EncodeGlb(t), "two.glb");
+  ASSERT_EQ(back.mesh.vertices.size(), t.mesh.vertices.size());
+  for (size_t v = 0; v < t.mesh.vertices.size(); ++v)
+    EXPECT_EQ(back.mesh.vertices[v], t.mesh.vertices[v]);
+  ASSERT_EQ(back.mesh.faces.size(), t.mesh.faces.size());
+  for (size_t f = 0; f < t.mesh.faces.size(); ++f) EXPECT_EQ(back.mesh.faces[f], t.mesh.faces[f]);
+  ASSERT_EQ(back.uv.size(), t.uv.size());
+  for (size_t c = 0; c < t.uv.size(); ++c) {
+    EXPECT_EQ(back.uv[c].x(), t.uv[c].x());
+    EXPECT_FLOAT_EQ(back.uv[c].y(), t.uv[c].y());
+  }
+  ASSERT_EQ(back.atlas.size(), t.atlas.size());
+  EXPECT_EQ(cv::norm(back.atlas, t.atlas, cv::NORM_INF), 0.0);
+}
+
+TEST(Gltf, DamagedGlbIsRejectedByName) {
+  const std::string glb = EncodeGlb(TwoTriangles());
+  testing::ExpectInputError([&] { DecodeTexturedGlb(glb.substr(0, glb.size() - 9), "t.glb"); },
+                            {"t.glb", "truncated"});
+  testing::ExpectInputError([&] { DecodeTexturedGlb("solid ascii stl", "t.glb"); },
+                            {"t.glb", "not a glTF 2.0 binary"});
+  // A vertex-coloured GLB has no texture coordinates.
+  io::Mesh m = TwoTriangles().mesh;
+  testing::ExpectInputError([&] { DecodeTexturedGlb(EncodeGlb(m), "c.glb"); },
+                            {"c.glb", "TEXCOORD_0"});
+  testing::ExpectInputError([&] { ReadTexturedGlb("/nonexistent/t.glb"); },
+                            {"/nonexistent/t.glb"});
+}
+
 }  // namespace
 }  // namespace dome::mesh

@@ -1,0 +1,82 @@
+// The texture atlases of a sequence as frames of one H.264 video stream (ffmpeg's
+// libavcodec with libx264; Debian's libavcodec-dev), and its reference decoder.
+//
+// Frames: BGR (OpenCV) atlases at the top-left of a fixed W x H frame (even sizes, the
+// rest black), converted to 4:2:0 YUV with BT.601 limited-range coefficients
+// (libswscale; the same matrix is written in the stream's VUI, so browsers convert
+// back with it). Packets are Annex B byte streams (start codes, SPS/PPS before every
+// keyframe), one per frame, in frame order: no B-frames, so decode order is display
+// order, and a keyframe every `keyframe_every` frames (1: every instant decodes alone).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dome::sequence {
+
+struct VideoOptions {
+  // x264's constant rate factor: 0 lossless .. 51; lower is better and larger.
+  int crf = 26;
+  // x264 preset: speed against size (ultrafast .. veryslow).
+  std::string preset = "medium";
+  // A keyframe every this many frames (1..600); 1 makes every instant independent.
+  int keyframe_every = 1;
+  // Encoder threads; 0: as many as the cores.
+  int threads = 0;
+  // Throws core::InputError naming the option out of range.
+  void Check() const;
+};
+
+struct VideoPacket {
+  int64_t frame = 0;  // index of the frame it holds
+  bool keyframe = false;
+  std::string bytes;  // Annex B
+};
+
+class VideoEncoder {
+ public:
+  VideoEncoder(int width, int height, double fps, const VideoOptions& options);
+  ~VideoEncoder();
+  VideoEncoder(const VideoEncoder&) = delete;
+  VideoEncoder& operator=(const VideoEncoder&) = delete;
+
+  // Encodes the next frame (CV_8UC3 BGR, at most width x height, placed at the top-left);
+  // returns the packets that are ready (the encoder looks ahead a few frames).
+  std::vector<VideoPacket> Encode(const cv::Mat& bgr);
+  // The packets still held.
+  std::vector<VideoPacket> Flush();
+  // The codec string of RFC 6381 for WebCodecs / MSE ("avc1.PPCCLL" from the SPS),
+  // known once the first packet is out; "" before.
+  const std::string& codec() const { return codec_; }
+
+ private:
+  std::vector<VideoPacket> Drain();
+  struct State;
+  std::unique_ptr<State> state_;
+  std::string codec_;
+  int64_t next_frame_ = 0;
+};
+
+// Decodes Annex B packets in order back to BGR frames (width x height).
+class VideoDecoder {
+ public:
+  VideoDecoder();
+  ~VideoDecoder();
+  VideoDecoder(const VideoDecoder&) = delete;
+  VideoDecoder& operator=(const VideoDecoder&) = delete;
+  // The frames the packet completes (one for this stream's packets). Throws
+  // core::InputError naming `where` when libavcodec refuses the packet.
+  std::vector<cv::Mat> Decode(std::string_view packet, const std::string& where);
+  std::vector<cv::Mat> Flush();
+
+ private:
+  std::vector<cv::Mat> Receive(const std::string& where);
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace dome::sequence
