@@ -95,6 +95,7 @@ void AddExportCommand(CLI::App* app, int* exit_code) {
       line["verify"] = {{"decoded", c.decoded},
                         {"broken", c.broken},
                         {"max_displacement_mm", c.max_displacement_mm},
+                        {"collapsed_triangles", c.collapsed_triangles},
                         {"atlas_psnr_db_min", c.min_psnr_db},
                         {"atlas_psnr_db_mean", c.mean_psnr_db}};
     }

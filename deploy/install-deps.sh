@@ -18,9 +18,9 @@ packages=(
   python3-open3d python3-scipy python3-numpy
   libmeshoptimizer-dev python3-skimage
   libavcodec-dev libavutil-dev libswscale-dev  # dome export: the atlases as one H.264 stream (libx264)
-  zlib1g-dev  # dome export: the 4D file's deflated meshes and CRC-32s
+  zlib1g-dev  # dome export: the CRC-32s of the 4D file's records
   blender  # the test that Blender imports `dome export --format gltf-sequence` as one animation
-  libdraco-dev  # bench/sequence: Draco's mesh coder measured against the 4D file's
+  libdraco-dev  # dome export: Draco's mesh coder for the 4D file (and bench/sequence)
   ffmpeg  # readvitc: the independent VITC decoder the capture tests check our encoder against
   libssl-dev  # SHA-256 content addresses of the runtime's blobs (libcrypto)
   libcpp-httplib-dev  # the HTTP server of `dome view` (a kept library, not hand-written sockets)
@@ -34,6 +34,10 @@ packages=(
   nlohmann-json3-dev  # the one JSON writer of reports and JSON lines (report.json, eval, fuse)
 )
 
+# npm, for the one web asset Debian lacks (Draco's decoder, viewer/package.json): Debian's
+# npm unless a Node.js with npm is installed already.
+command -v npm > /dev/null || packages+=(npm)
+
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -43,3 +47,7 @@ if ((${#missing[@]})); then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
+
+# Draco's WebAssembly decoder for the viewer's 4D player, at the version and hash
+# viewer/package-lock.json pins (copied next to the page by the build).
+(cd "$(dirname "$0")/../viewer" && npm ci --no-audit --no-fund --loglevel=error)

@@ -4,7 +4,10 @@
 // common/view/output_index.h). World frame: millimetres, z up. Served by `dome view`
 // the page fetches files; in an export (DOME_INDEX.packed) it loads each file as a
 // script "<url>.js" that calls domeBlob(url, base64), because Chromium allows neither
-// fetch nor WebGL textures from file:// (common/view/export.h).
+// fetch nor WebGL textures from file:// (common/view/export.h). A 4D file of the output
+// folder (INDEX.sequences, `dome export`) can be the source instead of the instants'
+// files: stream_player.js reads and decodes it as it arrives (select "source", or
+// ?sequence=<url>).
 (function () {
   'use strict';
 
@@ -22,7 +25,8 @@
     status: $('status'), legend: $('legend'), panel: $('camera-panel'),
     cameraTitle: $('camera-title'), cameraImage: $('camera-image'),
     cameraDepth: $('camera-depth'), depthCaption: $('depth-caption'),
-    cameraClose: $('camera-close'),
+    cameraClose: $('camera-close'), source: $('source'), loop: $('loop'), speed: $('speed'),
+    stats: $('stats'),
   };
 
   // ---- Bytes, over HTTP or from packed scripts ------------------------------------
@@ -76,7 +80,23 @@
 
   // ---- Scene ------------------------------------------------------------------------
 
-  const renderer = new THREE.WebGLRenderer({ antialias: true });
+  // Multisampling on a software rasterizer (Chromium's SwiftShader without a GPU, Mesa's
+  // llvmpipe) costs more than half the frame rate (1280x800, the demo's 4D file: 15 fps
+  // with it, 32 without), so it is on only where a GPU draws; ?aa=0 / ?aa=1 override.
+  function softwareRasterizer() {
+    try {
+      const gl = document.createElement('canvas').getContext('webgl');
+      const info = gl && gl.getExtension('WEBGL_debug_renderer_info');
+      const name = info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : '';
+      const lose = gl && gl.getExtension('WEBGL_lose_context');
+      if (lose) lose.loseContext();
+      return /SwiftShader|llvmpipe|softpipe|software/i.test(name);
+    } catch (e) {
+      return false;
+    }
+  }
+  const antialias = query.has('aa') ? query.get('aa') !== '0' : !softwareRasterizer();
+  const renderer = new THREE.WebGLRenderer({ antialias });
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setClearColor(BACKGROUND);
   ui.view.appendChild(renderer.domElement);
@@ -193,6 +213,10 @@
     // The atlas already holds the observed shading: show it unlit, as the OBJ path does.
     object.traverse((m) => {
       if (m.isMesh && m.material && m.material.map) {
+        // GLTFLoader marks base colour textures sRGB, which the renderer (linear output)
+        // would darken: the atlas holds the cameras' pixel values, shown as they are, as
+        // the OBJ path and the 4D player show them.
+        m.material.map.encoding = THREE.LinearEncoding;
         m.material = new THREE.MeshBasicMaterial({ map: m.material.map, side: THREE.DoubleSide });
       }
     });
@@ -306,6 +330,9 @@
     frames: 0,            // frames rendered
     firstDrawMs: null,    // performance.now() when a mesh was first on screen
     fitted: false,
+    sequence: null,       // the DomeStreamPlayer when a 4D file is the source
+    drawMs: 0,            // the last frame's renderer.render time
+    frameTimes: [],       // performance.now() of the last frames rendered (playback rate)
   };
   ui.variant.value = state.variant;
   const rate = () => +(query.get('rate') || INDEX.play_rate_hz);
@@ -348,14 +375,37 @@
     state.drawnEntry = entry;
   }
 
+  // The instants of the source being played.
+  const count = () => (state.sequence ? state.sequence.instants.length : INDEX.instants.length);
+
+  function showSequenceInstant(i) {
+    const inst = state.sequence.instants[i];
+    ui.timeline.value = i;
+    ui.timecode.textContent = inst.timecode;
+    ui.position.textContent = (i + 1) + ' / ' + count();
+    if (inst.state === 'waiting') return;
+    state.settled = true;
+    if (inst.state === 'broken') {
+      state.missing = true;
+      setStatus('instant ' + inst.name + ' is broken: ' + inst.why, 'missing');
+      return;
+    }
+    showEntry({ object: inst.object }, i);
+    setStatus('');
+  }
+
   function show(i) {
-    const n = INDEX.instants.length;
+    const n = count();
     if (n === 0) return;
     i = ((i % n) + n) % n;
     state.index = i;
     state.settled = false;
     state.missing = false;
     ++state.shown;
+    if (state.sequence) {
+      showSequenceInstant(i);
+      return;
+    }
     const inst = INDEX.instants[i];
     ui.timeline.value = i;
     ui.timecode.textContent = inst.label;
@@ -393,21 +443,35 @@
   // ---- Playback ---------------------------------------------------------------------
 
   let timer = null;
+  const speed = () => +ui.speed.value;
+  // Seconds the shown instant stays: a 4D file's timeline (its instants' timecodes),
+  // else the index's playback rate; both divided by the speed.
+  function holdSeconds() {
+    if (state.sequence) {
+      const inst = state.sequence.instants, i = state.index;
+      const fps = state.sequence.manifest ? state.sequence.manifest.fps : 30;
+      const next = i + 1 < inst.length ? inst[i + 1].start_s : inst[i].start_s + 1 / fps;
+      return Math.max(next - inst[i].start_s, 1 / fps) / speed();
+    }
+    return 1 / rate() / speed();
+  }
   function tick() {
     timer = null;
     if (!state.playing) return;
     // Never skip an instant: wait until the shown one has loaded (or failed).
     if (state.settled) {
+      if (state.index + 1 >= count() && !ui.loop.checked) { setPlaying(false); return; }
       show(state.index + 1);
-      timer = setTimeout(tick, 1000 / rate());
+      timer = setTimeout(tick, 1000 * holdSeconds());
     } else {
+      if (state.sequence) showSequenceInstant(state.index);
       timer = setTimeout(tick, 10);
     }
   }
   function setPlaying(on) {
     state.playing = on;
     ui.play.textContent = on ? 'Pause' : 'Play';
-    if (on && timer === null) timer = setTimeout(tick, 1000 / rate());
+    if (on && timer === null) timer = setTimeout(tick, 1000 * holdSeconds());
     if (!on && timer !== null) { clearTimeout(timer); timer = null; }
   }
   ui.play.addEventListener('click', () => setPlaying(!state.playing));
@@ -421,6 +485,67 @@
     show(state.index);
   });
   ui.showCameras.addEventListener('change', () => { frusta.visible = ui.showCameras.checked; });
+
+  // ---- A 4D file as the source ------------------------------------------------------
+
+  const warmScene = new THREE.Scene(), warmTarget = new THREE.WebGLRenderTarget(1, 1);
+  function openSequence(url) {
+    setPlaying(false);
+    state.sequence = null;
+    state.fitted = false;
+    if (!url) {
+      ui.timeline.max = Math.max(INDEX.instants.length - 1, 0);
+      show(0);
+      return;
+    }
+    const player = DomeStreamPlayer.open(url, {
+      onManifest: () => { ui.timeline.max = Math.max(player.instants.length - 1, 0); },
+      onInstant: (i) => {
+        const inst = player.instants[i];
+        // Upload its texture and buffers now (a 1x1 draw), not in the frame that first
+        // shows it: a software rasterizer takes tens of ms for an atlas.
+        if (inst.state === 'ready') {
+          warmScene.add(inst.object);
+          renderer.setRenderTarget(warmTarget);
+          renderer.render(warmScene, camera);
+          renderer.setRenderTarget(null);
+          warmScene.remove(inst.object);
+        }
+        if (state.sequence === player && i === state.index && !state.settled) showSequenceInstant(i);
+      },
+      onEnd: () => {
+        if (player.error && state.sequence === player) setStatus(url + ': ' + player.error, 'missing');
+      },
+    });
+    state.sequence = player;
+    if ([...ui.source.options].some((o) => o.value === url)) ui.source.value = url;
+    state.index = 0;
+    state.settled = false;
+    meshRoot.children.slice().forEach((c) => meshRoot.remove(c));
+    state.drawnInstant = null;
+    setStatus('reading ' + url);
+  }
+  (INDEX.sequences || []).forEach((url) => {
+    const o = document.createElement('option');
+    o.value = url;
+    o.textContent = url.replace(/^out\//, '');
+    ui.source.appendChild(o);
+  });
+  ui.source.addEventListener('change', () => openSequence(ui.source.value));
+
+  function updateStats() {
+    if (!state.sequence) { ui.stats.textContent = ''; return; }
+    const p = state.sequence, inst = p.instants[state.index];
+    const buffered = p.instants.filter((x) => x.state === 'ready').length;
+    const t = state.frameTimes, fps = t.length > 1 ? 1000 * (t.length - 1) / (t[t.length - 1] - t[0]) : 0;
+    ui.stats.textContent = inst
+      ? 'instant ' + (state.index + 1) + '/' + p.instants.length + ' ' + inst.timecode +
+        ' | ' + (inst.triangles || 0).toLocaleString('en') + ' triangles' +
+        ' | decode ' + (inst.decodeMs === null ? '-' : inst.decodeMs.toFixed(1)) + ' ms' +
+        ' | draw ' + state.drawMs.toFixed(1) + ' ms | ' + fps.toFixed(0) + ' fps' +
+        ' | buffered ' + buffered + '/' + p.instants.length
+      : 'reading ' + p.url + ' (' + (p.bytes / 1e3).toFixed(0) + ' kB)';
+  }
   window.addEventListener('keydown', (e) => {
     if (e.target.tagName === 'SELECT' || e.target.tagName === 'INPUT') return;
     if (e.key === ' ') { setPlaying(!state.playing); e.preventDefault(); }
@@ -471,8 +596,13 @@
   function frame() {
     requestAnimationFrame(frame);
     controls.update();
+    const t0 = performance.now();
     renderer.render(scene, camera);
+    state.drawMs = performance.now() - t0;
+    state.frameTimes.push(t0);
+    if (state.frameTimes.length > 60) state.frameTimes.shift();
     ++state.frames;
+    if (state.frames % 10 === 0 || state.sequence) updateStats();
     if (state.firstDrawMs === null && state.drawnInstant !== null) {
       // Reading a pixel waits for the GPU, so the time is when the frame exists.
       const gl = renderer.getContext();
@@ -494,9 +624,23 @@
       index: state.index, timecode: ui.timecode.textContent, status: ui.status.textContent,
       settled: state.settled, missing: state.missing, drawnInstant: state.drawnInstant,
       shown: state.shown, frames: state.frames, firstDrawMs: state.firstDrawMs,
-      playing: state.playing, instants: INDEX.instants.length,
+      playing: state.playing, instants: INDEX.instants.length, antialias,
       errorColoured: !!(state.drawnEntry && state.drawnEntry.errorColours && state.colouring === 'error'),
+      stats: ui.stats.textContent,
+      sequence: state.sequence && {
+        url: state.sequence.url, bytes: state.sequence.bytes, totalBytes: state.sequence.totalBytes,
+        done: state.sequence.done, error: state.sequence.error,
+        manifestMs: state.sequence.manifestMs, firstReadyMs: state.sequence.firstReadyMs,
+        instants: state.sequence.instants.map((x) => ({ name: x.name, state: x.state, why: x.why,
+          triangles: x.triangles, decodeMs: x.decodeMs, readyAtBytes: x.readyAtBytes })),
+      },
     }),
+    // performance.now() of the frames rendered since the last call (playback timing).
+    frameTimes: () => state.frameTimes.slice(),
+    openSequence: (url) => openSequence(url),
+    setPlaying: (on) => setPlaying(on),
+    setSpeed: (x) => { ui.speed.value = String(x); },
+    setLoop: (on) => { ui.loop.checked = on; },
     // Page coordinates (CSS px) of the centroids of up to n triangles of the drawn mesh
     // that lie inside the canvas and are not thin (interior points: a vertex on the
     // silhouette may fall on a background pixel).
@@ -553,7 +697,10 @@
     show: (i) => show(i),
   };
 
-  if (INDEX.instants.length === 0) {
+  if (query.get('sequence')) {
+    openSequence(query.get('sequence'));
+    if (query.get('autoplay') === '1') setPlaying(true);
+  } else if (INDEX.instants.length === 0) {
     setStatus('no instants in this output folder', 'missing');
   } else {
     ui.timeline.max = INDEX.instants.length - 1;

@@ -1,26 +1,24 @@
 // The mesh codec of the 4D file, chosen by measurement: for every instant of an output
 // folder (OUT/<instant>/textured.glb), the bytes of its decimated mesh as
-//   meshopt:  meshoptimizer's vertex codec (positions on the stream's 16-bit grid, vertices
-//             in first-use order) and index codec after vertex-cache ordering, deflated
-//             (what sequence/mesh_codec.h writes);
-//   draco:    Draco's edgebreaker mesh coder (Debian libdraco-dev) at the same position
-//             grid (quantization bits spanning the same step), speed 5 (its default);
+//   draco:    what the 4D file sends (sequence/mesh_codec.h): Draco's edgebreaker coder
+//             (Debian libdraco-dev) over the positions on the stream's 16-bit grid;
+//   meshopt:  meshoptimizer's vertex codec (the same grid, vertices in first-use order)
+//             and index codec after vertex-cache ordering, deflated (zlib level 9);
 // and the encode and decode seconds of each.
 //
 //   mesh_codec_bench OUT [--step-mm S]     (S default: an eighth of report.json's voxel)
 //
-// Prints one JSON line per instant and a total line. Both codecs keep the triangles'
-// orientation and neither keeps their order or first corner, which the 4D file's atlas
-// re-lay absorbs (sequence/stream.h), so the texture costs both the same.
-#include <draco/compression/decode.h>
-#include <draco/compression/encode.h>
-#include <draco/mesh/triangle_soup_mesh_builder.h>
+// Prints one JSON line per instant and a total line. Neither codec keeps the triangles'
+// order or first corners; the 4D file's atlas re-lay absorbs that (sequence/stream.h), so
+// the texture costs both the same.
+#include <zlib.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
+#include <meshoptimizer.h>
 #include <string>
+#include <vector>
 
 #include "core/json.h"
 #include "sequence/mesh_codec.h"
@@ -30,6 +28,49 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string Deflate(const std::vector<unsigned char>& raw) {
+  uLongf n = compressBound(uLong(raw.size()));
+  std::string out(n, '\0');
+  compress2(reinterpret_cast<Bytef*>(out.data()), &n, raw.data(), uLong(raw.size()), 9);
+  out.resize(n);
+  return out;
+}
+
+// meshoptimizer's codecs over the grid positions, deflated; decoded back into *seconds.
+size_t Meshopt(const dome::io::Mesh& m, const dome::sequence::QuantizedBox& box,
+               double* encode_s, double* decode_s) {
+  auto t0 = Clock::now();
+  const size_t nv = m.vertices.size(), nf = m.faces.size();
+  std::vector<unsigned int> source(nf * 3), index(nf * 3), remap(nv);
+  for (size_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) source[3 * f + k] = unsigned(m.faces[f][k]);
+  meshopt_optimizeVertexCache(index.data(), source.data(), source.size(), nv);
+  const size_t used = meshopt_optimizeVertexFetchRemap(remap.data(), index.data(), index.size(), nv);
+  std::vector<uint16_t> q(used * 4, 0);
+  for (size_t v = 0; v < nv; ++v) {
+    if (remap[v] == ~0u) continue;
+    for (int a = 0; a < 3; ++a)
+      q[4 * remap[v] + a] = uint16_t(std::lround((m.vertices[v][a] - box.origin_mm[a]) / box.step_mm));
+  }
+  for (auto& i : index) i = remap[i];
+  std::vector<unsigned char> vb(meshopt_encodeVertexBufferBound(used, 8));
+  vb.resize(meshopt_encodeVertexBuffer(vb.data(), vb.size(), q.data(), used, 8));
+  std::vector<unsigned char> ib(meshopt_encodeIndexBufferBound(index.size(), used));
+  ib.resize(meshopt_encodeIndexBuffer(ib.data(), ib.size(), index.data(), index.size()));
+  std::vector<unsigned char> raw(vb);
+  raw.insert(raw.end(), ib.begin(), ib.end());
+  const std::string z = Deflate(raw);
+  *encode_s = Since(t0);
+  t0 = Clock::now();
+  std::vector<unsigned char> back(raw.size());
+  uLongf n = uLongf(back.size());
+  uncompress(back.data(), &n, reinterpret_cast<const Bytef*>(z.data()), uLong(z.size()));
+  meshopt_decodeVertexBuffer(q.data(), used, 8, back.data(), vb.size());
+  meshopt_decodeIndexBuffer(index.data(), index.size(), 4, back.data() + vb.size(), ib.size());
+  *decode_s = Since(t0);
+  return z.size();
+}
 
 }  // namespace
 
@@ -48,67 +89,42 @@ int main(int argc, char** argv) {
     for (const auto& p : in.textured.mesh.vertices) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   if (step_mm <= 0) step_mm = seq.voxel_mm > 0 ? seq.voxel_mm / 8 : 0;
   const sequence::QuantizedBox box = sequence::QuantizationFor(lo, hi, step_mm);
-  const int bits = int(std::ceil(std::log2(double((hi - lo).maxCoeff()) / box.step_mm + 1)));
-  double totals[6] = {};
+  double total[6] = {};  // draco bytes, encode, decode; meshopt bytes, encode, decode
   int64_t triangles = 0;
   for (const auto& in : seq.instants) {
     const io::Mesh& m = in.textured.mesh;
     auto t0 = Clock::now();
-    const std::string meshopt = sequence::EncodeMesh(m, box, 8).payload;
-    const double meshopt_encode = Since(t0);
-    t0 = Clock::now();
-    sequence::DecodeMeshPayload(meshopt, in.name);
-    const double meshopt_decode = Since(t0);
-
-    t0 = Clock::now();
-    draco::TriangleSoupMeshBuilder builder;
-    builder.Start(int(m.faces.size()));
-    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-    for (size_t f = 0; f < m.faces.size(); ++f) {
-      builder.SetAttributeValuesForFace(pos, draco::FaceIndex(uint32_t(f)),
-                                        m.vertices[m.faces[f][0]].data(),
-                                        m.vertices[m.faces[f][1]].data(),
-                                        m.vertices[m.faces[f][2]].data());
-    }
-    std::unique_ptr<draco::Mesh> mesh = builder.Finalize();
-    draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, bits);
-    draco::EncoderBuffer buffer;
-    if (!encoder.EncodeMeshToBuffer(*mesh, &buffer).ok()) return 1;
+    const sequence::EncodedMesh e = sequence::EncodeMesh(m, box, 8);
     const double draco_encode = Since(t0);
     t0 = Clock::now();
-    draco::DecoderBuffer in_buffer;
-    in_buffer.Init(buffer.data(), buffer.size());
-    draco::Decoder decoder;
-    auto decoded = decoder.DecodeMeshFromBuffer(&in_buffer);
-    if (!decoded.ok()) return 1;
+    sequence::DecodeMeshPayload(e.payload, in.name);
     const double draco_decode = Since(t0);
-
-    const double row[6] = {double(meshopt.size()), meshopt_encode, meshopt_decode,
-                           double(buffer.size()), draco_encode, draco_decode};
-    for (int k = 0; k < 6; ++k) totals[k] += row[k];
+    double meshopt_encode = 0, meshopt_decode = 0;
+    const size_t meshopt = Meshopt(m, box, &meshopt_encode, &meshopt_decode);
+    const double row[6] = {double(e.payload.size()), draco_encode, draco_decode,
+                           double(meshopt), meshopt_encode, meshopt_decode};
+    for (int k = 0; k < 6; ++k) total[k] += row[k];
     triangles += int64_t(m.faces.size());
     core::PrintJsonLine({{"instant", in.name},
                          {"triangles", m.faces.size()},
                          {"vertices", m.vertices.size()},
-                         {"meshopt_bytes", meshopt.size()},
-                         {"draco_bytes", buffer.size()},
-                         {"meshopt_encode_s", meshopt_encode},
+                         {"draco_bytes", e.payload.size()},
+                         {"meshopt_bytes", meshopt},
                          {"draco_encode_s", draco_encode},
-                         {"meshopt_decode_s", meshopt_decode},
-                         {"draco_decode_s", draco_decode}});
+                         {"meshopt_encode_s", meshopt_encode},
+                         {"draco_decode_s", draco_decode},
+                         {"meshopt_decode_s", meshopt_decode}});
   }
   const double n = double(seq.instants.size());
   core::PrintJsonLine({{"instants", seq.instants.size()},
                        {"step_mm", box.step_mm},
-                       {"draco_position_bits", bits},
-                       {"meshopt_bytes_per_triangle", totals[0] / double(triangles)},
-                       {"draco_bytes_per_triangle", totals[3] / double(triangles)},
-                       {"meshopt_kbytes_per_instant", totals[0] / n / 1e3},
-                       {"draco_kbytes_per_instant", totals[3] / n / 1e3},
-                       {"meshopt_encode_s_per_instant", totals[1] / n},
-                       {"draco_encode_s_per_instant", totals[4] / n},
-                       {"meshopt_decode_s_per_instant", totals[2] / n},
-                       {"draco_decode_s_per_instant", totals[5] / n}});
+                       {"draco_bytes_per_triangle", total[0] / double(triangles)},
+                       {"meshopt_bytes_per_triangle", total[3] / double(triangles)},
+                       {"draco_kbytes_per_instant", total[0] / n / 1e3},
+                       {"meshopt_kbytes_per_instant", total[3] / n / 1e3},
+                       {"draco_encode_s_per_instant", total[1] / n},
+                       {"meshopt_encode_s_per_instant", total[4] / n},
+                       {"draco_decode_s_per_instant", total[2] / n},
+                       {"meshopt_decode_s_per_instant", total[5] / n}});
   return 0;
 }

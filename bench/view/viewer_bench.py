@@ -8,7 +8,10 @@ and reuses it. Then, with `dome view` serving it, measures for each mesh variant
 time from navigation to the first frame with the mesh drawn (a fresh page, browser
 cache disabled), and, playing the textured sequence, the rendered frames per second
 and the instants shown per second, at the seed's 6 Hz and as fast as the page can go.
-One JSON line per measurement. --screenshot writes a picture of the page (a camera
+Then the same output as a 4D file (`dome export`, OUT/demo.dome4d): the time from
+navigation to its first drawn frame, and, playing its instants once at the timeline's
+rate, the frame times measured by the page (frames per second, the slowest frame) and
+the instants shown. One JSON line per measurement. --screenshot writes a picture of the page (a camera
 picked, its image and depth shown) for the README.
 """
 
@@ -64,6 +67,40 @@ def playback(b, url, rate, seconds):
             "instants_per_s": (s1["shown"] - s0["shown"]) / dt}
 
 
+def sequence_first_draw(b, url):
+    b.call("Page.navigate", url="about:blank")
+    b.navigate("%s?sequence=out/demo.dome4d" % url)
+    b.wait_for("domeViewer.state().firstDrawMs !== null", 120)
+    return b.eval("domeViewer.state()")
+
+
+def sequence_playback(b, url, speed, cameras):
+    """Plays every instant once; the page's frame times while it does."""
+    b.navigate("%s?sequence=out/demo.dome4d" % url)
+    b.wait_for("domeViewer.state().sequence && domeViewer.state().sequence.done", 120)
+    b.eval("domeViewer.setCamerasVisible(%s)" % ("true" if cameras else "false"))
+    n = b.eval("domeViewer.state().sequence.instants.length")
+    b.eval("domeViewer.setLoop(false); domeViewer.setSpeed(%g); domeViewer.show(0)" % speed)
+    b.wait_for("domeViewer.state().drawnInstant === 0", 60)
+    t0 = b.eval("performance.now()")
+    b.eval("domeViewer.setPlaying(true)")
+    seen, frames, deadline = set(), [], time.time() + 120
+    while time.time() < deadline:
+        s = b.eval("domeViewer.state()")
+        if s["drawnInstant"] is not None:
+            seen.add(s["drawnInstant"])
+        frames += [t for t in b.eval("domeViewer.frameTimes()") if t > t0 and (not frames or t > frames[-1])]
+        if not s["playing"]:
+            break
+        time.sleep(0.05)
+    gaps = [b_ - a for a, b_ in zip(frames, frames[1:])]
+    return {"cameras_drawn": cameras, "antialias": s["antialias"],
+            "instants": n, "instants_drawn": len(seen), "frames": len(frames),
+            "render_fps": round(1000 * len(gaps) / (frames[-1] - frames[0]), 1) if gaps else 0,
+            "slowest_frame_ms": round(max(gaps), 1) if gaps else None,
+            "stats": s["stats"]}
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--dome", required=True)
@@ -84,6 +121,19 @@ def main():
             r = playback(b, view.url, rate, args.seconds)
             print(json.dumps({"play_rate_hz": rate, "render_fps": round(r["fps"], 1),
                               "instants_per_s": round(r["instants_per_s"], 2)}))
+        sequence = os.path.join(out, "demo.dome4d")
+        if not os.path.exists(sequence):
+            subprocess.run([args.dome, "export", out, "--out", sequence], check=True,
+                           stdout=subprocess.DEVNULL)
+        for _ in range(3):
+            s = sequence_first_draw(b, view.url)
+            print(json.dumps({"source": "demo.dome4d", "bytes": os.path.getsize(sequence),
+                              "first_drawn_frame_ms": round(s["firstDrawMs"]),
+                              "bytes_in_at_first_instant":
+                                  s["sequence"]["instants"][0]["readyAtBytes"]}))
+        for cameras in (True, False):
+            r = sequence_playback(b, view.url, 1, cameras)
+            print(json.dumps({"source": "demo.dome4d", "speed": 1, **r}))
         if args.screenshot:
             b.navigate(view.url + "?variant=textured")
             b.wait_for("domeViewer.state().drawnInstant === 0", 120)

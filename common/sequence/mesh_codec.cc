@@ -1,12 +1,14 @@
 #include "sequence/mesh_codec.h"
 
-#include <zlib.h>
+#include <draco/compression/decode.h>
+#include <draco/compression/encode.h>
+#include <draco/mesh/triangle_soup_mesh_builder.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <meshoptimizer.h>
 #include <opencv2/imgproc.hpp>
 #include <unordered_map>
 #include <vector>
@@ -18,10 +20,6 @@ namespace {
 
 void Put32(std::string* out, uint32_t v) { out->append(reinterpret_cast<const char*>(&v), 4); }
 void PutF(std::string* out, float v) { out->append(reinterpret_cast<const char*>(&v), 4); }
-void PutBlock(std::string* out, const std::vector<unsigned char>& bytes, size_t n) {
-  Put32(out, uint32_t(n));
-  out->append(reinterpret_cast<const char*>(bytes.data()), n);
-}
 
 // Reads the payload's fields in order; every read is bounds-checked.
 class Reader {
@@ -37,7 +35,7 @@ class Reader {
     std::memcpy(&v, Take(4).data(), 4);
     return v;
   }
-  std::string_view Block() { return Take(U32()); }
+  std::string_view Rest() { return Take(bytes_.size() - at_); }
   bool AtEnd() const { return at_ == bytes_.size(); }
 
  private:
@@ -51,36 +49,6 @@ class Reader {
   std::string where_;
   size_t at_ = 0;
 };
-
-std::string Deflate(const std::string& raw) {
-  uLongf n = compressBound(uLong(raw.size()));
-  std::string out(n, '\0');
-  const int rc = compress2(reinterpret_cast<Bytef*>(out.data()), &n,
-                           reinterpret_cast<const Bytef*>(raw.data()), uLong(raw.size()), 9);
-  DOME_CHECK(rc == Z_OK, "zlib compress2 failed");
-  out.resize(n);
-  return out;
-}
-
-std::string Inflate(std::string_view z, const std::string& where) {
-  z_stream s{};
-  DOME_CHECK(inflateInit(&s) == Z_OK, "zlib inflateInit failed");
-  s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(z.data()));
-  s.avail_in = uInt(z.size());
-  std::string out;
-  char buffer[1 << 16];
-  int rc = Z_OK;
-  while (rc == Z_OK) {
-    s.next_out = reinterpret_cast<Bytef*>(buffer);
-    s.avail_out = sizeof buffer;
-    rc = inflate(&s, Z_NO_FLUSH);
-    out.append(buffer, sizeof buffer - s.avail_out);
-    if (rc == Z_BUF_ERROR && s.avail_in == 0) break;
-  }
-  inflateEnd(&s);
-  core::Require(rc == Z_STREAM_END, where, "mesh payload is not a complete zlib stream");
-  return out;
-}
 
 }  // namespace
 
@@ -120,90 +88,129 @@ QuantizedBox QuantizationFor(const Eigen::Vector3f& lo, const Eigen::Vector3f& h
   return box;
 }
 
+namespace {
+
+using Grid3 = std::array<uint16_t, 3>;
+
+struct TriangleKey {
+  Grid3 a, b, c;
+  bool operator==(const TriangleKey&) const = default;
+};
+struct TriangleHash {
+  size_t operator()(const TriangleKey& k) const {
+    size_t h = 0;
+    for (const Grid3* p : {&k.a, &k.b, &k.c})
+      for (uint16_t v : *p) h = h * 1000003u ^ v;
+    return h;
+  }
+};
+// The triangle's corners rotated to start at its smallest grid point (orientation
+// kept); *first is the corner it starts at.
+TriangleKey Canonical(const Grid3& a, const Grid3& b, const Grid3& c, int* first) {
+  *first = a <= b && a <= c ? 0 : (b <= c ? 1 : 2);
+  const Grid3* t[3] = {&a, &b, &c};
+  return {*t[*first], *t[(*first + 1) % 3], *t[(*first + 2) % 3]};
+}
+
+// The faces and grid points of a Draco mesh with a uint16 x 3 POSITION attribute.
+bool ReadDraco(std::string_view bytes, std::vector<Grid3>* points,
+               std::vector<std::array<uint32_t, 3>>* faces) {
+  draco::DecoderBuffer buffer;
+  buffer.Init(bytes.data(), bytes.size());
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok()) return false;
+  const std::unique_ptr<draco::Mesh>& mesh = decoded.value();
+  const draco::PointAttribute* pos = mesh->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  if (pos == nullptr || pos->num_components() != 3) return false;
+  points->resize(mesh->num_points());
+  for (uint32_t p = 0; p < mesh->num_points(); ++p) {
+    if (!pos->ConvertValue<uint16_t, 3>(pos->mapped_index(draco::PointIndex(p)), (*points)[p].data()))
+      return false;
+  }
+  faces->resize(mesh->num_faces());
+  for (uint32_t f = 0; f < mesh->num_faces(); ++f) {
+    const auto& face = mesh->face(draco::FaceIndex(f));
+    for (int k = 0; k < 3; ++k) (*faces)[f][k] = face[k].value();
+  }
+  return true;
+}
+
+}  // namespace
+
 EncodedMesh EncodeMesh(const io::Mesh& m, const QuantizedBox& box, int cell_px) {
   core::Require(m.Inconsistency().empty(), "export: mesh", m.Inconsistency());
   const size_t nv = m.vertices.size(), nf = m.faces.size();
-  std::vector<unsigned int> source(nf * 3);
-  for (size_t f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) source[3 * f + k] = unsigned(m.faces[f][k]);
-  // Vertex-cache order, then vertices in order of first use: the orders both codecs
-  // compress best. Unused vertices (none after decimation) are dropped.
-  std::vector<unsigned int> index(nf * 3);
-  meshopt_optimizeVertexCache(index.data(), source.data(), source.size(), nv);
-  std::vector<unsigned int> remap(nv);
-  const size_t used = meshopt_optimizeVertexFetchRemap(remap.data(), index.data(), index.size(), nv);
-  std::vector<uint16_t> q(used * 4, 0);
+  std::vector<Grid3> q(nv);
   for (size_t v = 0; v < nv; ++v) {
-    if (remap[v] == ~0u) continue;
     for (int a = 0; a < 3; ++a) {
       const double c = std::round((double(m.vertices[v][a]) - box.origin_mm[a]) / box.step_mm);
       core::Require(c >= 0 && c <= 65535, "export: mesh",
                     "vertex " + std::to_string(v) + " lies outside the sequence's box");
-      q[4 * remap[v] + a] = uint16_t(c);
+      q[v][a] = uint16_t(c);
     }
   }
-  for (auto& i : index) i = remap[i];
-  std::vector<unsigned char> vb(meshopt_encodeVertexBufferBound(used, 8));
-  vb.resize(meshopt_encodeVertexBuffer(vb.data(), vb.size(), q.data(), used, 8));
-  std::vector<unsigned char> ib(meshopt_encodeIndexBufferBound(index.size(), used));
-  ib.resize(meshopt_encodeIndexBuffer(ib.data(), ib.size(), index.data(), index.size()));
+  // Triangles that keep three distinct grid points; Draco's builder merges equal points.
+  std::vector<int> kept;
+  kept.reserve(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const auto& t = m.faces[f];
+    if (q[t[0]] != q[t[1]] && q[t[1]] != q[t[2]] && q[t[0]] != q[t[2]]) kept.push_back(int(f));
+  }
+  draco::TriangleSoupMeshBuilder builder;
+  builder.Start(int(kept.size()));
+  const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_UINT16);
+  for (size_t i = 0; i < kept.size(); ++i) {
+    const auto& t = m.faces[kept[i]];
+    builder.SetAttributeValuesForFace(pos, draco::FaceIndex(uint32_t(i)), q[t[0]].data(),
+                                      q[t[1]].data(), q[t[2]].data());
+  }
+  std::unique_ptr<draco::Mesh> mesh = builder.Finalize();
+  DOME_CHECK(mesh != nullptr, "draco: the mesh builder failed");
+  draco::Encoder encoder;
+  encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
+  draco::EncoderBuffer buffer;
+  const draco::Status status = encoder.EncodeMeshToBuffer(*mesh, &buffer);
+  core::Require(status.ok(), "export: mesh", std::string("Draco refused it: ") + status.error_msg());
+  const std::string_view draco_bytes(buffer.data(), buffer.size());
 
   EncodedMesh out;
-  out.layout = mesh::GridAtlasLayout::For(int64_t(nf), cell_px);
-  // Where each payload triangle came from: the index codec keeps the triangle order of
-  // what it is given but may rotate corners, so decode what the page will see and match
-  // its triangles to the source's (keyed by the rotation starting at the lowest vertex).
-  std::vector<unsigned int> decoded(index.size());
-  DOME_CHECK(meshopt_decodeIndexBuffer(decoded.data(), decoded.size(), 4, ib.data(), ib.size()) == 0,
-             "meshopt index codec does not read back its own output");
-  struct Key {
-    unsigned a, b, c;
-    bool operator==(const Key&) const = default;
-  };
-  struct Hash {
-    size_t operator()(const Key& k) const {
-      return (size_t(k.a) * 73856093u) ^ (size_t(k.b) * 19349663u) ^ (size_t(k.c) * 83492791u);
-    }
-  };
-  auto canonical = [](unsigned a, unsigned b, unsigned c, int* first) {
-    *first = a <= b && a <= c ? 0 : (b <= c ? 1 : 2);
-    const unsigned t[3] = {a, b, c};
-    return Key{t[*first], t[(*first + 1) % 3], t[(*first + 2) % 3]};
-  };
-  std::unordered_map<Key, std::vector<int>, Hash> faces_of;
-  for (size_t f = 0; f < nf; ++f) {
+  // Where each payload triangle came from: decode what the page will see and match its
+  // triangles to the source's by their grid corners in cyclic order.
+  std::vector<Grid3> points;
+  std::vector<std::array<uint32_t, 3>> faces;
+  DOME_CHECK(ReadDraco(draco_bytes, &points, &faces), "Draco does not read back its own output");
+  std::unordered_map<TriangleKey, std::vector<int>, TriangleHash> faces_of;
+  for (int f : kept) {
     int first;
-    faces_of[canonical(remap[source[3 * f]], remap[source[3 * f + 1]], remap[source[3 * f + 2]],
-                       &first)]
-        .push_back(int(f));
+    const auto& t = m.faces[f];
+    faces_of[Canonical(q[t[0]], q[t[1]], q[t[2]], &first)].push_back(f);
   }
-  out.source_face.resize(nf);
-  out.rotation.resize(nf);
-  for (size_t f = 0; f < nf; ++f) {
+  out.source_face.reserve(faces.size());
+  out.rotation.reserve(faces.size());
+  for (const auto& face : faces) {
     int first_decoded;
-    const Key key = canonical(decoded[3 * f], decoded[3 * f + 1], decoded[3 * f + 2], &first_decoded);
+    const TriangleKey key =
+        Canonical(points[face[0]], points[face[1]], points[face[2]], &first_decoded);
     auto it = faces_of.find(key);
-    DOME_CHECK(it != faces_of.end() && !it->second.empty(), "a triangle lost by the codecs");
+    DOME_CHECK(it != faces_of.end() && !it->second.empty(), "Draco returned a triangle not given");
     const int sf = it->second.back();
     it->second.pop_back();
     int first_source;
-    canonical(remap[source[3 * sf]], remap[source[3 * sf + 1]], remap[source[3 * sf + 2]],
-              &first_source);
-    out.source_face[f] = sf;
-    // decoded corner k = canonical corner (k - first_decoded) = source corner
-    // (k - first_decoded + first_source).
-    out.rotation[f] = uint8_t((first_source - first_decoded + 3) % 3);
+    const auto& t = m.faces[sf];
+    Canonical(q[t[0]], q[t[1]], q[t[2]], &first_source);
+    out.source_face.push_back(sf);
+    // decoded corner k = canonical corner k - first_decoded = source corner
+    // k - first_decoded + first_source.
+    out.rotation.push_back(uint8_t((first_source - first_decoded + 3) % 3));
   }
-  std::string raw;
-  Put32(&raw, uint32_t(used));
-  Put32(&raw, uint32_t(nf));
-  for (int a = 0; a < 3; ++a) PutF(&raw, box.origin_mm[a]);
-  PutF(&raw, box.step_mm);
-  Put32(&raw, uint32_t(out.layout.cell_px));
-  Put32(&raw, uint32_t(out.layout.columns));
-  PutBlock(&raw, vb, vb.size());
-  PutBlock(&raw, ib, ib.size());
-  out.payload = Deflate(raw);
+  out.layout = mesh::GridAtlasLayout::For(int64_t(faces.size()), cell_px);
+  std::string& payload = out.payload;
+  for (int a = 0; a < 3; ++a) PutF(&payload, box.origin_mm[a]);
+  PutF(&payload, box.step_mm);
+  Put32(&payload, uint32_t(out.layout.cell_px));
+  Put32(&payload, uint32_t(out.layout.columns));
+  payload.append(draco_bytes);
   return out;
 }
 
@@ -283,46 +290,34 @@ std::vector<Eigen::Vector2f> GridUv(const mesh::GridAtlasLayout& layout, int64_t
 }
 
 DecodedMesh DecodeMeshPayload(std::string_view payload, const std::string& where) {
-  const std::string raw = Inflate(payload, where);
-  Reader r(raw, where);
-  const uint32_t nv = r.U32(), nf = r.U32();
-  // A bound that no decimated mesh reaches, so a damaged count cannot ask for gigabytes.
-  core::Require(nv <= (1u << 26) && nf <= (1u << 27), where, "mesh payload has impossible counts");
+  Reader r(payload, where);
   QuantizedBox box;
   for (int a = 0; a < 3; ++a) box.origin_mm[a] = r.F32();
   box.step_mm = r.F32();
   DecodedMesh out;
   out.layout.cell_px = int(r.U32());
   out.layout.columns = int(r.U32());
-  core::Require(out.layout.cell_px >= 1 && out.layout.cell_px <= 256 && out.layout.columns >= 1 &&
+  core::Require(std::isfinite(box.step_mm) && box.step_mm > 0 && out.layout.cell_px >= 1 &&
+                    out.layout.cell_px <= 256 && out.layout.columns >= 1 &&
                     out.layout.columns <= 65536,
-                where, "mesh payload's atlas grid is out of range");
-  out.layout.rows = int((int64_t(nf + 1) / 2 + out.layout.columns - 1) / out.layout.columns);
-  std::vector<uint16_t> q(size_t(nv) * 4);
-  const std::string_view vb = r.Block();
-  core::Require(meshopt_decodeVertexBuffer(q.data(), nv, 8,
-                                           reinterpret_cast<const unsigned char*>(vb.data()),
-                                           vb.size()) == 0,
-                where, "mesh payload's vertices do not decode");
-  std::vector<unsigned int> index(size_t(nf) * 3);
-  const std::string_view ib = r.Block();
-  core::Require(meshopt_decodeIndexBuffer(index.data(), index.size(), 4,
-                                          reinterpret_cast<const unsigned char*>(ib.data()),
-                                          ib.size()) == 0,
-                where, "mesh payload's triangles do not decode");
-  core::Require(r.AtEnd(), where, "mesh payload has bytes after its last field");
+                where, "mesh payload's grid or atlas layout is out of range");
+  std::vector<Grid3> points;
+  std::vector<std::array<uint32_t, 3>> faces;
+  core::Require(ReadDraco(r.Rest(), &points, &faces), where,
+                "mesh payload is not a Draco mesh with 16-bit grid positions");
+  out.layout.rows =
+      int((int64_t(faces.size() + 1) / 2 + out.layout.columns - 1) / out.layout.columns);
   io::Mesh& m = out.mesh;
-  m.vertices.resize(nv);
-  for (size_t v = 0; v < nv; ++v)
+  m.vertices.resize(points.size());
+  for (size_t v = 0; v < points.size(); ++v)
     for (int a = 0; a < 3; ++a)
-      m.vertices[v][a] = float(box.origin_mm[a] + double(q[4 * v + a]) * box.step_mm);
-  m.faces.resize(nf);
-  for (size_t f = 0; f < nf; ++f) {
+      m.vertices[v][a] = float(box.origin_mm[a] + double(points[v][a]) * box.step_mm);
+  m.faces.resize(faces.size());
+  for (size_t f = 0; f < faces.size(); ++f)
     for (int k = 0; k < 3; ++k) {
-      core::Require(index[3 * f + k] < nv, where, "mesh payload has a vertex index past the end");
-      m.faces[f][k] = int(index[3 * f + k]);
+      core::Require(faces[f][k] < points.size(), where, "mesh payload has a point past the end");
+      m.faces[f][k] = int(faces[f][k]);
     }
-  }
   return out;
 }
 

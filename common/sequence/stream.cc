@@ -96,8 +96,7 @@ std::string EncodeStream(const Sequence& seq, const StreamOptions& options,
     instants.push_back({{"name", instant.name},
                         {"timecode", instant.timecode.Text()},
                         {"start_s", instant.start_s},
-                        {"vertices", instant.textured.mesh.vertices.size()},
-                        {"triangles", instant.textured.mesh.faces.size()}});
+                        {"triangles", meshes[&instant - seq.instants.data()].source_face.size()}});
   }
   const core::Json manifest = {
       {"format", "dome4d"},
@@ -113,7 +112,7 @@ std::string EncodeStream(const Sequence& seq, const StreamOptions& options,
         {"keyframe_every", options.video.keyframe_every},
         {"colour", "bt601-limited"}}},
       {"mesh",
-       {{"codec", "meshopt-deflate"},
+       {{"codec", "draco-grid16"},
         {"origin_mm", {box.origin_mm.x(), box.origin_mm.y(), box.origin_mm.z()}},
         {"step_mm", box.step_mm}}},
       {"instants", instants}};
@@ -248,8 +247,9 @@ StreamCheck CheckStream(const Sequence& seq, std::string_view bytes, const std::
     const EncodedMesh e = EncodeMesh(it->textured.mesh, box, grid ? grid->cell_px : kCellPx);
     const io::Mesh& a = it->textured.mesh;
     const io::Mesh& b = d.textured.mesh;
-    core::Require(a.faces.size() == b.faces.size(), where,
-                  "instant " + d.name + " has another triangle count than its source");
+    core::Require(e.source_face.size() == b.faces.size(), where,
+                  "instant " + d.name + " has another triangle count than its encoding");
+    check.collapsed_triangles += int64_t(a.faces.size() - b.faces.size());
     for (size_t f = 0; f < b.faces.size(); ++f)
       for (int k = 0; k < 3; ++k) {
         const int source_vertex = a.faces[e.source_face[f]][(k + e.rotation[f]) % 3];

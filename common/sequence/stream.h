@@ -10,13 +10,13 @@
 //      "world_to_gltf": [16 numbers, column-major, mesh/gltf.h],
 //      "video": {"codec": "avc1.PPCCLL", "width": W, "height": H, "keyframe_every": K,
 //                "colour": "bt601-limited"},
-//      "mesh": {"codec": "meshopt-deflate", "origin_mm": [x, y, z], "step_mm": S},
+//      "mesh": {"codec": "draco-grid16", "origin_mm": [x, y, z], "step_mm": S},
 //      "instants": [{"name": "HH-MM-SS-FF", "timecode": "HH:MM:SS:FF", "start_s": t,
-//                    "vertices": V, "triangles": T}, ...]}
+//                    "triangles": T (as delivered)}, ...]}
 //   records, for instant 0, 1, ...: its MESH record, then its TEXF record:
 //     4 bytes tag ("MESH" or "TEXF"), u32 instant index, u32 payload length L,
 //     u32 CRC-32 of the payload (zlib's, ISO 3309), L bytes payload.
-// MESH payloads are EncodeMeshPayload's over the video frame; TEXF payloads are one
+// MESH payloads are EncodeMesh's (sequence/mesh_codec.h); TEXF payloads are one
 // Annex B access unit (the frame of that instant). With keyframe_every 1 (the default)
 // every instant decodes on its own, so a damaged or missing record costs that instant
 // only.
@@ -88,6 +88,8 @@ struct StreamCheck {
   // mesh, mm: triangles and corners keep their order, so this bounds the Hausdorff
   // distance between the two surfaces.
   double max_displacement_mm = 0;
+  // Source triangles not delivered: collapsed on the position grid (mesh_codec.h).
+  int64_t collapsed_triangles = 0;
   // PSNR of the decoded atlas against the source atlas (over the atlas, BGR), dB.
   double min_psnr_db = 0, mean_psnr_db = 0;
 };

@@ -135,6 +135,11 @@ ViewerIndex BuildIndex(const fs::path& out_dir, const std::optional<fs::path>& t
     }
     index.instants.push_back(std::move(e));
   }
+  for (const auto& entry : fs::directory_iterator(index.out_dir, ec)) {
+    if (entry.path().extension() == ".dome4d" && IsFile(entry.path()))
+      index.sequences.push_back(entry.path().filename().string());
+  }
+  std::sort(index.sequences.begin(), index.sequences.end());
   return index;
 }
 
@@ -180,13 +185,18 @@ std::string IndexJson(const ViewerIndex& index, bool packed) {
                           {"decimated", error_url(e.decimated, MeshVariant::kDecimated)}}},
                         {"cameras", std::move(files)}});
   }
-  const core::Json j = {{"format", 1},
+  core::Json j = {{"format", 1},
                         {"title", index.out_dir.filename().string()},
                         {"packed", packed},
                         {"error_range_mm", index.options.error_range_mm},
                         {"play_rate_hz", index.options.play_rate_hz},
                         {"cameras", std::move(cameras)},
                         {"instants", std::move(instants)}};
+  // A packed export is opened from file://, where the page cannot fetch (a 4D file is
+  // read as a stream): its 4D files are not offered.
+  j["sequences"] = core::Json::array();
+  if (!packed)
+    for (const std::string& s : index.sequences) j["sequences"].push_back("out/" + s);
   return core::DumpJson(j);
 }
 

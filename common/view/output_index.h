@@ -8,6 +8,7 @@
 //   OUT/<instant>/textured.obj/.mtl/.png  textured mesh, OBJ + atlas
 //   OUT/<instant>/depth/<camera>.tiff   stereo depth, 32-bit float, mm
 //   OUT/<instant>/preview/<camera>.png  colour-mapped stereo depth (dome stereo)
+//   OUT/*.dome4d                        4D files (dome export), played as a source
 // Take (optional, --take): TAKE/rig.json, TAKE/frames/<instant>/<camera>.png,
 // TAKE/truth/<instant>/mesh.ply and TAKE/truth/<instant>/depth/<camera>.tiff.
 //
@@ -87,6 +88,8 @@ struct ViewerIndex {
   IndexOptions options;
   std::vector<CameraFrustum> cameras;
   std::vector<InstantEntry> instants;  // in time order
+  // 4D files of `dome export` at OUT's top level (OUT/*.dome4d), paths in OUT, sorted.
+  std::vector<std::string> sequences;
 
   // Index of the instant with this folder name, or -1.
   int FindInstant(const std::string& name) const;
@@ -101,7 +104,8 @@ ViewerIndex BuildIndex(const std::filesystem::path& out_dir,
                        const IndexOptions& options = {});
 
 // The index as the page reads it: a JSON object (see the header comment for URLs).
-// `packed` marks an export whose binary files are wrapped in scripts (export.h).
+// `packed` marks an export whose binary files are wrapped in scripts (export.h); it
+// lists no 4D file (those play only over HTTP).
 std::string IndexJson(const ViewerIndex& index, bool packed);
 
 }  // namespace dome::view

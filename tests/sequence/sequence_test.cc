@@ -170,8 +170,16 @@ TEST(Stream, DecodesToTheSequenceWithinTheGridStep) {
   const ParsedStream parsed = ParseStream(file, "t.dome4d");
   EXPECT_EQ(parsed.manifest["instants"][2]["timecode"], "00:00:01:03");
   EXPECT_EQ(parsed.manifest["video"]["codec"].get<std::string>().substr(0, 5), "avc1.");
-  EXPECT_EQ(parsed.manifest["instants"][1]["triangles"].get<size_t>(),
-            seq.instants[1].textured.mesh.faces.size());
+  // Triangles delivered: the source's less those whose corners share a grid point.
+  const size_t delivered = parsed.manifest["instants"][1]["triangles"].get<size_t>();
+  EXPECT_LE(delivered, seq.instants[1].textured.mesh.faces.size());
+  EXPECT_GE(delivered, seq.instants[1].textured.mesh.faces.size() * 95 / 100);
+  int64_t source_triangles = 0, delivered_triangles = 0;
+  for (size_t i = 0; i < 3; ++i) {
+    source_triangles += int64_t(seq.instants[i].textured.mesh.faces.size());
+    delivered_triangles += parsed.manifest["instants"][i]["triangles"].get<int64_t>();
+  }
+  EXPECT_EQ(check.collapsed_triangles, source_triangles - delivered_triangles);
 }
 
 // Re-laying a grid atlas for the codecs' triangle order moves each triangle's texels
@@ -190,7 +198,9 @@ TEST(Stream, RelaidAtlasKeepsEveryTrianglesTexels) {
       for (int tx = 0; tx < s; ++tx)
         if ((tx + ty < s - 1 ? 0 : 1) == int(f % 2)) t.atlas.at<cv::Vec3b>(y0 + ty, x0 + tx) = colour(f);
   }
-  const EncodedMesh e = EncodeMesh(t.mesh, QuantizationFor({-50, -50, -50}, {50, 50, 50}, 0.1), s);
+  const EncodedMesh e = EncodeMesh(t.mesh, QuantizationFor({-50, -50, -50}, {50, 50, 50}, 0.01), s);
+  // On a fine grid only marching cubes' own zero-area triangles collapse.
+  EXPECT_GE(e.source_face.size(), t.mesh.faces.size() * 99 / 100);
   int rotated = 0, moved = 0;
   for (size_t f = 0; f < e.source_face.size(); ++f) {
     rotated += e.rotation[f] != 0;
@@ -211,7 +221,7 @@ TEST(Stream, RelaidAtlasKeepsEveryTrianglesTexels) {
   EXPECT_EQ(wrong, 0);
   // The payload decodes to the same triangles, corner for corner.
   const DecodedMesh d = DecodeMeshPayload(e.payload, "payload");
-  ASSERT_EQ(d.mesh.faces.size(), t.mesh.faces.size());
+  ASSERT_EQ(d.mesh.faces.size(), e.source_face.size());
   for (size_t f = 0; f < d.mesh.faces.size(); ++f)
     for (int k = 0; k < 3; ++k) {
       const auto& src = t.mesh.vertices[t.mesh.faces[e.source_face[f]][(k + e.rotation[f]) % 3]];

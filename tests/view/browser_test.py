@@ -77,11 +77,9 @@ def main():
     ap.add_argument("--dome", required=True, help="the dome executable")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
     args = ap.parse_args()
-    try:
-        cdp.find_chromium()
-        import websocket  # noqa: F401
-    except (cdp.ChromiumMissing, ImportError) as e:
-        print("SKIPPED: %s (deploy/install-deps.sh installs chromium and python3-websocket)" % e)
+    missing = cdp.missing_browser()
+    if missing:
+        print("SKIPPED: %s (deploy/install-deps.sh installs chromium and python3-websocket)" % missing)
         return SKIP
 
     t0 = time.time()

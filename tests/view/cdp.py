@@ -26,6 +26,16 @@ def find_chromium():
     raise ChromiumMissing("chromium is not installed (Debian package 'chromium')")
 
 
+def missing_browser():
+    """Why the browser tests cannot run here ("" when they can)."""
+    try:
+        find_chromium()
+        import websocket  # noqa: F401
+    except (ChromiumMissing, ImportError) as e:
+        return str(e)
+    return ""
+
+
 class Browser:
     def __init__(self, width=1000, height=700):
         import websocket  # python3-websocket

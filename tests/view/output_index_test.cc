@@ -4,6 +4,9 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 #include "view_fixture.h"
@@ -107,6 +110,23 @@ TEST(OutputIndex, JsonHasTheUrlsThePageLoads) {
   const auto& i1 = instants.values(1).struct_value().fields();
   EXPECT_TRUE(i1.at("error").struct_value().fields().at("fused").has_null_value());  // no truth
   EXPECT_TRUE(instants.values(2).struct_value().fields().at("fused").has_null_value());
+}
+
+// 4D files at OUT's top level are offered as sources, sorted; others are not.
+TEST(OutputIndex, ListsTheFourDFilesOfTheOutputFolder) {
+  dome::testing::TempDir tmp;
+  const auto f = testing::MakeViewFixture(tmp.path());
+  for (const char* name : {"b.dome4d", "a.dome4d", "notes.txt"})
+    std::ofstream(f.out / name) << "x";
+  std::filesystem::create_directories(f.out / "folder.dome4d");
+  const ViewerIndex index = BuildIndex(f.out, f.take);
+  EXPECT_EQ(index.sequences, (std::vector<std::string>{"a.dome4d", "b.dome4d"}));
+  const auto json = ParseJson(IndexJson(index, false));
+  const auto& list = json.fields().at("sequences").list_value();
+  ASSERT_EQ(list.values_size(), 2);
+  EXPECT_EQ(list.values(0).string_value(), "out/a.dome4d");
+  // A static export opens from file://, where a 4D file cannot be streamed.
+  EXPECT_EQ(ParseJson(IndexJson(index, true)).fields().at("sequences").list_value().values_size(), 0);
 }
 
 TEST(OutputIndex, WithoutATakeThereAreNoCameras) {
