@@ -105,6 +105,34 @@ TEST(Sequence, MissingInstantIsNamedOrSkipped) {
   testing::ExpectInputError([&] { LoadSequence(out.dir.path(), bad); }, {"export: fps"});
 }
 
+// `dome export` as a user runs it: a missing instant stops it, named; --skip-missing
+// writes the rest and lists what it left out; a bad format is refused by name.
+TEST(ExportCommand, NamesOrSkipsAMissingInstant) {
+  Output out;
+  WriteOutput(&out);
+  fs::remove(out.dir.path() / "00-00-01-01" / "textured.glb");
+  const fs::path file = out.dir.path() / "seq.dome4d";
+  const std::string args = "export " + out.dir.path().string() + " --out " + file.string();
+  auto run = testing::RunDomeBinary(args);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("instant 00-00-01-01"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("--skip-missing"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(file));
+  run = testing::RunDomeBinary(args + " --skip-missing --verify");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const core::Json line = core::Json::parse(run.output);
+  EXPECT_EQ(line["instants"], 2);
+  ASSERT_EQ(line["skipped"].size(), 1u);
+  EXPECT_EQ(line["skipped"][0]["instant"], "00-00-01-01");
+  EXPECT_EQ(line["verify"]["decoded"], 2);
+  EXPECT_EQ(line["bytes"].get<size_t>(), fs::file_size(file));
+  run = testing::RunDomeBinary(args + " --format usd");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("--format: must be dome4d or gltf-sequence, not 'usd'"),
+            std::string::npos)
+      << run.output;
+}
+
 // Blender (Debian's 3.4, headless) imports the file written by `dome export --format
 // gltf-sequence` as one animated scene: one frame per timeline frame, exactly one
 // instant's mesh visible at each, with that instant's decimated-mesh vertex count.
