@@ -59,9 +59,10 @@
     if (!(step > 0) || cell < 1 || cell > 256 || columns < 1 || cell * columns > width) {
       throw new Error('mesh record has a bad grid or atlas layout');
     }
+    const bytes = payload.subarray(24);
+    if (bytes.length === 0) return { position: new Float32Array(0), uv: new Float32Array(0), triangles: 0 };
     const decoder = new D.Decoder();
     const mesh = new D.Mesh();
-    const bytes = payload.subarray(24);
     try {
       const status = decoder.DecodeArrayToMesh(bytes, bytes.length, mesh);
       if (!status.ok() || mesh.ptr === 0) throw new Error('mesh record is not a Draco mesh: ' + status.error_msg());

@@ -17,9 +17,13 @@ std::string EncodeGltfSequence(const Sequence& sequence) {
   core::Json children = core::Json::array();
   nodes.push_back({{"name", "dome sequence"}, {"matrix", mesh::WorldToGltfMatrix()}});
   for (size_t i = 0; i < n; ++i) {
-    const int mesh_index = b.AddTexturedMesh(sequence.instants[i].textured, &document);
     const float s = i == 0 ? 1.0f : 0.0f;
-    nodes.push_back({{"name", sequence.instants[i].name}, {"mesh", mesh_index}, {"scale", {s, s, s}}});
+    core::Json node = {{"name", sequence.instants[i].name}, {"scale", {s, s, s}}};
+    // glTF has no empty mesh (accessors count at least 1): an instant without triangles
+    // is a node without one.
+    if (!sequence.instants[i].textured.mesh.faces.empty())
+      node["mesh"] = b.AddTexturedMesh(sequence.instants[i].textured, &document);
+    nodes.push_back(std::move(node));
     children.push_back(i + 1);
   }
   nodes[0]["children"] = children;

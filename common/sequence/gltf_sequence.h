@@ -3,7 +3,8 @@
 //
 // Layout: one root node carrying mesh/gltf.h's world-to-glTF matrix (dome's mm, z up ->
 // metres, y up), with one child node per instant (named by its HH-MM-SS-FF) holding
-// that instant's textured mesh (its own atlas, embedded PNG). One animation,
+// that instant's textured mesh (its own atlas, embedded PNG; none for an instant
+// without triangles). One animation,
 // "sequence", animates every child's scale with STEP interpolation on the keyframe
 // times of the instants (Sequence's timeline): scale 1 from its instant's start until
 // the next instant's, 0 elsewhere, so exactly one instant shows at any time. The

@@ -157,6 +157,18 @@ EncodedMesh EncodeMesh(const io::Mesh& m, const QuantizedBox& box, int cell_px) 
     const auto& t = m.faces[f];
     if (q[t[0]] != q[t[1]] && q[t[1]] != q[t[2]] && q[t[0]] != q[t[2]]) kept.push_back(int(f));
   }
+  EncodedMesh out;
+  out.layout = mesh::GridAtlasLayout::For(0, cell_px);
+  auto header = [&](std::string* payload) {
+    for (int a = 0; a < 3; ++a) PutF(payload, box.origin_mm[a]);
+    PutF(payload, box.step_mm);
+    Put32(payload, uint32_t(out.layout.cell_px));
+    Put32(payload, uint32_t(out.layout.columns));
+  };
+  if (kept.empty()) {  // an empty instant (Draco codes no empty mesh): the header alone
+    header(&out.payload);
+    return out;
+  }
   draco::TriangleSoupMeshBuilder builder;
   builder.Start(int(kept.size()));
   const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_UINT16);
@@ -174,7 +186,6 @@ EncodedMesh EncodeMesh(const io::Mesh& m, const QuantizedBox& box, int cell_px) 
   core::Require(status.ok(), "export: mesh", std::string("Draco refused it: ") + status.error_msg());
   const std::string_view draco_bytes(buffer.data(), buffer.size());
 
-  EncodedMesh out;
   // Where each payload triangle came from: decode what the page will see and match its
   // triangles to the source's by their grid corners in cyclic order.
   std::vector<Grid3> points;
@@ -205,12 +216,8 @@ EncodedMesh EncodeMesh(const io::Mesh& m, const QuantizedBox& box, int cell_px) 
     out.rotation.push_back(uint8_t((first_source - first_decoded + 3) % 3));
   }
   out.layout = mesh::GridAtlasLayout::For(int64_t(faces.size()), cell_px);
-  std::string& payload = out.payload;
-  for (int a = 0; a < 3; ++a) PutF(&payload, box.origin_mm[a]);
-  PutF(&payload, box.step_mm);
-  Put32(&payload, uint32_t(out.layout.cell_px));
-  Put32(&payload, uint32_t(out.layout.columns));
-  payload.append(draco_bytes);
+  header(&out.payload);
+  out.payload.append(draco_bytes);
   return out;
 }
 
@@ -303,7 +310,8 @@ DecodedMesh DecodeMeshPayload(std::string_view payload, const std::string& where
                 where, "mesh payload's grid or atlas layout is out of range");
   std::vector<Grid3> points;
   std::vector<std::array<uint32_t, 3>> faces;
-  core::Require(ReadDraco(r.Rest(), &points, &faces), where,
+  const std::string_view rest = r.Rest();
+  core::Require(rest.empty() || ReadDraco(rest, &points, &faces), where,
                 "mesh payload is not a Draco mesh with 16-bit grid positions");
   out.layout.rows =
       int((int64_t(faces.size() + 1) / 2 + out.layout.columns - 1) / out.layout.columns);

@@ -20,7 +20,8 @@
 //   u32 cell_px, u32 columns          the atlas grid (GridAtlasLayout), at the top-left of
 //                                     the video frame
 //   the rest                          a Draco mesh (edgebreaker) whose POSITION attribute
-//                                     is q, 3 x uint16, no other attribute
+//                                     is q, 3 x uint16, no other attribute; nothing for
+//                                     an instant without triangles
 #pragma once
 
 #include <Eigen/Core>

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -284,6 +285,29 @@ TEST(Stream, TruncatedOrDamagedRecordsNameTheirInstant) {
                             {"z.dome4d", "not a dome 4D file"});
   testing::ExpectInputError([&] { ParseStream(file.substr(0, 40), "h.dome4d"); },
                             {"h.dome4d", "ends inside its manifest"});
+}
+
+// An instant whose mesh is empty (the volume missed the scene) travels as an empty
+// instant; the others are unaffected.
+TEST(Stream, AnEmptyInstantStaysEmpty) {
+  Output out;
+  WriteOutput(&out);
+  Sequence seq = LoadSequence(out.dir.path(), {});
+  seq.instants[1].textured.mesh = io::Mesh();
+  seq.instants[1].textured.uv.clear();
+  seq.instants[1].textured.atlas = cv::Mat(8, 8, CV_8UC3, cv::Scalar(128, 128, 128));
+  const StreamCheck check = CheckStream(seq, EncodeStream(seq, {}, nullptr), "e.dome4d");
+  EXPECT_EQ(check.decoded, 3);
+  EXPECT_TRUE(check.broken.empty());
+  // In the glTF sequence it is a node without a mesh (glTF has no empty mesh).
+  const std::string glb = EncodeGltfSequence(seq);
+  uint32_t json_length = 0;
+  std::memcpy(&json_length, glb.data() + 12, 4);
+  const core::Json j = core::Json::parse(glb.substr(20, json_length));
+  EXPECT_TRUE(j["nodes"][1].contains("mesh"));
+  EXPECT_FALSE(j["nodes"][2].contains("mesh"));
+  EXPECT_EQ(j["nodes"][2]["name"], "00-00-01-01");
+  EXPECT_EQ(j["meshes"].size(), 2u);
 }
 
 TEST(Stream, BadOptionsAreNamed) {
