@@ -11,7 +11,6 @@ map, that error colouring loads, and that the static export draws from file://.
 Exit 0: passed; 1: failed; 77: skipped (Chromium or python3-websocket absent).
 """
 
-import argparse
 import json
 import os
 import shutil
@@ -22,8 +21,6 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import cdp  # noqa: E402
-
-SKIP = 77
 
 
 def label_of(name):
@@ -73,14 +70,9 @@ def wait_settled(b, index, timeout_s=60):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dome", required=True, help="the dome executable")
-    ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
-    args = ap.parse_args()
-    missing = cdp.missing_browser()
-    if missing:
-        print("SKIPPED: %s (deploy/install-deps.sh installs chromium and python3-websocket)" % missing)
-        return SKIP
+    args = cdp.test_arguments()
+    if args is None:
+        return cdp.SKIP
 
     t0 = time.time()
     tmp = tempfile.mkdtemp(prefix="dome_view_browser_")

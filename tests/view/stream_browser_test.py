@@ -11,7 +11,6 @@ instant while the others play, looping past it.
 Exit 0: passed; 1: failed; 77: skipped (Chromium or python3-websocket absent).
 """
 
-import argparse
 import http.server
 import os
 import re
@@ -78,14 +77,9 @@ class TrickleProxy:
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dome", required=True, help="the dome executable")
-    ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
-    args = ap.parse_args()
-    missing = cdp.missing_browser()
-    if missing:
-        print("SKIPPED: %s (deploy/install-deps.sh installs chromium and python3-websocket)" % missing)
-        return browser_test.SKIP
+    args = cdp.test_arguments()
+    if args is None:
+        return cdp.SKIP
 
     t0 = time.time()
     tmp = tempfile.mkdtemp(prefix="dome_stream_browser_")
