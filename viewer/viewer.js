@@ -80,9 +80,11 @@
 
   // ---- Scene ------------------------------------------------------------------------
 
-  // Multisampling on a software rasterizer (Chromium's SwiftShader without a GPU, Mesa's
-  // llvmpipe) costs more than half the frame rate (1280x800, the demo's 4D file: 15 fps
-  // with it, 32 without), so it is on only where a GPU draws; ?aa=0 / ?aa=1 override.
+  // On a software rasterizer (Chromium's SwiftShader without a GPU, Mesa's llvmpipe)
+  // multisampling costs more than half the frame rate (1280x800, the demo's 4D file: 15
+  // fps with it, 32 without), so it is on only where a GPU draws (?aa=0 / ?aa=1
+  // override), and the frusta are drawn as edges only (their translucent faces, still
+  // picked by a click, cost a quarter of it).
   function softwareRasterizer() {
     try {
       const gl = document.createElement('canvas').getContext('webgl');
@@ -95,7 +97,8 @@
       return false;
     }
   }
-  const antialias = query.has('aa') ? query.get('aa') !== '0' : !softwareRasterizer();
+  const software = softwareRasterizer();
+  const antialias = query.has('aa') ? query.get('aa') !== '0' : !software;
   const renderer = new THREE.WebGLRenderer({ antialias });
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setClearColor(BACKGROUND);
@@ -139,7 +142,7 @@
       o, k[0], k[1], o, k[1], k[2], o, k[2], k[3], o, k[3], k[0], k[0], k[1], k[2], k[0], k[2], k[3]]);
     const pick = new THREE.Mesh(faces, new THREE.MeshBasicMaterial({
       color: FRUSTUM_COLOUR, transparent: true, opacity: 0.12, side: THREE.DoubleSide,
-      depthWrite: false }));
+      depthWrite: false, visible: !software }));
     pick.userData.camera = c;
     edge.userData.camera = c;
     frusta.add(edge, pick);
@@ -624,7 +627,7 @@
       index: state.index, timecode: ui.timecode.textContent, status: ui.status.textContent,
       settled: state.settled, missing: state.missing, drawnInstant: state.drawnInstant,
       shown: state.shown, frames: state.frames, firstDrawMs: state.firstDrawMs,
-      playing: state.playing, instants: INDEX.instants.length, antialias,
+      playing: state.playing, instants: INDEX.instants.length, antialias, software,
       errorColoured: !!(state.drawnEntry && state.drawnEntry.errorColours && state.colouring === 'error'),
       stats: ui.stats.textContent,
       sequence: state.sequence && {

@@ -82,6 +82,7 @@ def sequence_playback(b, url, speed, cameras):
     n = b.eval("domeViewer.state().sequence.instants.length")
     b.eval("domeViewer.setLoop(false); domeViewer.setSpeed(%g); domeViewer.show(0)" % speed)
     b.wait_for("domeViewer.state().drawnInstant === 0", 60)
+    time.sleep(1.0)  # the page's first frames after a change compile its shaders
     t0 = b.eval("performance.now()")
     b.eval("domeViewer.setPlaying(true)")
     seen, frames, deadline = set(), [], time.time() + 120
