@@ -14,29 +14,23 @@
 #include <vector>
 
 #include "core/error.h"
+#include "sequence/le_bytes.h"
 
 namespace dome::sequence {
 namespace {
 
-void Put32(std::string* out, uint32_t v) { out->append(reinterpret_cast<const char*>(&v), 4); }
-void PutF(std::string* out, float v) { out->append(reinterpret_cast<const char*>(&v), 4); }
 
 // Reads the payload's fields in order; every read is bounds-checked.
 class Reader {
  public:
   Reader(std::string_view bytes, const std::string& where) : bytes_(bytes), where_(where) {}
-  uint32_t U32() {
-    uint32_t v;
-    std::memcpy(&v, Take(4).data(), 4);
-    return v;
-  }
+  uint32_t U32() { return GetU32(Take(4), 0); }
   float F32() {
     float v;
     std::memcpy(&v, Take(4).data(), 4);
     return v;
   }
   std::string_view Rest() { return Take(bytes_.size() - at_); }
-  bool AtEnd() const { return at_ == bytes_.size(); }
 
  private:
   std::string_view Take(size_t n) {
@@ -160,10 +154,10 @@ EncodedMesh EncodeMesh(const io::Mesh& m, const QuantizedBox& box, int cell_px) 
   EncodedMesh out;
   out.layout = mesh::GridAtlasLayout::For(0, cell_px);
   auto header = [&](std::string* payload) {
-    for (int a = 0; a < 3; ++a) PutF(payload, box.origin_mm[a]);
-    PutF(payload, box.step_mm);
-    Put32(payload, uint32_t(out.layout.cell_px));
-    Put32(payload, uint32_t(out.layout.columns));
+    for (int a = 0; a < 3; ++a) PutF32(payload, box.origin_mm[a]);
+    PutF32(payload, box.step_mm);
+    PutU32(payload, uint32_t(out.layout.cell_px));
+    PutU32(payload, uint32_t(out.layout.columns));
   };
   if (kept.empty()) {  // an empty instant (Draco codes no empty mesh): the header alone
     header(&out.payload);

@@ -3,13 +3,12 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <cstring>
-#include <deque>
 #include <limits>
+#include <opencv2/core.hpp>
 
 #include "core/error.h"
 #include "mesh/gltf.h"
-#include <opencv2/core.hpp>
+#include "sequence/le_bytes.h"
 
 namespace dome::sequence {
 
@@ -24,21 +23,15 @@ uint32_t Crc(std::string_view bytes) {
   return uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), uInt(bytes.size())));
 }
 
-void Put32(std::string* out, uint32_t v) { out->append(reinterpret_cast<const char*>(&v), 4); }
 
 void PutRecord(std::string* out, const char* tag, uint32_t instant, std::string_view payload) {
   out->append(tag, 4);
-  Put32(out, instant);
-  Put32(out, uint32_t(payload.size()));
-  Put32(out, Crc(payload));
+  PutU32(out, instant);
+  PutU32(out, uint32_t(payload.size()));
+  PutU32(out, Crc(payload));
   out->append(payload);
 }
 
-uint32_t Get32(std::string_view bytes, size_t at) {
-  uint32_t v;
-  std::memcpy(&v, bytes.data() + at, 4);
-  return v;
-}
 
 int Even(int v) { return v + (v & 1); }
 
@@ -118,7 +111,7 @@ std::string EncodeStream(const Sequence& seq, const StreamOptions& options,
       {"instants", instants}};
   const std::string json = core::DumpJson(manifest);
   std::string out(kStreamMagic, 8);
-  Put32(&out, uint32_t(json.size()));
+  PutU32(&out, uint32_t(json.size()));
   out += json;
   for (size_t i = 0; i < seq.instants.size(); ++i) {
     DOME_CHECK(!frames[i].empty(), "libx264 returned no packet for a frame");
@@ -135,7 +128,7 @@ std::string EncodeStream(const Sequence& seq, const StreamOptions& options,
 ParsedStream ParseStream(std::string_view bytes, const std::string& where) {
   core::Require(bytes.size() >= 12 && bytes.substr(0, 8) == std::string_view(kStreamMagic, 8),
                 where, "is not a dome 4D file (no DOME4D header)");
-  const size_t m = Get32(bytes, 8);
+  const size_t m = GetU32(bytes, 8);
   core::Require(m <= bytes.size() - 12, where, "ends inside its manifest");
   ParsedStream out;
   try {
@@ -155,8 +148,8 @@ ParsedStream ParseStream(std::string_view bytes, const std::string& where) {
       break;
     }
     const std::string_view tag = bytes.substr(at, 4);
-    const uint32_t instant = Get32(bytes, at + 4), length = Get32(bytes, at + 8),
-                   crc = Get32(bytes, at + 12);
+    const uint32_t instant = GetU32(bytes, at + 4), length = GetU32(bytes, at + 8),
+                   crc = GetU32(bytes, at + 12);
     const bool mesh = tag == "MESH";
     if ((!mesh && tag != "TEXF") || instant >= out.instants.size()) {
       // Framing lost: nothing after this point can be trusted.

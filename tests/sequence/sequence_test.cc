@@ -20,6 +20,7 @@
 #include "sequence/mesh_codec.h"
 #include "sequence/sequence.h"
 #include "sequence/stream.h"
+#include "sequence/video.h"
 #include "testing/expect_error.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
@@ -323,6 +324,44 @@ TEST(Stream, BadOptionsAreNamed) {
   o = {};
   o.step_mm = -1;
   testing::ExpectInputError([&] { o.Check(); }, {"export: step_mm"});
+  o = {};
+  o.video.threads = -2;
+  testing::ExpectInputError([&] { o.Check(); }, {"export: threads"});
+  // An atlas grid past what H.264 4:2:0 frames hold.
+  testing::ExpectInputError([&] { VideoEncoder(8194, 8, 30, {}); },
+                            {"export: video frame", "8192"});
+}
+
+// Damaged input the CRC cannot catch (a payload or manifest written wrong) is named.
+TEST(Stream, MalformedPayloadsAndManifestsAreNamed) {
+  testing::ExpectInputError([&] { DecodeMeshPayload("short", "m"); }, {"m", "ends early"});
+  std::string header;
+  for (float v : {0.0f, 0.0f, 0.0f, 1.0f}) header.append(reinterpret_cast<const char*>(&v), 4);
+  for (uint32_t v : {8u, 4u}) header.append(reinterpret_cast<const char*>(&v), 4);
+  testing::ExpectInputError([&] { DecodeMeshPayload(header + "not draco at all", "m"); },
+                            {"m", "not a Draco mesh"});
+  std::string bad_grid = header;
+  const uint32_t zero = 0;
+  bad_grid.replace(16, 4, reinterpret_cast<const char*>(&zero), 4);
+  testing::ExpectInputError([&] { DecodeMeshPayload(bad_grid, "m"); }, {"m", "out of range"});
+  auto file_with = [](const std::string& manifest) {
+    std::string f(kStreamMagic, 8);
+    const uint32_t n = uint32_t(manifest.size());
+    f.append(reinterpret_cast<const char*>(&n), 4);
+    return f + manifest;
+  };
+  testing::ExpectInputError([&] { ParseStream(file_with(R"({"format": "mp4"})"), "f.dome4d"); },
+                            {"f.dome4d", "manifest"});
+  testing::ExpectInputError([&] { ParseStream(file_with("{not json"), "f.dome4d"); },
+                            {"f.dome4d", "manifest"});
+}
+
+TEST(Sequence, UnreadableReportIsNamed) {
+  Output out;
+  WriteOutput(&out);
+  io::WriteFileAtomically(out.dir.path() / "report.json", R"({"volume": {}})");
+  testing::ExpectInputError([&] { LoadSequence(out.dir.path(), {}); },
+                            {"report.json", "volume.voxel_size_mm"});
 }
 
 }  // namespace
