@@ -1,5 +1,6 @@
 #include "cli/client.h"
 
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -11,34 +12,15 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/parallel_for.h"
 #include "io/file_util.h"
+#include "net/events.h"
 #include "net/wire.h"
 #include "worker/worker.h"
 
 namespace dome::client {
 using Clock = std::chrono::steady_clock;
-
-namespace {
-// Waits up to wait_ms for status events on `sub`, then hands every queued StatusEvent
-// to on_event. Messages that do not decode are skipped: the events socket is
-// best-effort progress, and the control socket stays the source of truth.
-template <class OnEvent>
-void DrainStatusEvents(zmq::socket_t* sub, const std::string& events, int64_t max_bytes,
-                       int wait_ms, OnEvent on_event) {
-  net::WaitForInput(sub, wait_ms);
-  zmq::message_t m;
-  while (sub->recv(m, zmq::recv_flags::dontwait)) {
-    runtime::Envelope env;
-    try {
-      env = net::DecodeEnvelope(m.to_string_view(), "status " + events, max_bytes);
-    } catch (const core::InputError&) {
-      continue;
-    }
-    if (env.has_status()) on_event(env.status());
-  }
-}
-}  // namespace
 
 runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoint,
                               const runtime::ControlRequest& request, int timeout_ms,
@@ -119,6 +101,36 @@ std::map<std::string, std::string> SessionOutputFiles(const std::filesystem::pat
   return files;
 }
 
+std::string EmptySurfaceWarning(const std::filesystem::path& out) {
+  core::Json report;
+  try {
+    report = core::Json::parse(io::ReadFileBytes(out / "report.json"));
+  } catch (const std::exception&) {
+    return "";  // not here, or not a report: nothing to say about it
+  }
+  const core::Json empty = report.value("empty_surfaces", core::Json::object());
+  const int count = empty.value("count", 0);
+  if (count <= 0) return "";
+  std::string names;
+  for (const auto& i : empty.value("instants", core::Json::array())) {
+    names += (names.empty() ? "" : ", ") + i.get<std::string>();
+  }
+  std::string box = "the session's volume";
+  const core::Json v = report.value("volume", core::Json::object());
+  const auto origin = v.value("origin_mm", std::vector<double>{});
+  const auto dims = v.value("dims", std::vector<double>{});
+  const double voxel = v.value("voxel_size_mm", 0.0);
+  if (origin.size() == 3 && dims.size() == 3) {
+    box = fmt::format("the volume [{:.0f} {:.0f} {:.0f}] .. [{:.0f} {:.0f} {:.0f}] mm", origin[0],
+                      origin[1], origin[2], origin[0] + dims[0] * voxel,
+                      origin[1] + dims[1] * voxel, origin[2] + dims[2] * voxel);
+  }
+  return fmt::format(
+      "{} of {} instants ended with an empty surface ({}): no camera saw a surface inside {}; "
+      "it may miss the scene (dome run --box)",
+      count, report.value("instants", 0), names, box);
+}
+
 namespace {
 
 // How long a watch keeps asking a master that stopped answering (restarting), s.
@@ -139,13 +151,9 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
                                       const std::string& events, const std::string& id,
                                       std::FILE* out, int poll_ms,
                                       const net::SocketOptions& options) {
-  std::unique_ptr<zmq::socket_t> sub;
-  if (!events.empty()) {
-    sub = std::make_unique<zmq::socket_t>(*context, zmq::socket_type::sub);
-    net::ConfigureSocket(sub.get(), options);
-    sub->set(zmq::sockopt::subscribe, "");
-    sub->connect(events);
-  }
+  // Events are best-effort progress; the control socket stays the source of truth.
+  std::unique_ptr<net::EventSubscription> sub;
+  if (!events.empty()) sub = std::make_unique<net::EventSubscription>(context, events, options);
   const auto start = Clock::now();
   auto next_poll = start;
   int first_done = -1;
@@ -181,8 +189,8 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
       std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
       continue;
     }
-    DrainStatusEvents(
-        sub.get(), events, options.max_message_bytes, poll_ms, [&](const runtime::StatusEvent& ev) {
+    sub->Drain(
+        poll_ms, [&](const runtime::StatusEvent& ev) {
           if (out != nullptr && ev.has_capture()) {
             std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
             std::fflush(out);
@@ -287,10 +295,7 @@ std::map<std::string, runtime::CaptureStatus> WatchCapture(zmq::context_t* conte
                                                            std::FILE* out, int cameras,
                                                            int timeout_ms,
                                                            const net::SocketOptions& options) {
-  zmq::socket_t sub(*context, zmq::socket_type::sub);
-  net::ConfigureSocket(&sub, options);
-  sub.set(zmq::sockopt::subscribe, "");
-  sub.connect(events);
+  net::EventSubscription sub(context, events, options);
   std::map<std::string, runtime::CaptureStatus> last;
   const auto end = Clock::now() + std::chrono::milliseconds(timeout_ms);
   auto finished = [&] {
@@ -299,15 +304,14 @@ std::map<std::string, runtime::CaptureStatus> WatchCapture(zmq::context_t* conte
     return cameras > 0 && n >= cameras;
   };
   while (!finished() && (timeout_ms <= 0 || Clock::now() < end)) {
-    DrainStatusEvents(&sub, events, options.max_message_bytes, 100,
-                      [&](const runtime::StatusEvent& ev) {
-                        if (!ev.has_capture()) return;
-                        last[ev.capture().camera_id()] = ev.capture();
-                        if (out != nullptr) {
-                          std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
-                          std::fflush(out);
-                        }
-                      });
+    sub.Drain(100, [&](const runtime::StatusEvent& ev) {
+      if (!ev.has_capture()) return;
+      last[ev.capture().camera_id()] = ev.capture();
+      if (out != nullptr) {
+        std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
+        std::fflush(out);
+      }
+    });
   }
   return last;
 }

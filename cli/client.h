@@ -1,5 +1,5 @@
 // The `dome` client side of the runtime: requests on the master's control socket
-// (REQ), progress from its status socket (SUB), and the embedded cluster that `dome
+// (REQ), progress from its status socket (net/events.h), and the embedded cluster that `dome
 // run` starts when no --master is given (a Master and N Workers in this process,
 // over inproc:// sockets: the same scheduler and messages as the distributed run).
 #pragma once
@@ -37,6 +37,13 @@ std::string FormatStatus(const runtime::SessionStatus& status);
 // report, whose timings differ, or session.json, which names the folder). For tests
 // and benchmarks that compare runs.
 std::map<std::string, std::string> SessionOutputFiles(const std::filesystem::path& out);
+
+// The warning `dome run` ends with when instants of a finished session have an empty
+// surface (OUT/report.json "empty_surfaces", master/master.h): how many of how many,
+// which, and the volume (report.json "volume", world mm) that probably misses the
+// scene. "" when there are none, or when OUT/report.json is not readable here (a
+// remote master's folder) or not such a report.
+std::string EmptySurfaceWarning(const std::filesystem::path& out);
 
 // Follows a session until it is done, failed or cancelled: prints progress from the
 // status socket to `out` (null: silent) with job rates and an ETA, asks the control

@@ -102,11 +102,16 @@ runtime::Session MakeSession(const SessionArgs& a) {
   if (a.no_preview) s.set_write_previews(false);
   a.stereo->Apply(s.mutable_stereo());
   a.fusion->Apply(s.mutable_fusion());
-  pipeline::ResolveSessionOptions(s, "session");  // bad options fail here, not remotely
+  // Bad options fail here, not remotely, with the messages of the same values in a
+  // session file (one place: pipeline::ResolveSessionOptions). A take derived here has
+  // them checked by DeriveSession first, against the volume derived for it rather than
+  // the seed's cube.
+  const bool derive = !s.has_noop_jobs() && fs::is_directory(s.take());
+  if (!derive) pipeline::ResolveSessionOptions(s, "session");
   // What the user left unset, derived from the take (pipeline/derive.h) here, so that
   // the master and the journal see explicit values.
   // A take this machine cannot read (a remote master's path) is submitted as it is.
-  if (!s.has_noop_jobs() && !fs::is_directory(s.take())) {
+  if (!s.has_noop_jobs() && !derive) {
     core::Require(a.box.empty(), "--box", "needs the take readable on this machine");
     spdlog::warn(
         "{}: not a folder here, so nothing is derived from it: the master's defaults "
@@ -164,6 +169,17 @@ int ExitCodeFor(const runtime::SessionStatus& st) {
   return st.state() == "done" ? 0 : 1;
 }
 
+// The end of `dome run`: the status, then a warning when instants ended with an empty
+// surface (not an error, but usually a volume that misses the scene: said last, where
+// the user looks, from OUT/report.json when this machine can read it).
+int EndOfRun(const runtime::SessionStatus& st, const std::string& out) {
+  const int code = ExitCodeFor(st);
+  if (const std::string w = client::EmptySurfaceWarning(out); !w.empty()) {
+    spdlog::warn("{}: {}", out, w);
+  }
+  return code;
+}
+
 // Sends one control request and prints the sessions of the reply; the exit code.
 int RequestAndPrintSessions(const MasterArgs& m, const runtime::ControlRequest& req) {
   const net::SocketOptions socket = m.Socket();
@@ -202,7 +218,7 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
   cmd->callback([=] {
     const runtime::Session session = MakeSession(*a);
     if (master->count() == 0) {
-      *exit_code = ExitCodeFor(client::RunEmbedded(session, *e, stdout));
+      *exit_code = EndOfRun(client::RunEmbedded(session, *e, stdout), session.out());
       return;
     }
     const net::SocketOptions socket = m->Socket();
@@ -211,8 +227,9 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
     *req.mutable_submit()->mutable_session() = session;
     const auto reply = client::Request(&context, m->master, req, 10000, socket);
     std::printf("session %s\n", reply.session_id().c_str());
-    *exit_code = ExitCodeFor(client::WaitForSession(&context, m->master, m->Events(),
-                                                    reply.session_id(), stdout, 500, socket));
+    *exit_code = EndOfRun(client::WaitForSession(&context, m->master, m->Events(),
+                                                 reply.session_id(), stdout, 500, socket),
+                          session.out());
   });
 }
 

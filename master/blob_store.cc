@@ -119,4 +119,14 @@ void BlobStore::Drop(const std::string& sha256) {
   entries_.erase(it);
 }
 
+void BlobStore::Forget(const std::string& sha256) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_.erase(sha256);
+}
+
+size_t BlobStore::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
+}
+
 }  // namespace dome::scheduler

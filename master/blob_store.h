@@ -32,6 +32,12 @@ class BlobStore {
   std::optional<runtime::BlobRef> Find(const std::string& sha256) const;
   // Forgets a blob; removes its file when the store wrote it under an output folder.
   void Drop(const std::string& sha256);
+  // Forgets a blob and leaves its files alone (the outputs of a session that ended stay
+  // in its folder for a later resume, its take files where they are): the next session
+  // that reads or writes these bytes adds them again.
+  void Forget(const std::string& sha256);
+  // Blobs remembered (count).
+  size_t size() const;
 
  private:
   struct Entry {

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <optional>
@@ -30,10 +31,11 @@
 #include "master/journal.h"
 #include "master/offload.h"
 #include "net/content_hash.h"
+#include "net/events.h"
 #include "net/log_throttle.h"
 #include "net/security.h"
-#include "pipeline/stages.h"
 #include "pipeline/session.h"
+#include "pipeline/stages.h"
 #include "schema/json.h"
 
 namespace dome::scheduler {
@@ -75,10 +77,33 @@ namespace {
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
+// The vertex count in the header of a PLY file (its "element vertex N" line, within
+// the first 4 KiB: the header the surface stage writes is a few hundred bytes); -1
+// when the file is missing or has no such line. Only the header is read: the report
+// counts the empty surfaces of every instant, resumed ones included, without reading
+// their meshes.
+int64_t PlyVertexCount(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return -1;
+  std::string head(4096, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(size_t(in.gcount()));
+  const std::string key = "\nelement vertex ";
+  const size_t at = head.find(key);
+  const size_t end = head.find("end_header");
+  if (at == std::string::npos || (end != std::string::npos && at > end)) return -1;
+  try {
+    return std::stoll(head.substr(at + key.size(), 20));
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
 // What a refusal is about, for throttling its log lines: the message without its
-// quoted parts and numbers of three digits or more ("message of 4500000 bytes ..." and
-// "unknown job id 'x'" each count as one cause however they vary; "protocol version
-// 4" stays apart from "protocol version 3091264").
+// quoted parts and numbers ("message of 4500000 bytes ...", "message of 73 bytes ..."
+// and "unknown job id 'x'" each count as one cause however they vary: random bytes of
+// a hundred lengths made a hundred lines), except a protocol version's ("protocol
+// version 4" stays apart from "protocol version 3091264").
 std::string Cause(const std::string& message) {
   std::string cause;
   bool quoted = false;
@@ -89,7 +114,8 @@ std::string Cause(const std::string& message) {
     while (i + digits < message.size() && std::isdigit((unsigned char)message[i + digits])) {
       ++digits;
     }
-    if (digits >= 3 || (quoted && c != '\'')) {
+    const bool version = digits > 0 && i >= 8 && message.compare(i - 8, 8, "version ") == 0;
+    if ((digits > 0 && !version) || (quoted && c != '\'')) {
       i += std::max<size_t>(digits, 1);
       continue;
     }
@@ -208,8 +234,8 @@ struct SessionRec {
 // the loop, and records lost to a power cut only redo their (idempotent) jobs.
 constexpr auto kJournalSyncInterval = std::chrono::milliseconds(50);
 
-// The longest message the events socket takes (Bind): the handshake and a
-// subscription to "", in plaintext and in CURVE's framing.
+// The longest message the events socket takes (Bind): the handshake and a subscriber's
+// Heartbeat or Disconnect (net/events.h), in plaintext and in CURVE's framing.
 constexpr int kMaxSubscriptionBytes = 64;
 constexpr int kMaxCurveSubscriptionBytes = 512;
 
@@ -221,6 +247,7 @@ struct Master::Impl {
   const pipeline::StageSet& stages;
   MasterEndpoints endpoints;
   zmq::socket_t workers_socket, control_socket, events_socket;
+  std::unique_ptr<net::EventSubscribers> subscribers;  // of events_socket
   std::unique_ptr<net::HandshakeLog> handshake_log;  // after the sockets: destroyed first
   std::map<std::string, WorkerRec> workers;
   std::map<std::string, std::unique_ptr<SessionRec>> sessions;
@@ -241,12 +268,13 @@ struct Master::Impl {
         stages(*o.stages),
         workers_socket(*ctx, zmq::socket_type::router),
         control_socket(*ctx, zmq::socket_type::router),
-        events_socket(*ctx, zmq::socket_type::pub),
+        events_socket(*ctx, zmq::socket_type::router),
         offload(WriterThreads(o)) {
     Bind(&workers_socket, options.worker_endpoint, "--bind", net::kRoleWorker, &endpoints.workers);
     Bind(&control_socket, options.control_endpoint, "--control", net::kRoleClient,
          &endpoints.control);
     Bind(&events_socket, options.events_endpoint, "--events", net::kRoleClient, &endpoints.events);
+    subscribers = std::make_unique<net::EventSubscribers>(&events_socket);
     handshake_log = std::make_unique<net::HandshakeLog>(
         ctx,
         std::vector<std::pair<zmq::socket_t*, std::string>>{
@@ -259,7 +287,7 @@ struct Master::Impl {
                             [this](const runtime::StatusEvent& ev) {
                               runtime::Envelope env;
                               *env.mutable_status() = ev;
-                              net::SendFrames(&events_socket, {net::EncodeEnvelope(env)});
+                              subscribers->Publish(env);
                             });
       endpoints.capture = capture_ingest->endpoint();
     }
@@ -280,16 +308,12 @@ struct Master::Impl {
     socket.zap_domain = role;
     net::ConfigureSocket(s, socket);
     if (s == &events_socket) {
-      // Status events carry no topic: every subscriber subscribes to everything ("").
-      // A subscription is a message to this socket (ZMTP 3.1: the SUBSCRIBE command, 10
-      // bytes, and its topic); capping what the socket takes drops a peer that sends a
-      // long topic, so that no peer has the master keep them: held, 10,000 distinct
-      // 10 KB topics took about 650 MB of ZeroMQ's subscription trie. The cap must pass
-      // the handshake's READY command (about 40 bytes: the socket type and identity), so
-      // plaintext topics of up to 54 bytes get through; CURVE frames its handshake and
-      // messages in commands of a few hundred bytes, so there it is 512 (from peers the
-      // allow-list lets in as clients). Set before bind: a listener copies the options
-      // its connections get.
+      // A subscriber sends only Heartbeats and a Disconnect (net/events.h: a few bytes
+      // each), so the socket drops a peer that sends anything long before it is read.
+      // The cap must pass the handshake's READY command (about 40 bytes: the socket type
+      // and identity); CURVE frames its handshake and messages in commands of a few
+      // hundred bytes, so there it is 512 (from peers the allow-list lets in as
+      // clients). Set before bind: a listener copies the options its connections get.
       s->set(zmq::sockopt::maxmsgsize,
              int64_t{socket.curve_server() ? kMaxCurveSubscriptionBytes : kMaxSubscriptionBytes});
     }
@@ -362,7 +386,7 @@ struct Master::Impl {
       }
     }
     ev->set_message(message);
-    net::SendFrames(&events_socket, {net::EncodeEnvelope(env)});
+    subscribers->Publish(env);
   }
 
   // ---- sessions -----------------------------------------------------------------------
@@ -791,6 +815,47 @@ struct Master::Impl {
     DropQueued(s);
     AbortMasterStages(s);
     Publish(*s, -1, error);
+    Retire(s);
+  }
+
+  // A session that ended keeps what its status and report need (its plan, graph and
+  // counts) and lets go of the rest: its journal (file and records), its bookkeeping of
+  // jobs, and the blob store's entries for its take files and outputs that no running
+  // session reads (their files stay where they are). Without this every ended session
+  // stayed whole in the master for good: an open file and a record per job each, and a
+  // blob entry per take file of every take ever submitted.
+  void Retire(SessionRec* s) {
+    if (s->journal) {
+      try {
+        s->journal->Sync();
+      } catch (const core::InputError& e) {
+        spdlog::warn("session {}: {}", s->id, e.what());  // it ended already
+      }
+      s->journal.reset();
+    }
+    std::set<std::string> shas = s->input_shas;
+    for (const auto& [node, outs] : s->outputs) {
+      for (const auto& o : outs) shas.insert(o.sha256());
+    }
+    ForgetBlobsNoRunningSessionReads(std::move(shas));
+    s->outputs.clear();
+    s->input_shas.clear();
+    s->running_on.clear();
+    s->losses.clear();
+    s->input_bytes.clear();
+    s->dispatched_at.clear();
+  }
+
+  // Forgets those of `shas` that no running session reads (as a take file or an output).
+  void ForgetBlobsNoRunningSessionReads(std::set<std::string> shas) {
+    for (const auto& [id, other] : sessions) {
+      if (!other->running()) continue;
+      for (const auto& sha : other->input_shas) shas.erase(sha);
+      for (const auto& [node, outs] : other->outputs) {
+        for (const auto& o : outs) shas.erase(o.sha256());
+      }
+    }
+    for (const auto& sha : shas) blobs.Forget(sha);
   }
 
   // Forgets the jobs of a session that ended; their workers drop them (a running one
@@ -828,6 +893,7 @@ struct Master::Impl {
         "session {} done in {:.2f} s ({} jobs, {} re-queued, {} duplicate results dropped)", s->id,
         s->finished_s, s->graph->size(), s->requeued, s->duplicates);
     Publish(*s, -1, "done");
+    Retire(s);
   }
 
   void WriteReport(const SessionRec& s) {
@@ -880,12 +946,22 @@ struct Master::Impl {
     // Clean output over the session: what the decimate stage dropped before decimating
     // (OUT/<instant>/decimation.json, on disk also for instants resumed from the journal).
     int64_t specks = 0, speck_triangles = 0, surface_triangles = 0, decimated = 0;
+    // Instants whose surface has no vertex: not an error (an instant may be empty), but
+    // usually a volume that misses the scene; counted so that `dome run` can say so.
+    std::vector<std::string> empty_surfaces;
     for (int t = 0; t < instants; ++t) {
       const auto& is = s.instant_stats[t];
       core::Json entry = {
           {"instant", s.plan.instants[t]},
           {"seconds", (is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
           {"done_at_seconds", (is.done)}};
+      if (const int64_t vertices =
+              PlyVertexCount(s.out() / s.plan.instants[t] / pipeline::kMeshPly);
+          vertices >= 0) {
+        entry["surface_vertices"] = vertices;
+        entry["empty_surface"] = vertices == 0;
+        if (vertices == 0) empty_surfaces.push_back(s.plan.instants[t]);
+      }
       const fs::path summary = s.out() / s.plan.instants[t] / pipeline::kDecimationJson;
       std::error_code ec;
       if (fs::is_regular_file(summary, ec)) {
@@ -904,6 +980,7 @@ struct Master::Impl {
       per_instant.push_back(std::move(entry));
     }
     j["per_instant"] = per_instant;
+    j["empty_surfaces"] = {{"count", empty_surfaces.size()}, {"instants", empty_surfaces}};
     if (decimated > 0) {
       j["clean"] = {{"instants", decimated},
                     {"specks_removed", specks},
@@ -1187,7 +1264,13 @@ struct Master::Impl {
   void Accepted(SessionRec* s, int node, const std::string& id, const std::string& name,
                 const runtime::JobResult& r, const pipeline::StoredResult& stored) {
     const JobNode& n = s->graph->node(node);
-    if (!s->running()) return;
+    if (!s->running()) {
+      // Stored while the session ended: its entries go as the session's did (Retire).
+      std::set<std::string> shas;
+      for (const auto& o : stored.outputs) shas.insert(o.sha256());
+      ForgetBlobsNoRunningSessionReads(std::move(shas));
+      return;
+    }
     if (n.state == JobState::kDone) {
       // Another worker's result for the same job was stored first.
       ++s->duplicates;
@@ -1370,6 +1453,7 @@ struct Master::Impl {
             AbortMasterStages(s);
             spdlog::info("session {} cancelled", id);
             Publish(*s, -1, "cancelled");
+            Retire(s);
           }
           reply.set_session_id(id);
           *reply.add_sessions() = Status(*s);
@@ -1476,11 +1560,12 @@ struct Master::Impl {
       zmq::pollitem_t items[] = {
           {workers_socket.handle(), 0, ZMQ_POLLIN, 0},
           {control_socket.handle(), 0, ZMQ_POLLIN, 0},
+          {events_socket.handle(), 0, ZMQ_POLLIN, 0},
           {capture_ingest ? capture_ingest->socket().handle() : nullptr, 0, ZMQ_POLLIN, 0}};
       // Back soon while work beside the loop is out, so that its outcome is acted on.
       const int wait_ms = offload.pending() > 0 ? 1 : std::min(interval, 20);
       try {
-        zmq::poll(items, capture_ingest ? 3 : 2, std::chrono::milliseconds(wait_ms));
+        zmq::poll(items, capture_ingest ? 4 : 3, std::chrono::milliseconds(wait_ms));
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;
         continue;  // a signal; *stop says whether to go on
@@ -1488,7 +1573,8 @@ struct Master::Impl {
       const auto turn_start = Clock::now();
       if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
-      if (capture_ingest && (items[2].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
+      if (items[2].revents & ZMQ_POLLIN) subscribers->Receive();
+      if (capture_ingest && (items[3].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
       if (options.release_memory_s > 0 && now_trim <= Clock::now()) {
         // Memory a peer's messages took (a flood of large ones) goes back to the system
         // rather than staying in the heap for good.
@@ -1512,6 +1598,7 @@ struct Master::Impl {
         hb.mutable_heartbeat();
         for (const auto& [id, w] : workers) SendToWorker(id, hb);
         next_heartbeat = now + std::chrono::milliseconds(interval);
+        subscribers->Expire();
       }
       TimeOutJobs();
       Dispatch();

@@ -9,7 +9,9 @@
 //   workers  ROUTER: dome-workers (DEALER) say Hello with their capacity, get Jobs,
 //            fetch blobs, return JobResults; heartbeats both ways.
 //   control  ROUTER: clients (REQ) submit, ask status, cancel, list.
-//   events   PUB: a StatusEvent whenever a job finishes or a session changes state.
+//   events   ROUTER: a StatusEvent to every subscriber (DEALER) whenever a job finishes
+//            or a session changes state; one subscription per peer, freed when the
+//            peer goes (net/events.h).
 //
 // Each session is a job graph (graph.h) built from the master's stages
 // (pipeline/stage.h: the master knows no stage by name) with a journal in its output folder
@@ -25,7 +27,10 @@
 //   OUT/<instant>/mesh_decimated.ply  decimated, per-vertex colours
 //   OUT/<instant>/textured.obj/.mtl/.png   when Session.texture
 //   OUT/report.json                   per-stage and per-instant seconds and counts
-//                                     (JSON, written by core/json.h),
+//                                     (JSON, written by core/json.h), the instants
+//                                     whose surface has no vertex (empty_surfaces:
+//                                     count, instants; per_instant: surface_vertices,
+//                                     empty_surface),
 //                                     bytes to and from workers per stage, results
 //                                     accepted per worker (jobs_by_worker), the
 //                                     workers' job seconds (worker_job_seconds), the
@@ -48,7 +53,7 @@ namespace dome::scheduler {
 struct MasterOptions {
   std::string worker_endpoint = "tcp://*:5555";   // ROUTER for dome-workers
   std::string control_endpoint = "tcp://*:5556";  // ROUTER for clients
-  std::string events_endpoint = "tcp://*:5557";   // PUB of StatusEvents
+  std::string events_endpoint = "tcp://*:5557";   // ROUTER of StatusEvents (net/events.h)
   int heartbeat_interval_ms = 1000;               // between heartbeats to each worker, ms
   int heartbeat_liveness = 3;  // intervals without a message before a worker is lost
   int max_job_losses = 5;      // a job lost (worker lost, timed out, bad result) this often fails

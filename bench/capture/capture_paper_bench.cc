@@ -24,11 +24,12 @@
 #include <zmq.hpp>
 
 #include "capture-agent/agent.h"
-#include "ingest/publish.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "ingest/publish.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
+#include "net/events.h"
 #include "runtime.pb.h"
 #include "synth/synth.h"
 
@@ -74,24 +75,17 @@ class MasterIngest {
         break;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    sub_.set(zmq::sockopt::subscribe, "");
-    sub_.connect(events);
-    thread_ = std::thread([this] {
+    thread_ = std::thread([this, events] {
+      net::EventSubscription subscription(&context_, events, net::SocketOptions{});
       while (!stop_) {
-        zmq::pollitem_t items[] = {{sub_.handle(), 0, ZMQ_POLLIN, 0}};
-        zmq::poll(items, 1, std::chrono::milliseconds(20));
-        zmq::message_t m;
-        while (sub_.recv(m, zmq::recv_flags::dontwait)) {
-          runtime::Envelope env;
-          if (env.ParseFromArray(m.data(), static_cast<int>(m.size())) && env.has_status() &&
-              env.status().has_capture()) {
-            std::lock_guard lock(mutex_);
-            last_[env.status().capture().camera_id()] = env.status().capture();
-          }
-        }
+        subscription.Drain(20, [this](const runtime::StatusEvent& ev) {
+          if (!ev.has_capture()) return;
+          std::lock_guard lock(mutex_);
+          last_[ev.capture().camera_id()] = ev.capture();
+        });
       }
     });
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the SUB joins
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the subscriber joins
   }
   ~MasterIngest() {
     stop_ = true;
@@ -120,7 +114,6 @@ class MasterIngest {
   std::string capture_;
   pid_t pid_ = -1;
   zmq::context_t context_;
-  zmq::socket_t sub_{context_, zmq::socket_type::sub};
   std::mutex mutex_;
   std::map<std::string, runtime::CaptureStatus> last_;
   std::atomic<bool> stop_{false};

@@ -1,13 +1,15 @@
 // The resident memory of a dome-master process under abuse, round after round:
 //
-//   master_flood_bench [--rounds 5] [--warmup 0] [--subscriptions 10000]
+//   master_flood_bench [--rounds 5] [--warmup 0] [--subscriptions 10000] [--peers 100]
 //                      [--topic-bytes 10240] [--fuzz 13000] [--check 0.10]
 //
 // Starts bin/dome-master (beside this binary; plaintext, loopback, free ports). Each
-// round connects 10 SUB sockets to the events port with --subscriptions distinct
-// topics of --topic-bytes in all, waits until the master holds them, disconnects
-// them, then sends --fuzz malformed and oversized messages to the worker and control
-// ports from DEALERs that then disconnect. After each round (and before the first)
+// round connects --peers subscribers to the events port (net/events.h) that send
+// --subscriptions subscriptions (Heartbeats) in all and one message of --topic-bytes
+// each (over the socket's cap: the master drops the connection, the peer reconnects),
+// waits until the master holds them, disconnects them, then sends --fuzz malformed and
+// oversized messages to the worker and control ports from DEALERs that then
+// disconnect. After each round (and before the first)
 // it prints the master's VmRSS from /proc as one JSON line. With --check F it exits 1
 // when the floor of the last two rounds' RSS exceeds that of the first two by more than
 // the fraction F: what a peer sends must not stay in the master after the peer is gone.
@@ -49,22 +51,24 @@ std::string Flag(int argc, char** argv, const std::string& name, const std::stri
   return fallback;
 }
 
-void Subscribe(zmq::context_t* context, const std::string& events, int count, int topic_bytes) {
-  constexpr int kSockets = 10;
-  static int round = 0;
-  ++round;
+void Subscribe(zmq::context_t* context, const std::string& events, int count, int peers,
+               int topic_bytes) {
   std::vector<std::unique_ptr<zmq::socket_t>> subs;
-  for (int s = 0; s < kSockets; ++s) {
-    subs.push_back(std::make_unique<zmq::socket_t>(*context, zmq::socket_type::sub));
+  for (int s = 0; s < peers; ++s) {
+    subs.push_back(std::make_unique<zmq::socket_t>(*context, zmq::socket_type::dealer));
     subs.back()->set(zmq::sockopt::linger, 0);
+    subs.back()->set(zmq::sockopt::sndhwm, 0);
     subs.back()->connect(events);
   }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  runtime::Envelope hb;
+  hb.mutable_heartbeat();
+  const std::string subscribe = net::EncodeEnvelope(hb);
   for (int i = 0; i < count; ++i) {
-    // Distinct in every round too: nothing is shared with an earlier round's topics.
-    std::string topic = "r" + std::to_string(round) + "-" + std::to_string(i) + "-";
-    topic.resize(size_t(topic_bytes), 'x');
-    subs[size_t(i % kSockets)]->set(zmq::sockopt::subscribe, topic);
+    subs[size_t(i % peers)]->send(zmq::buffer(subscribe), zmq::send_flags::dontwait);
   }
+  const std::string topic(size_t(topic_bytes), 'x');
+  for (auto& s : subs) s->send(zmq::buffer(topic), zmq::send_flags::dontwait);
   // The subscriptions travel to the master while these sockets live.
   std::this_thread::sleep_for(std::chrono::seconds(2));
 }
@@ -102,6 +106,7 @@ int main(int argc, char** argv) {
   const int rounds = counted + warmup;
   const int subscriptions = std::stoi(Flag(argc, argv, "--subscriptions", "10000"));
   const int topic_bytes = std::stoi(Flag(argc, argv, "--topic-bytes", "10240"));
+  const int peers = std::max(1, std::stoi(Flag(argc, argv, "--peers", "100")));
   const int fuzz = std::stoi(Flag(argc, argv, "--fuzz", "13000"));
   const double check = std::stod(Flag(argc, argv, "--check", "-1"));
   const fs::path dir = fs::temp_directory_path() / ("dome_flood_" + std::to_string(::getpid()));
@@ -138,7 +143,7 @@ int main(int argc, char** argv) {
   std::vector<double> rss = {bench::ProcessRssMb(pid)};
   std::printf("{\"round\": 0, \"rss_mb\": %.1f}\n", rss.back());
   for (int r = 1; r <= rounds; ++r) {
-    Subscribe(&context, events, subscriptions, topic_bytes);
+    Subscribe(&context, events, subscriptions, peers, topic_bytes);
     const double held = bench::ProcessRssMb(pid);  // before the subscribers go
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     Fuzz(&context, workers, control, fuzz);

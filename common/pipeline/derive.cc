@@ -60,6 +60,19 @@ GreyStats FrameGreys(const take::Take& take, const std::string& instant) {
   return s;
 }
 
+// The session's options, checked and read before its volume is derived. A volume to be
+// derived has no dims yet, and FromVolume would size the seed's 6000 mm cube with the
+// given voxel and refuse a voxel too fine for that cube, which does not apply here: the
+// derived volume's voxel count is checked where it is made (below), naming that volume.
+// So a session without dims is checked as a copy given one placeholder voxel a side;
+// every other value, the voxel size itself included, is checked as it is.
+SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derived) {
+  if (!volume_derived || s.volume().dims_size() > 0) return ResolveSessionOptions(s, "session");
+  runtime::Session probe = s;
+  for (int a = 0; a < 3; ++a) probe.mutable_volume()->add_dims(1);
+  return ResolveSessionOptions(probe, "session");
+}
+
 }  // namespace
 
 Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
@@ -69,7 +82,10 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
   const std::vector<std::string> instants = SessionInstants(*s, take);
   runtime::StereoSettings* st = s->mutable_stereo();
   runtime::Volume* vol = s->mutable_volume();
-  const SessionOptions given = ResolveSessionOptions(*s, "session");  // bad values fail first
+  // The volume: the given box, the session's, or the scene's.
+  const bool has_box = vol->origin_mm_size() > 0 && vol->dims_size() > 0;
+  const bool volume_derived = !has_box || request.box.has_value();
+  const SessionOptions given = ResolveBeforeVolume(*s, volume_derived);  // bad values fail first
 
   int64_t pixels = 0;
   for (const auto& rc : take.rig.cameras)
@@ -106,8 +122,6 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
         kLargeImagePx, st->window_sizes_px(0), st->min_uniqueness(), st->max_neighbours()));
   }
 
-  // The volume: the given box, the session's, or the scene's.
-  const bool has_box = vol->origin_mm_size() > 0 && vol->dims_size() > 0;
   Eigen::Vector3d lo, hi;
   std::vector<std::pair<double, double>> camera_depth;  // from the scene's points, rig order
   if (has_box && !request.box) {
@@ -120,7 +134,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     core::Require((hi - lo).minCoeff() > 0, "--box", "needs XMIN < XMAX, YMIN < YMAX, ZMIN < ZMAX");
     d.notes.push_back("volume: " + Box(lo, hi) + " (--box)");
   } else {
-    const stereo::TakeStereoOptions so = ResolveSessionOptions(*s, "session").stereo;
+    const stereo::TakeStereoOptions so = ResolveBeforeVolume(*s, volume_derived).stereo;
     stereo::SceneExtentOptions eo;
     eo.num_threads = request.num_threads;
     const stereo::SceneExtent e =
@@ -156,10 +170,13 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     vol->clear_dims();
     for (int a = 0; a < 3; ++a) {
       const double n = std::ceil((hi(a) - lo(a)) / voxel);
-      core::Require(std::isfinite(n) && n <= double(1 << 20), "volume.voxel_size_mm",
-                    fmt::format("{} mm makes {:.0f} voxels along an axis of the {:.1f} mm volume "
-                                "(at most {})",
-                                voxel, n, hi(a) - lo(a), 1 << 20));
+      core::Require(
+          std::isfinite(n) && n <= double(1 << 20), "session: volume.voxel_size_mm",
+          fmt::format("{} mm makes {:.0f} voxels along an axis of {}, {:.1f} mm "
+                      "across (at most {})",
+                      voxel, n,
+                      request.box ? "the --box volume" : "the volume derived from the take",
+                      hi(a) - lo(a), 1 << 20));
       vol->add_origin_mm(lo(a));
       vol->add_dims(std::max(1, int(n)));
     }

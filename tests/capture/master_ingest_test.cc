@@ -18,6 +18,7 @@
 
 #include "io/file_util.h"
 #include "io/image_io.h"
+#include "net/events.h"
 #include "net/security.h"
 #include "runtime.pb.h"
 #include "runtime/process.h"
@@ -82,26 +83,18 @@ class MasterProcess {
 class CaptureEventWatcher {
  public:
   explicit CaptureEventWatcher(const std::string& events) {
-    socket_.set(zmq::sockopt::linger, 0);
-    socket_.set(zmq::sockopt::subscribe, "");
-    socket_.connect(events);
-    thread_ = std::thread([this] {
+    thread_ = std::thread([this, events] {
+      net::EventSubscription subscription(&context_, events, net::SocketOptions{});
       while (!stop_) {
-        zmq::pollitem_t items[] = {{socket_.handle(), 0, ZMQ_POLLIN, 0}};
-        zmq::poll(items, 1, std::chrono::milliseconds(20));
-        zmq::message_t m;
-        while (socket_.recv(m, zmq::recv_flags::dontwait)) {
-          runtime::Envelope env;
-          if (!env.ParseFromArray(m.data(), static_cast<int>(m.size())) || !env.has_status() ||
-              !env.status().has_capture()) {
-            continue;
-          }
+        subscription.Drain(20, [this](const runtime::StatusEvent& ev) {
+          if (!ev.has_capture()) return;
           std::lock_guard lock(mutex_);
-          events_[env.status().capture().camera_id()].push_back(env.status().capture());
-        }
+          events_[ev.capture().camera_id()].push_back(ev.capture());
+        });
       }
     });
-    // A SUB joins a moment after connect(); events before that are lost (by design).
+    // A subscriber joins a moment after connecting; events before that are lost (by
+    // design).
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   ~CaptureEventWatcher() {
@@ -126,7 +119,6 @@ class CaptureEventWatcher {
 
  private:
   zmq::context_t context_;
-  zmq::socket_t socket_{context_, zmq::socket_type::sub};
   std::mutex mutex_;
   std::map<std::string, std::vector<runtime::CaptureStatus>> events_;
   std::atomic<bool> stop_{false};

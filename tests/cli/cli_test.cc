@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "core/json.h"
@@ -288,6 +289,128 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
           << instant << "/" << mesh;
     }
   }
+}
+
+// The line of a failed command that carries its error ("dome: ..."); "" when none.
+std::string ErrorLine(const std::string& output) {
+  std::istringstream in(output);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("dome: ", 0) == 0) return line;
+  }
+  return "";
+}
+
+// A bad value given as a flag of `dome run` is refused like the same value in a session
+// file (one place checks both: pipeline::ResolveSessionOptions), with the same message,
+// exit code 1, and no output folder made. A voxel too fine for the volume names the
+// volume derived from the take, not the seed's cube, which does not apply to it.
+TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", out = tmp / "out";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
+          .exit_code,
+      0);
+  const struct {
+    const char* flag;
+    const char* field;  // the same value in a session file (JSON)
+    const char* message;
+  } cases[] = {
+      {"--voxel-mm -20", R"("volume": {"voxel_size_mm": -20})",
+       "dome: session: volume.voxel_size_mm: must be a positive number of mm, got -20"},
+      {"--slab-planes -3", R"("slab_planes": -3)",
+       "dome: session: slab_planes: must be positive, got -3"},
+      {"--decimate-ratio 0", R"("decimate_ratio": 0)",
+       "dome: session: decimate_ratio: must be in (0, 1], got 0"},
+      {"--levels -5", R"("stereo": {"num_levels": -5})",
+       "dome: session: num_levels: must be 0 (from the geometry) or 3..100000, got -5"},
+      {"--voxel-mm 1.4e-06", R"("volume": {"voxel_size_mm": 1.4e-06})",
+       "dome: session: volume.voxel_size_mm: 1.4e-06 mm makes "},
+  };
+  for (const auto& c : cases) {
+    const Result flag =
+        RunDomeBinary("run " + take.string() + " --out " + out.string() + " " + c.flag);
+    const fs::path session = tmp / "session.json";
+    std::ofstream(session) << "{\"take\": \"" << take.string() << "\", \"out\": \"" << out.string()
+                           << "\", " << c.field << "}";
+    const Result file = RunDomeBinary("run " + session.string());
+    EXPECT_EQ(flag.exit_code, 1) << c.flag << ": " << flag.output;
+    EXPECT_EQ(file.exit_code, 1) << c.field << ": " << file.output;
+    EXPECT_EQ(ErrorLine(flag.output).rfind(c.message, 0), 0u) << c.flag << ": " << flag.output;
+    EXPECT_EQ(ErrorLine(flag.output), ErrorLine(file.output)) << c.flag << " vs " << c.field;
+    EXPECT_EQ(flag.output.find("seed"), std::string::npos) << c.flag << ": " << flag.output;
+    if (std::string(c.flag).find("1.4e-06") != std::string::npos) {
+      EXPECT_NE(flag.output.find("voxels along an axis of the volume derived from the take, "),
+                std::string::npos)
+          << flag.output;
+    }
+    EXPECT_FALSE(fs::exists(out)) << c.flag;
+  }
+}
+
+// A frame of a camera that rig.json does not have: `dome run` refuses the take with
+// the message `dome info` gives for it, and makes no output folder.
+TEST(Cli, RunRefusesAFrameOfACameraNotInTheRigWithInfosMessage) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", out = tmp / "out";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
+          .exit_code,
+      0);
+  const fs::path instant = fs::directory_iterator(take / "frames")->path();
+  const fs::path frame = fs::directory_iterator(instant)->path();
+  fs::copy_file(frame, instant / ("stranger" + frame.extension().string()));
+  const Result info = RunDomeBinary("info " + take.string());
+  const Result run = RunDomeBinary("run " + take.string() + " --out " + out.string());
+  EXPECT_EQ(info.exit_code, 1) << info.output;
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  const std::string named = "frames/" + instant.filename().string() + "/stranger";
+  EXPECT_NE(info.output.find(named), std::string::npos) << info.output;
+  EXPECT_NE(run.output.find(named), std::string::npos) << run.output;
+  // The problem line of info, in run's error.
+  std::istringstream in(info.output);
+  std::string problem;
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(named) != std::string::npos) problem = line;
+  }
+  const std::string message = problem.substr(problem.find(named));
+  EXPECT_NE(run.output.find(message), std::string::npos) << message << " | " << run.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// A volume that misses the scene ends "done" with empty surfaces: report.json counts
+// them per instant and in all, and `dome run` ends with a warning naming the instants
+// and the volume.
+TEST(Cli, RunWhoseVolumeMissesTheSceneCountsAndNamesTheEmptyInstants) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", out = tmp / "out";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 2 --no-tape --no-calib --out " + take.string())
+          .exit_code,
+      0);
+  // Above the actor, in every camera's view: empty space.
+  const Result r = RunDomeBinary("run " + take.string() + " --out " + out.string() +
+                                 " --workers 2 --no-texture --no-preview --box -300 -300 2300 300 "
+                                 "300 2700");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const core::Json report = core::Json::parse(io::ReadFileBytes(out / "report.json"));
+  std::vector<std::string> instants;
+  for (const auto& e : report.at("per_instant")) {
+    EXPECT_EQ(e.value("surface_vertices", int64_t(-1)), 0) << e.dump();
+    EXPECT_TRUE(e.value("empty_surface", false)) << e.dump();
+    instants.push_back(e.at("instant").get<std::string>());
+  }
+  ASSERT_EQ(instants.size(), 2u) << report.dump();
+  EXPECT_EQ(report.at("empty_surfaces").value("count", -1), 2) << report.dump();
+  EXPECT_EQ(report.at("empty_surfaces").at("instants").get<std::vector<std::string>>(), instants);
+  EXPECT_NE(r.output.find("2 of 2 instants ended with an empty surface (" + instants[0] + ", " +
+                          instants[1] +
+                          "): no camera saw a surface inside the volume [-300 "
+                          "-300 2300] .. ["),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("] mm; it may miss the scene (dome run --box)"), std::string::npos)
+      << r.output;
 }
 
 }  // namespace

@@ -90,7 +90,8 @@ TEST_F(Derive, VoxelThatOverflowsTheGridIsNamed) {
   runtime::Session s = Fresh();
   s.mutable_volume()->set_voxel_size_mm(1.4e-6);
   dome::testing::ExpectInputError([&] { DeriveSession({}, &s); },
-                                  {"volume.voxel_size_mm", "voxels along an axis"});
+                                  {"session: volume.voxel_size_mm",
+                                   "voxels along an axis of the volume derived from the take"});
 }
 
 TEST_F(Derive, BadBoxIsNamed) {

@@ -2,7 +2,8 @@
 // loopback: allowed workers and clients are served; a key not on the allow-list and a
 // plaintext peer get nothing from any master socket (control, workers, events) and
 // the master log names the refused key; the binaries refuse to start without keys
-// unless --insecure; key and allow-list files are checked.
+// unless --insecure; key and allow-list files are checked. The events port holds one
+// subscription per peer and frees it when the peer goes (net/events.h).
 #include "net/security.h"
 
 #include <gtest/gtest.h>
@@ -16,6 +17,7 @@
 
 #include "cli/client.h"
 #include "io/file_util.h"
+#include "net/events.h"
 #include "net/wire.h"
 #include "runtime/process.h"
 #include "testing/expect_error.h"
@@ -275,16 +277,15 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
     dealers.back()->connect(workers_);
     dealers.back()->send(zmq::buffer(hello_bytes), zmq::send_flags::dontwait);
   }
-  // The events socket: an allowed SUB hears the next session; a stranger's and a
-  // plaintext SUB hear nothing.
-  std::vector<std::unique_ptr<zmq::socket_t>> subs;
+  // The events socket: an allowed subscriber hears the next session; a stranger's and
+  // a plaintext one hear nothing.
+  std::vector<std::unique_ptr<net::EventSubscription>> subs;
   for (const std::string who : {"client", "stranger", ""}) {
-    subs.push_back(std::make_unique<zmq::socket_t>(context_, zmq::socket_type::sub));
-    net::ConfigureSocket(subs.back().get(), Keys(who));
-    subs.back()->set(zmq::sockopt::subscribe, "");
-    subs.back()->connect(events_);
+    subs.push_back(std::make_unique<net::EventSubscription>(&context_, events_, Keys(who)));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // subscriptions travel
+  for (int i = 0; i < 10; ++i) {  // subscriptions travel
+    for (auto& s : subs) s->Drain(50, [](const runtime::StatusEvent&) {});
+  }
   ChildProcess worker(
       "dome-worker",
       {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
@@ -295,18 +296,12 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   const auto end = Clock::now() + std::chrono::seconds(3);
   while (Clock::now() < end) {
     std::vector<zmq::pollitem_t> items;
-    for (auto& s : subs) items.push_back({s->handle(), 0, ZMQ_POLLIN, 0});
     for (auto& d : dealers) items.push_back({d->handle(), 0, ZMQ_POLLIN, 0});
-    zmq::poll(items, std::chrono::milliseconds(50));
+    zmq::poll(items, std::chrono::milliseconds(20));
     zmq::message_t m;
     for (size_t i = 0; i < subs.size(); ++i) {
-      while (subs[i]->recv(m, zmq::recv_flags::dontwait)) {
-        runtime::Envelope env;
-        if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status() &&
-            env.status().session_id() == id) {
-          ++heard[i];
-        }
-      }
+      subs[i]->Drain(10,
+                     [&](const runtime::StatusEvent& ev) { heard[i] += ev.session_id() == id; });
     }
     for (size_t i = 0; i < dealers.size(); ++i) {
       while (dealers[i]->recv(m, zmq::recv_flags::dontwait)) ++answered[i];
@@ -332,7 +327,7 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   req.mutable_status()->set_session_id(id);
   EXPECT_EQ(client::Request(&context_, control_, req, 10000, Keys("client")).sessions(0).state(),
             "done");
-  for (auto& s : subs) s->set(zmq::sockopt::linger, 0);
+  for (auto& s : subs) s->socket().set(zmq::sockopt::linger, 0);
   for (auto& d : dealers) d->set(zmq::sockopt::linger, 0);
 }
 
@@ -420,6 +415,125 @@ TEST(InsecureMaster, ServesPlaintextPeersOnlyWhenAskedTo) {
   const auto st = client::WaitForSession(&context, control, "", id, nullptr, 50);
   EXPECT_EQ(st.state(), "done") << master.Log();
   EXPECT_NE(master.Log().find("insecure: plaintext"), std::string::npos);
+  EXPECT_EQ(master.Stop(), 0);
+}
+
+// The events port holds one subscription per peer, to every event, whatever the peer
+// sends: a peer that subscribes 10,000 times and sends messages that are no
+// subscription hears each event once, its other messages are refused in one log line,
+// and every subscriber is freed when it goes (on its Disconnect, or when the next event
+// finds it gone).
+TEST(EventsPort, OneSubscriptionPerPeerWhateverItSendsAndFreedWhenItGoes) {
+  const testing::TempDir dir;
+  const fs::path file = dir / "endpoints";
+  ChildProcess master("dome-master",
+                      {"--bind", "tcp://127.0.0.1:*", "--control", "tcp://127.0.0.1:*", "--events",
+                       "tcp://127.0.0.1:*", "--insecure", "--heartbeat-ms", "200", "--log-level",
+                       "debug", "--endpoints-file", file.string()},
+                      dir.File("master.log"));
+  for (int i = 0; i < 500 && !fs::exists(file); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::istringstream in(io::ReadFileBytes(file));
+  std::string workers, control, events;
+  in >> workers >> control >> events;
+  ASSERT_FALSE(events.empty()) << master.Log();
+  ChildProcess worker(
+      "dome-worker", {"--master", workers, "--threads", "1", "--insecure", "--heartbeat-ms", "200"},
+      dir.File("worker.log"));
+  zmq::context_t context;
+  auto wait_for_log = [&](const std::string& text) {
+    for (int i = 0; i < 300 && master.Log().find(text) == std::string::npos; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return master.Log().find(text) != std::string::npos;
+  };
+  std::vector<std::unique_ptr<net::EventSubscription>> subs;
+  for (int i = 0; i < 3; ++i) {
+    subs.push_back(
+        std::make_unique<net::EventSubscription>(&context, events, net::SocketOptions{}));
+    subs.back()->Drain(0, [](const runtime::StatusEvent&) {});
+  }
+  // The abuser: 10,000 subscriptions and 100 messages that are none (under the cap).
+  zmq::socket_t abuser(context, zmq::socket_type::dealer);
+  abuser.set(zmq::sockopt::linger, 0);
+  abuser.set(zmq::sockopt::sndhwm, 0);
+  abuser.connect(events);
+  runtime::Envelope hb;
+  hb.mutable_heartbeat();
+  const std::string subscribe = net::EncodeEnvelope(hb);
+  for (int i = 0; i < 10000; ++i) abuser.send(zmq::buffer(subscribe), zmq::send_flags::none);
+  for (int i = 0; i < 100; ++i) {
+    abuser.send(zmq::buffer("topic-" + std::to_string(i)), zmq::send_flags::none);
+  }
+  for (int i = 0; i < 300 && master.Log().find("(4 subscribers)") == std::string::npos; ++i) {
+    for (auto& s : subs) s->Drain(5, [](const runtime::StatusEvent&) {});
+  }
+  ASSERT_NE(master.Log().find("(4 subscribers)"), std::string::npos) << master.Log();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the rest of the flood
+
+  runtime::ControlRequest req;
+  req.mutable_submit()->mutable_session()->set_out((dir / "noop").string());
+  req.mutable_submit()->mutable_session()->set_noop_jobs(10);
+  const std::string id = client::Request(&context, control, req).session_id();
+  std::vector<std::vector<std::string>> heard(subs.size() + 1);
+  auto note = [&](size_t who, const runtime::StatusEvent& ev) {
+    if (ev.session_id() == id) {
+      heard[who].push_back(ev.state() + " " + ev.stage() + " " + std::to_string(ev.jobs_done()));
+    }
+  };
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < end &&
+         (heard[0].empty() || heard[0].back().rfind("done", 0) != 0)) {
+    for (size_t i = 0; i < subs.size(); ++i) {
+      subs[i]->Drain(5, [&](const runtime::StatusEvent& ev) { note(i, ev); });
+    }
+    zmq::message_t m;
+    while (abuser.recv(m, zmq::recv_flags::dontwait)) {
+      runtime::Envelope env;
+      if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status()) {
+        note(subs.size(), env.status());
+      }
+    }
+  }
+  for (int k = 0; k < 20; ++k) {  // the last events on their way to the others
+    for (size_t i = 1; i < subs.size(); ++i) {
+      subs[i]->Drain(0, [&](const runtime::StatusEvent& ev) { note(i, ev); });
+    }
+    zmq::message_t m;
+    while (abuser.recv(m, zmq::recv_flags::dontwait)) {
+      runtime::Envelope env;
+      if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status()) {
+        note(subs.size(), env.status());
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  // "submitted", 10 jobs each with its event, "done": once each, for every peer.
+  ASSERT_GE(heard[0].size(), 12u) << master.Log();
+  EXPECT_EQ(heard[0].back().rfind("done", 0), 0u);
+  for (size_t i = 1; i < heard.size(); ++i) EXPECT_EQ(heard[i], heard[0]) << "peer " << i;
+  const std::string log = master.Log();
+  size_t refusals = 0;
+  for (size_t p = log.find("events: refused"); p != std::string::npos;
+       p = log.find("events: refused", p + 1)) {
+    ++refusals;
+  }
+  EXPECT_EQ(refusals, 1u) << log;  // the other 99 counted into its next line, 10 s on
+  EXPECT_NE(log.find(": message of 7 bytes is not a dome runtime envelope (a subscriber sends "
+                     "Heartbeat or Disconnect only"),
+            std::string::npos)
+      << log;
+
+  // Those that say Disconnect are freed at once; the abuser, gone without a word, when
+  // the next event finds it gone.
+  subs.clear();
+  EXPECT_TRUE(wait_for_log("said Disconnect: forgotten (1 subscribers)")) << master.Log();
+  abuser.close();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  req.mutable_submit()->mutable_session()->set_out((dir / "noop2").string());
+  client::Request(&context, control, req);
+  EXPECT_TRUE(wait_for_log("disconnected: forgotten (0 subscribers)")) << master.Log();
   EXPECT_EQ(master.Stop(), 0);
 }
 
