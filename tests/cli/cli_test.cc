@@ -291,6 +291,15 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   }
 }
 
+// The small synthetic take of `instants` instants (no tape, no calibration images) at
+// `take`; false, with the output, when dome synth fails.
+bool SynthSmallTake(const fs::path& take, int instants) {
+  const Result r = RunDomeBinary("synth --preset small --instants " + std::to_string(instants) +
+                                 " --no-tape --no-calib --out " + take.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return r.exit_code == 0;
+}
+
 // The line of a failed command that carries its error ("dome: ..."); "" when none.
 std::string ErrorLine(const std::string& output) {
   std::istringstream in(output);
@@ -307,10 +316,7 @@ std::string ErrorLine(const std::string& output) {
 TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out";
-  ASSERT_EQ(
-      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
-          .exit_code,
-      0);
+  ASSERT_TRUE(SynthSmallTake(take, 1));
   const struct {
     const char* flag;
     const char* field;  // the same value in a session file (JSON)
@@ -353,10 +359,7 @@ TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
 TEST(Cli, RunRefusesAFrameOfACameraNotInTheRigWithInfosMessage) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out";
-  ASSERT_EQ(
-      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
-          .exit_code,
-      0);
+  ASSERT_TRUE(SynthSmallTake(take, 1));
   const fs::path instant = fs::directory_iterator(take / "frames")->path();
   const fs::path frame = fs::directory_iterator(instant)->path();
   fs::copy_file(frame, instant / ("stranger" + frame.extension().string()));
@@ -384,10 +387,7 @@ TEST(Cli, RunRefusesAFrameOfACameraNotInTheRigWithInfosMessage) {
 TEST(Cli, RunWhoseVolumeMissesTheSceneCountsAndNamesTheEmptyInstants) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out";
-  ASSERT_EQ(
-      RunDomeBinary("synth --preset small --instants 2 --no-tape --no-calib --out " + take.string())
-          .exit_code,
-      0);
+  ASSERT_TRUE(SynthSmallTake(take, 2));
   // Above the actor, in every camera's view: empty space.
   const Result r = RunDomeBinary("run " + take.string() + " --out " + out.string() +
                                  " --workers 2 --no-texture --no-preview --box -300 -300 2300 300 "

@@ -482,33 +482,25 @@ TEST(EventsPort, OneSubscriptionPerPeerWhateverItSendsAndFreedWhenItGoes) {
       heard[who].push_back(ev.state() + " " + ev.stage() + " " + std::to_string(ev.jobs_done()));
     }
   };
+  // Every peer's events so far; the subscribers wait up to wait_ms each.
+  auto hear = [&](int wait_ms) {
+    for (size_t i = 0; i < subs.size(); ++i) {
+      subs[i]->Drain(wait_ms, [&](const runtime::StatusEvent& ev) { note(i, ev); });
+    }
+    zmq::message_t m;
+    while (abuser.recv(m, zmq::recv_flags::dontwait)) {
+      runtime::Envelope env;
+      if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status()) {
+        note(subs.size(), env.status());
+      }
+    }
+  };
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (std::chrono::steady_clock::now() < end &&
          (heard[0].empty() || heard[0].back().rfind("done", 0) != 0)) {
-    for (size_t i = 0; i < subs.size(); ++i) {
-      subs[i]->Drain(5, [&](const runtime::StatusEvent& ev) { note(i, ev); });
-    }
-    zmq::message_t m;
-    while (abuser.recv(m, zmq::recv_flags::dontwait)) {
-      runtime::Envelope env;
-      if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status()) {
-        note(subs.size(), env.status());
-      }
-    }
+    hear(5);
   }
-  for (int k = 0; k < 20; ++k) {  // the last events on their way to the others
-    for (size_t i = 1; i < subs.size(); ++i) {
-      subs[i]->Drain(0, [&](const runtime::StatusEvent& ev) { note(i, ev); });
-    }
-    zmq::message_t m;
-    while (abuser.recv(m, zmq::recv_flags::dontwait)) {
-      runtime::Envelope env;
-      if (env.ParseFromArray(m.data(), int(m.size())) && env.has_status()) {
-        note(subs.size(), env.status());
-      }
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  for (int k = 0; k < 20; ++k) hear(10);  // the last events on their way to the others
   // "submitted", 10 jobs each with its event, "done": once each, for every peer.
   ASSERT_GE(heard[0].size(), 12u) << master.Log();
   EXPECT_EQ(heard[0].back().rfind("done", 0), 0u);
