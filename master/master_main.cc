@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--control", o.control_endpoint, "ROUTER endpoint for dome clients")
       ->capture_default_str();
-  app.add_option("--events", o.events_endpoint, "PUB endpoint for status events")
+  app.add_option("--events", o.events_endpoint,
+                 "endpoint of the status events (ROUTER; subscribers: net/events.h)")
       ->capture_default_str();
   app.add_option("--heartbeat-ms", o.heartbeat_interval_ms, "heartbeat interval, ms")
       ->capture_default_str();
