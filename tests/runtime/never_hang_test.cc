@@ -343,6 +343,29 @@ TEST_F(NeverHang, ASubmitOfThousandsOfInstantsKeepsTheWorkersConnected) {
   EXPECT_EQ(m.process->Log().find("lost (no heartbeat"), std::string::npos) << m.process->Log();
 }
 
+// A master that runs for good: a session that ended closes its journal and lets go of
+// its bookkeeping, so the master's open files do not grow with the sessions it ran
+// (each ended session's journal stayed open before: 20 sessions, 20 more files).
+TEST_F(NeverHang, EndedSessionsLeaveNoFileOpenInTheMaster) {
+  Master m = StartMaster("master_files");
+  auto w = StartWorker(m, "f1");
+  const fs::path fd_dir = "/proc/" + std::to_string(m.process->pid()) + "/fd";
+  auto open_files = [&] {
+    return std::distance(fs::directory_iterator(fd_dir), fs::directory_iterator{});
+  };
+  runtime::Session noop;
+  noop.set_noop_jobs(2);
+  auto run = [&](int i) {
+    noop.set_out((root_ / ("files" + std::to_string(i))).string());
+    return WaitForEnd(m, Submit(m, noop)).state();
+  };
+  ASSERT_EQ(run(0), "done") << m.process->Log();  // the master's sockets and pools are up
+  const auto before = open_files();
+  for (int i = 1; i <= 20; ++i) ASSERT_EQ(run(i), "done") << i << "\n" << m.process->Log();
+  // A client's connection may still be closing: a couple of files, not one a session.
+  EXPECT_LE(open_files(), before + 2) << "before: " << before;
+}
+
 TEST_F(NeverHang, OutputFoldersOutsideTheOutRootAreRefusedCreatingNothing) {
   const fs::path allowed = root_ / "out_root";
   fs::create_directories(allowed);
