@@ -68,10 +68,11 @@ StereoInput BenchInput() {
   return BuiltInInput();
 }
 
-void MultiBaseline(benchmark::State& state, bool exact_warp) {
+void MultiBaseline(benchmark::State& state, bool exact_warp, int max_simd = 2) {
   static const StereoInput input = BenchInput();
   StereoOptions opt;
   opt.num_threads = kThreads;
+  opt.max_simd = max_simd;
   if (exact_warp) opt.prewarp_neighbours = false;
   opt.window_sizes_px = {int(state.range(0))};
   int levels = 0;
@@ -99,6 +100,11 @@ void BM_MultiBaseline(benchmark::State& state) { MultiBaseline(state, false); }
 // The exact per-pixel warp (prewarp_neighbours false, `dome stereo --exact-warp`).
 void BM_MultiBaselineExactWarp(benchmark::State& state) { MultiBaseline(state, true); }
 BENCHMARK(BM_MultiBaseline)->Arg(5)->Arg(7)->Arg(11)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The default options on the kernel's AVX2 path (StereoOptions::max_simd 1), on an
+// AVX-512 CPU: the same depths; the code around the kernel keeps the build's
+// instruction set (-march=native), so this is not an AVX2 machine's figure.
+void BM_MultiBaselineAvx2(benchmark::State& state) { MultiBaseline(state, false, 1); }
+BENCHMARK(BM_MultiBaselineAvx2)->Arg(7)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_MultiBaselineExactWarp)
     ->Arg(5)
     ->Arg(7)

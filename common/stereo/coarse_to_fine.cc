@@ -194,22 +194,32 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
                 "reference '" + ref_cam.id + "'",
                 "image too small for a coarse pass reduced " + std::to_string(f) + " times");
 
-  // Greys once per image, stretched over the whole image.
+  // Greys once per image, stretched over the whole image and undistorted once (as
+  // ComputeDepth does: the lens removed, then the grey mapping), so that the coarse pass
+  // and every tile match ideal images with the ideal cameras: no tile builds remap tables
+  // for its crop or resamples it, and a tile's border keeps the data its crop alone could
+  // not undistort (on a 1920x1080 Panoptic camera, 0.71x the job's CPU time and twice
+  // its depths).
   std::vector<const StereoView*> views = {&input.reference};
   for (const auto& v : input.neighbours) views.push_back(&v);
   std::vector<cv::Mat> greys;
+  std::vector<geometry::TsaiCamera> cameras;  // the ideal cameras of the greys
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
     greys.push_back(
-        GreyImage(*views[i], options, /*undistort=*/false,
+        GreyImage(*views[i], options, /*undistort=*/true,
                   (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
+    cameras.push_back(views[i]->camera);
+    cameras.back().kappa1_per_mm2 = 0.0;
+    cameras.back().lens = {};
   }
+  const geometry::TsaiCamera& ideal_ref = cameras[0];
 
   // 1. Coarse pass over the whole range.
   StereoInput coarse;
-  coarse.reference = {ReducedCamera(ref_cam, f), ReduceGrey(greys[0], f)};
+  coarse.reference = {ReducedCamera(ideal_ref, f), ReduceGrey(greys[0], f)};
   for (size_t i = 1; i < views.size(); ++i) {
-    coarse.neighbours.push_back({ReducedCamera(views[i]->camera, f), ReduceGrey(greys[i], f)});
+    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), ReduceGrey(greys[i], f)});
   }
   StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;  // the greys above are mapped already
@@ -334,12 +344,12 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
             cv::Rect(job.tile.x - half - 1, job.tile.y - half - 1, job.tile.width + 2 * half + 2,
                      job.tile.height + 2 * half + 2) &
             image;
+        // Views of the greys, not copies: ComputeDepth copies what it matches.
         StereoInput in;
-        in.reference = {take::CropCamera(ref_cam, ref_rect), greys[0](ref_rect).clone()};
+        in.reference = {take::CropCamera(ideal_ref, ref_rect), greys[0](ref_rect)};
         for (size_t i = 1; i < views.size(); ++i) {
-          const cv::Rect r =
-              NeighbourRect(ref_cam, views[i]->camera, ref_rect, job.z_lo, job.z_hi, 4);
-          in.neighbours.push_back({take::CropCamera(views[i]->camera, r), greys[i](r).clone()});
+          const cv::Rect r = NeighbourRect(ideal_ref, cameras[i], ref_rect, job.z_lo, job.z_hi, 4);
+          in.neighbours.push_back({take::CropCamera(cameras[i], r), greys[i](r)});
         }
         StereoOptions o = options;
         o.normalize_contrast = false;

@@ -19,9 +19,11 @@
 //      bounds), so the cost of a tile is its pixels x its own levels. Tiles run in
 //      parallel (options.num_threads, one thread per tile); the result does not depend
 //      on the thread count.
-// The grey mapping (contrast normalisation, square roots; GreyImage) is applied
-// once to each whole image before cutting, with the same percentile stretch as
-// ComputeDepth, so that every tile sees the greys a single full-image run would.
+// Lens distortion is removed and the grey mapping (contrast normalisation, square
+// roots; GreyImage) applied once to each whole image before cutting, in ComputeDepth's
+// order and with its percentile stretch, so that every tile sees the ideal greys a
+// single full-image run would; the coarse pass and the tiles match them with the ideal
+// (distortion-free) cameras.
 //
 // Depths are z along the reference optical axis, mm, as ComputeDepth's. A pixel the
 // full-range search would give a depth can be lost when its coarse neighbourhood has

@@ -119,6 +119,8 @@ void StereoOptions::Check() const {
   core::Require(std::isfinite(min_texture_grey) && min_texture_grey >= 0.0, "min_texture_grey",
                 "must be >= 0");
   core::Require(num_threads >= 0, "num_threads", "must be >= 0 (0 = all)");
+  core::Require(max_simd >= 0 && max_simd <= 2, "max_simd",
+                "must be 0 (scalar), 1 (AVX2) or 2 (AVX-512), got " + std::to_string(max_simd));
   speckle.Check();
 }
 
@@ -263,6 +265,7 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   }
   for (int w : options.window_sizes_px) kin.half_windows.push_back(w / 2);
   kin.prewarp = options.prewarp_neighbours;
+  kin.max_simd = static_cast<SimdLevel>(options.max_simd);
   result.prepare_seconds = watch.ElapsedSeconds();
   watch.Restart();
 

@@ -86,6 +86,11 @@ struct StereoOptions {
   // bilinear, interpolation of the neighbour; cost_kernel.h, KernelInput::prewarp).
   // false = the exact warp (`dome stereo --exact-warp`, JSON "prewarp_neighbours": false).
   bool prewarp_neighbours = true;
+  // The best instruction set the cost kernel may use: 2 = AVX-512, 1 = AVX2, 0 = scalar
+  // (cost_kernel.h SimdLevel); the CPU's best up to it runs. The depths are the same on
+  // every path with pre-warped neighbours; lower values are for benchmarks and tests
+  // (bench_stereo times the AVX2 path on an AVX-512 CPU).
+  int max_simd = 2;
   // Small pieces of each range image removed after matching (stereo/speckle.h); off by
   // default. Coarse-to-fine stereo removes them from the whole image, not per tile.
   SpeckleOptions speckle;

@@ -106,6 +106,39 @@ TEST(CoarseToFine, RecoversThePlaneAsTheFullSearchDoes) {
   EXPECT_EQ(stats.coarse_levels, 29);
 }
 
+// Cameras with strong radial distortion (kappa1 0.02 / mm^2: 16 px at the corners,
+// more than a tile's window margin): each whole image is undistorted once, so every
+// tile keeps its pixels. (Undistorting each tile's crop lost a band at the tile edges
+// whose sources lie outside the crop: on a Panoptic HD camera half the depths.) The
+// interior depths and density are those of the full-range search, which undistorts
+// the whole images itself.
+TEST(CoarseToFine, DistortedImagesKeepTheFullSearchDensity) {
+  const double plane_mm = 2000.0;
+  StereoInput in = PlaneInput(plane_mm, true);
+  const cv::Mat texture = stereo::testing::MakeTexture(1024, 11);
+  std::vector<StereoView*> views = {&in.reference};
+  for (auto& v : in.neighbours) views.push_back(&v);
+  for (StereoView* v : views) {
+    v->camera.kappa1_per_mm2 = 0.02;
+    v->image = stereo::testing::RenderPlane(v->camera, plane_mm, texture, 6.0);
+  }
+  const Eigen::Vector2d corner(0, 0);
+  ASSERT_GT((in.reference.camera.DistortPixel(corner) - corner).norm(), 12.0);
+  const stereo::StereoResult full = stereo::ComputeDepth(in, Options());
+  CoarseToFineOptions c2f = HalfScaleTiles(48);
+  const stereo::StereoResult fine = ComputeDepthCoarseToFine(in, Options(), c2f);
+  int interior = 0;
+  for (const auto* r : {&full, &fine}) {
+    std::vector<double> errors = InteriorErrors(r->range_images[0].depth_mm, plane_mm, &interior);
+    ASSERT_GT(errors.size(), 0.95 * interior);
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    EXPECT_LT(errors[errors.size() / 2], 0.002);
+  }
+  EXPECT_GT(full.range_images[0].density, 0.6);
+  // Undistorting per tile gave 0.905 against the full search's 0.939 here; now 0.9396.
+  EXPECT_NEAR(fine.range_images[0].density, full.range_images[0].density, 0.01);
+}
+
 TEST(CoarseToFine, ThreadCountDoesNotChangeTheResult) {
   const auto in = PlaneInput(2000.0, true);
   const CoarseToFineOptions c2f = HalfScaleTiles(40);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "stereo/stereo_test_util.h"
@@ -75,6 +76,31 @@ TEST(MultiBaselineTest, RecoversPlaneWithEitherWarp) {
     ExpectPlaneRecovered(LevelDepthMm(7, 29, 750, 5000), 1e-3, 5e-3, prewarp);
     ExpectPlaneRecovered(2000.0, 0.006, 0.01, prewarp);
   }
+}
+
+// StereoOptions::max_simd picks the cost kernel's path: with pre-warped neighbours
+// every path this CPU runs gives the same depths and reliabilities, bit for bit.
+TEST(MultiBaselineTest, EverySimdPathGivesTheSameDepths) {
+  StereoOptions opt;
+  opt.window_sizes_px = {5, 9};
+  opt.num_threads = 2;
+  const StereoInput in = PlaneInput(2000.0, true);
+  opt.max_simd = 0;
+  const StereoResult scalar = ComputeDepth(in, opt);
+  EXPECT_GT(scalar.range_images[0].density, 0.5);
+  for (int simd : {1, 2}) {
+    opt.max_simd = simd;
+    const StereoResult r = ComputeDepth(in, opt);
+    for (size_t k = 0; k < r.range_images.size(); ++k) {
+      const cv::Mat a = r.range_images[k].depth_mm, b = scalar.range_images[k].depth_mm;
+      EXPECT_EQ(std::memcmp(a.data, b.data, a.total() * a.elemSize()), 0) << simd << " " << k;
+      const cv::Mat ra = r.range_images[k].reliability, rb = scalar.range_images[k].reliability;
+      EXPECT_EQ(std::memcmp(ra.data, rb.data, ra.total() * ra.elemSize()), 0) << simd << " " << k;
+    }
+  }
+  opt.max_simd = 3;
+  dome::testing::ExpectInputError([&] { opt.Check(); },
+                                  {"max_simd", "must be 0 (scalar), 1 (AVX2) or 2 (AVX-512), got 3"});
 }
 
 TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {
