@@ -26,6 +26,7 @@ int RunDome(int argc, char** argv) {
   AddEvalCommand(&app, &exit_code);
   AddSynthCommand(&app, &exit_code);
   AddCalibrateCommand(&app, &exit_code);
+  AddMasksCommand(&app, &exit_code);
   AddStereoCommand(&app, &exit_code);
   AddFuseCommand(&app, &exit_code);
   AddMeshCommand(&app, &exit_code);

@@ -14,6 +14,7 @@ void AddSynthCommand(CLI::App* app, int* exit_code);
 void AddCalibrateCommand(CLI::App* app, int* exit_code);
 void AddStereoCommand(CLI::App* app, int* exit_code);
 void AddFuseCommand(CLI::App* app, int* exit_code);
+void AddMasksCommand(CLI::App* app, int* exit_code);
 void AddMeshCommand(CLI::App* app, int* exit_code);
 
 void AddRunCommand(CLI::App* app, int* exit_code);

@@ -45,6 +45,8 @@ void AddSynthCommand(CLI::App* app, int* exit_code) {
       "--tape-video", args->options.write_tape_video,
       "also write tape/<camera>.avi: lossless interlaced frames with VITC, for dome-capture");
   cmd->add_flag("!--no-calib", args->options.write_calibration, "do not write calib/");
+  cmd->add_flag("!--no-background", args->options.write_background,
+                "do not write background/ (plates of the dome without the person)");
   cmd->callback([=] {
     synth::SynthOptions options = args->options;
     core::Require(args->seed >= 0, "--seed",

@@ -1,5 +1,6 @@
 #include "synth/render.h"
 
+#include <algorithm>
 #include <vector>
 
 #include "core/error.h"
@@ -95,6 +96,15 @@ RenderedView RenderView(const RenderRequest& request) {
     uint8_t* dst = view.image.ptr<uint8_t>(y);
     for (int x = 0; x < width; ++x) {
       dst[x] = static_cast<uint8_t>((src[2 * x] + src[2 * x + 1] + 1) / 2);
+    }
+  }
+  if (request.person_mask) {
+    // The take image's truth mask from the same two first-field samples as its pixels.
+    view.person.create(height, width, CV_8UC1);
+    for (int y = 0; y < height; ++y) {
+      const uint8_t* src = view.on_person.ptr<uint8_t>(2 * y);
+      uint8_t* dst = view.person.ptr<uint8_t>(y);
+      for (int x = 0; x < width; ++x) dst[x] = std::max(src[2 * x], src[2 * x + 1]);
     }
   }
   if (request.depth) {

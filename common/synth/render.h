@@ -64,6 +64,11 @@ struct RenderedView {
   cv::Mat image;      // CV_8UC1, H x W: the take image (first field, column pairs averaged)
   cv::Mat depth_mm;   // CV_32FC1, H x W: truth z-depth of the first field, 0 = no surface
   cv::Mat on_person;  // CV_8UC1, 2H x 2W: 255 where the frame sample's ray hits the person
+  cv::Mat person;     // CV_8UC1, H x W, with person_mask: the take image's truth foreground
+                      // mask, 255 where the person is at least half of the pixel, i.e. where
+                      // either of the two first-field samples averaged into it hits the
+                      // person (a pixel the person touches that much belongs to its
+                      // silhouette: a visual hull must not shave it off)
 };
 
 struct RenderRequest {
@@ -74,7 +79,7 @@ struct RenderRequest {
   const Lighting* lighting = nullptr;
   uint64_t noise_key = 0;    // identifies the image; see NoiseKey
   bool depth = true;         // compute depth_mm
-  bool person_mask = false;  // compute on_person
+  bool person_mask = false;  // compute on_person and person
 };
 
 RenderedView RenderView(const RenderRequest& request);

@@ -35,7 +35,7 @@ using core::Require;
 namespace {
 
 // Noise streams: one per kind of image.
-enum NoiseKind : uint64_t { kTakeView = 1, kStage1View = 2, kStage2View = 3 };
+enum NoiseKind : uint64_t { kTakeView = 1, kStage1View = 2, kStage2View = 3, kPlateView = 4 };
 constexpr int kFirstFrame = 10 * 30;  // 00:00:10:00 at 30 frames per second
 constexpr int kFramesPerInstant = 5;  // 6 Hz
 
@@ -93,7 +93,7 @@ void PrepareTakeDir(const fs::path& dir, bool overwrite) {
   const bool replace = overwrite && fs::exists(dir / "rig.json", ec);
   take::CreateTakeDir(dir, overwrite);
   if (replace) {
-    for (const char* sub : {"frames", "tape", "truth", "calib"}) {
+    for (const char* sub : {"frames", "tape", "truth", "calib", "background"}) {
       fs::remove_all(dir / sub, ec);
       Require(!ec, (dir / sub).string(), "cannot remove the old folder: " + ec.message());
     }
@@ -222,12 +222,14 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
     const std::string& name = summary.instants.back();
     CreateFolder(out_dir / "frames" / name);
     CreateFolder(out_dir / "truth" / name / "depth");
+    CreateFolder(out_dir / "truth" / name / "mask");
     if (options.write_tape) CreateFolder(out_dir / "tape" / name);
   }
   if (options.write_calibration) {
     CreateFolder(out_dir / "calib" / "stage1");
     CreateFolder(out_dir / "calib" / "stage2");
   }
+  if (options.write_background) CreateFolder(out_dir / "background");
 
   // Scenes: the dome at each instant's two field times, and the floor marks.
   const int n = scene.instants;
@@ -242,6 +244,10 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
   for (const auto& mesh : meshes) casters.push_back(std::make_unique<RayCaster>(*mesh));
   const SceneMesh floor_mesh = BuildFloorMarkScene();
   const RayCaster floor_caster(floor_mesh);
+  // The background plates' scene: the dome scene without the person (the room alone;
+  // the person casts no shadow in the synthetic lighting, synth/texture.h).
+  const SceneMesh room_mesh = BuildRoom(false);
+  const RayCaster room_caster(room_mesh);
   const Lighting dome_lighting = DomeLighting();
   const Lighting bench_lighting = BenchLighting();
   summary.truth_mesh_vertices = static_cast<int>(meshes[0]->vertices.size());
@@ -253,7 +259,7 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
   // calibration. Pulled dynamically by the workers; every output is a function of its
   // job alone, so the take does not depend on the thread count.
   struct Job {
-    enum Kind { kView, kMesh, kStage1, kStage2 } kind;
+    enum Kind { kView, kMesh, kStage1, kStage2, kPlate } kind;
     int instant;
     int camera;
   };
@@ -262,6 +268,9 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
     for (int c = 0; c < scene.cameras; ++c) jobs.push_back({Job::kView, k, c});
   }
   for (int k = 0; k < n; ++k) jobs.push_back({Job::kMesh, k, 0});
+  if (options.write_background) {
+    for (int c = 0; c < scene.cameras; ++c) jobs.push_back({Job::kPlate, 0, c});
+  }
   if (options.write_calibration) {
     // (a stage-1 job's `instant` is the object's pose, synth/calibration.h)
     for (int pose = 0; pose < kStage1Poses; ++pose) {
@@ -296,6 +305,20 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
     files += 2;
   }
 
+  // A dome camera's view of a scene that does not move (the room for the background
+  // plate, the floor marks for stage 2), without depth.
+  auto render_static = [&](const DomeCamera& cam, int camera, const RayCaster& caster,
+                           NoiseKind kind) {
+    RenderRequest request;
+    request.camera = &cam.rig.model;
+    request.response = cam.response;
+    request.first_field = &caster;
+    request.second_field = &caster;
+    request.lighting = &dome_lighting;
+    request.noise_key = NoiseKey(options.seed, kind, 0, camera);
+    request.depth = false;
+    return RenderView(request);
+  };
   auto run_job = [&](const Job& job) {
     const DomeCamera* cam = job.kind == Job::kMesh ? nullptr : &cameras[job.camera];
     switch (job.kind) {
@@ -309,10 +332,12 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         request.second_field = casters[2 * job.instant + 1].get();
         request.lighting = &dome_lighting;
         request.noise_key = NoiseKey(options.seed, kTakeView, job.instant, job.camera);
+        request.person_mask = true;
         const RenderedView view = RenderView(request);
         io::WriteImage(out_dir / "frames" / instant / (id + ".png"), view.image);
         io::WriteDepthTiff(out_dir / "truth" / instant / "depth" / (id + ".tiff"), view.depth_mm);
-        files += 2;
+        io::WriteImage(out_dir / "truth" / instant / "mask" / (id + ".png"), view.person);
+        files += 3;
         if (options.write_tape) {
           io::WriteImage(out_dir / "tape" / instant / (id + ".png"), view.frame);
           ++files;
@@ -381,17 +406,15 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         files += 2;
         break;
       }
+      case Job::kPlate: {
+        io::WriteImage(out_dir / "background" / (cam->rig.model.id + ".png"),
+                       render_static(*cam, job.camera, room_caster, kPlateView).image);
+        ++files;
+        break;
+      }
       case Job::kStage2: {
         const std::string& id = cam->rig.model.id;
-        RenderRequest request;
-        request.camera = &cam->rig.model;
-        request.response = cam->response;
-        request.first_field = &floor_caster;
-        request.second_field = &floor_caster;
-        request.lighting = &dome_lighting;
-        request.noise_key = NoiseKey(options.seed, kStage2View, 0, job.camera);
-        request.depth = false;
-        const RenderedView view = RenderView(request);
+        const RenderedView view = render_static(*cam, job.camera, floor_caster, kStage2View);
         const auto truth = TrueImagePoints(cam->rig.model, AllFloorMarkPoints(),
                                            kFloorMarkDotRadiusMm, floor_caster);
         stage2_points[job.camera] = static_cast<int>(truth.size());

@@ -15,6 +15,12 @@
 //   TAKE/truth/<instant>/mesh.ply        the scene mesh at t (world, mm; binary PLY with
 //                                        normals and albedo as grey vertex colours)
 //   TAKE/truth/<instant>/depth/<camera>.tiff  z-depth (mm) of the first field, 0 = no surface
+//   TAKE/truth/<instant>/mask/<camera>.png     the person's truth mask: 255 where the person
+//                                        or the bat is at least half of the take-image
+//                                        pixel (synth/render.h RenderedView::person)
+//   TAKE/background/<camera>.png         the background plate: the dome without the
+//                                        person, as the camera sees it (its own gain,
+//                                        offset and noise, a noise stream of its own)
 //   TAKE/calib/...                       stage-1 and stage-2 calibration images, targets and
 //                                        true image points (proto/calib.proto)
 // Instants are named by VITC timecode (take/timecode.h): the first at 00:00:10:00, then
@@ -55,13 +61,15 @@ struct SynthOptions {
   std::optional<int> height_px;   // overrides the preset's take image height, pixels
   int threads = 0;                // worker threads; 0 = all hardware threads
   bool overwrite = false;         // replace an existing take: when the folder holds a
-                                  // rig.json, it and frames/, tape/, truth/ and calib/
+                                  // rig.json, it and frames/, tape/, truth/, calib/ and
+                                  // background/
                                   // are removed first
   bool write_tape = true;         // write tape/
   bool write_tape_video = false;  // also write tape/<camera>.avi (off by default: a video's
                                   // bytes depend on the noise seed, unlike every other
                                   // non-image output; `dome-capture make-tapes` makes them later)
   bool write_calibration = true;  // write calib/
+  bool write_background = true;   // write background/ (plates for silhouettes)
 
   static constexpr int kMaxInstants = 300;
 

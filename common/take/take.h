@@ -5,9 +5,14 @@
 //                                          gray, BGR, or BGRA whose alpha marks valid
 //                                          pixels (255) and pixels without data (0)
 //   TAKE/calib/...                         optional: calibration images and targets
+//   TAKE/masks/<instant>/<camera>.png      optional: given foreground masks, 8-bit, nonzero =
+//                                          foreground (silhouette/take_masks.h)
+//   TAKE/background/<camera>.png           optional: background plates, the empty scene, as
+//                                          the frames (silhouette/take_masks.h)
 //   TAKE/truth/<instant>/mesh.ply          optional synthetic ground truth: scene mesh (mm)
 //   TAKE/truth/<instant>/depth/<camera>.tiff   z-depth along the optical axis,
 //                                          32-bit float, mm, 0 = no surface
+//   TAKE/truth/<instant>/mask/<camera>.png  optional truth foreground mask, 255 = person
 //
 // <instant> is the VITC timecode of the instant as HH-MM-SS-FF (take/timecode.h);
 // <camera> is a camera id from rig.json. Image sizes equal the rig's width_px x height_px.

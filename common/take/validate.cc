@@ -24,7 +24,7 @@ class Checker {
   }
 
   // Checks one image file against the expected size; `depth` selects the pixel kind.
-  enum class Kind { kFrame, kTruthDepth };
+  enum class Kind { kFrame, kMask, kTruthDepth };
   void CheckImage(const fs::path& path, const geometry::TsaiCamera* camera, Kind kind,
                   bool decode) {
     if (!decode) return;
@@ -39,6 +39,12 @@ class Checker {
           (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
         Problem(path, "expected an 8-bit gray, BGR or BGRA image, got " +
                           std::to_string(image.channels()) + " channel(s) of depth code " +
+                          std::to_string(image.depth()));
+      }
+    } else if (kind == Kind::kMask) {
+      if (image.depth() != CV_8U) {
+        Problem(path, "expected an 8-bit mask (0 = background, nonzero = foreground), got "
+                      "depth code " +
                           std::to_string(image.depth()));
       }
     } else if (image.type() != CV_32FC1) {
@@ -69,15 +75,17 @@ std::map<std::string, fs::path> ListByStem(const fs::path& dir, const std::strin
   return out;
 }
 
-void CheckCameraFiles(const fs::path& dir, const std::string& ext, const TakeReport& report,
-                      Checker::Kind kind, bool required, bool decode, Checker* checker) {
+// Returns the number of files of known cameras.
+int CheckCameraFiles(const fs::path& dir, const std::string& ext, const TakeReport& report,
+                     Checker::Kind kind, bool required, bool decode, Checker* checker) {
   const auto files = ListByStem(dir, ext, checker);
+  int known = 0;
   for (const auto& [stem, path] : files) {
     if (report.rig_ok && report.rig.Find(stem) < 0) {
       checker->Problem(path, "unknown camera id '" + stem + "' (not in rig.json)");
     }
   }
-  if (!report.rig_ok) return;
+  if (!report.rig_ok) return 0;
   for (const auto& cam : report.rig.cameras) {
     const auto it = files.find(cam.model.id);
     if (it == files.end()) {
@@ -86,8 +94,10 @@ void CheckCameraFiles(const fs::path& dir, const std::string& ext, const TakeRep
                          "missing image of camera '" + cam.model.id + "'");
       continue;
     }
+    ++known;
     checker->CheckImage(it->second, &cam.model, kind, decode);
   }
+  return known;
 }
 
 std::vector<std::string> ListInstants(const fs::path& dir, Checker* checker) {
@@ -138,6 +148,25 @@ TakeReport ValidateTake(const fs::path& dir, const ValidateOptions& options) {
                        options.decode_images, &checker);
     }
   }
+  // Optional silhouette inputs (silhouette/take_masks.h): given masks per instant (a
+  // camera may have none, but an instant folder must be one of frames/), and plates.
+  const fs::path masks = dir / "masks";
+  if (fs::is_directory(masks, ec)) {
+    const std::set<std::string> known(report.instants.begin(), report.instants.end());
+    for (const auto& instant : ListInstants(masks, &checker)) {
+      ++report.mask_instants;
+      if (known.count(instant) == 0) {
+        checker.Problem(masks / instant, "masks for an instant that has no frames/" + instant);
+      }
+      CheckCameraFiles(masks / instant, ".png", report, Checker::Kind::kMask, false,
+                       options.decode_images, &checker);
+    }
+  }
+  const fs::path background = dir / "background";
+  if (fs::is_directory(background, ec)) {
+    report.background_plates = CheckCameraFiles(background, ".png", report, Checker::Kind::kFrame,
+                                                false, options.decode_images, &checker);
+  }
   const fs::path calib = dir / "calib";
   if (fs::is_directory(calib, ec)) {
     report.has_calib = true;
@@ -160,6 +189,10 @@ TakeReport ValidateTake(const fs::path& dir, const ValidateOptions& options) {
       if (fs::is_directory(truth / instant / "depth", ec)) {
         CheckCameraFiles(truth / instant / "depth", ".tiff", report, Checker::Kind::kTruthDepth,
                          true, options.decode_images, &checker);
+      }
+      if (fs::is_directory(truth / instant / "mask", ec)) {
+        CheckCameraFiles(truth / instant / "mask", ".png", report, Checker::Kind::kMask, true,
+                         options.decode_images, &checker);
       }
     }
   }
@@ -199,6 +232,10 @@ std::string TakeReport::Summary() const {
   }
   out << "\n  images checked: " << images_checked << "\n";
   out << "  calib: " << (has_calib ? std::to_string(calib_files) + " file(s)" : "none") << "\n";
+  out << "  masks: " << (mask_instants > 0 ? std::to_string(mask_instants) + " instant(s)" : "none")
+      << "\n";
+  out << "  background plates: "
+      << (background_plates > 0 ? std::to_string(background_plates) : std::string("none")) << "\n";
   out << "  truth: " << (has_truth ? std::to_string(truth_instants) + " instant(s)" : "none")
       << "\n";
   if (problems.empty()) {

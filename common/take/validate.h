@@ -28,6 +28,8 @@ struct TakeReport {
   int calib_files = 0;
   bool has_truth = false;
   int truth_instants = 0;
+  int mask_instants = 0;      // instant folders under masks/ (given masks)
+  int background_plates = 0;  // background/<camera>.png of rig cameras
   std::vector<TakeProblem> problems;
 
   bool ok() const { return problems.empty(); }

@@ -143,6 +143,42 @@ TEST(Cli, SynthSmallTakePassesInfo) {
   EXPECT_NE(info.output.find("truth: 1 instant(s)"), std::string::npos) << info.output;
 }
 
+// `dome masks`: plates of a synthetic take, one line per camera with its IoU against the
+// truth masks; the given masks folder is never an output; too few instants without
+// plates is named.
+TEST(Cli, MasksFromPlatesAndTheirErrors) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 2 --no-tape --no-calib --out " + take.string())
+          .exit_code,
+      0);
+  EXPECT_NE(RunDomeBinary("info " + take.string()).output.find("background plates: 6"),
+            std::string::npos);
+  const Result masks = RunDomeBinary("masks " + take.string() + " --threads 2");
+  ASSERT_EQ(masks.exit_code, 0) << masks.output;
+  EXPECT_NE(masks.output.find("masks of 6 camera(s) x 2 instant(s) in " +
+                              (take / "masks-derived").string()),
+            std::string::npos)
+      << masks.output;
+  EXPECT_NE(masks.output.find("  c05            plate  foreground"), std::string::npos)
+      << masks.output;
+  EXPECT_NE(masks.output.find("IoU vs truth over 12 masks: mean 0.9"), std::string::npos)
+      << masks.output;
+  EXPECT_TRUE(fs::exists(take / "masks-derived" / "00-00-10-05" / "c03.png"));
+  const Result onto_given =
+      RunDomeBinary("masks " + take.string() + " --out " + (take / "masks").string());
+  EXPECT_EQ(onto_given.exit_code, 1);
+  EXPECT_NE(onto_given.output.find("is the take's given masks folder"), std::string::npos)
+      << onto_given.output;
+  fs::remove_all(take / "background");
+  const Result no_median = RunDomeBinary("masks " + take.string());
+  EXPECT_EQ(no_median.exit_code, 1);
+  EXPECT_NE(no_median.output.find("2 instant(s): a median background needs at least 3"),
+            std::string::npos)
+      << no_median.output;
+}
+
 // `dome calibrate --points`: each missing or contradictory flag and each degenerate
 // point file is named, exit 1, and no rig is written.
 // A Linux folder name may be any bytes: a take and an output folder named with byte

@@ -1,0 +1,344 @@
+#include "silhouette/background.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include "core/error.h"
+
+namespace dome::silhouette {
+namespace {
+
+using core::Require;
+
+std::string SizeText(const cv::Mat& m) {
+  return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " with " +
+         std::to_string(m.channels()) + " channel(s)";
+}
+
+bool IsValid(const cv::Mat& valid, int y, int x) {
+  return valid.empty() || valid.at<uint8_t>(y, x) != 0;
+}
+
+// The median of a histogram of `count` values (lower middle for even counts).
+int HistogramMedian(const std::vector<int64_t>& histogram, int64_t count) {
+  const int64_t rank = (count - 1) / 2;
+  int64_t seen = 0;
+  for (size_t v = 0; v < histogram.size(); ++v) {
+    seen += histogram[v];
+    if (seen > rank) return static_cast<int>(v);
+  }
+  return static_cast<int>(histogram.size()) - 1;
+}
+
+// The two-sided standard normal quantile: t with P(|z| > t) = p, by bisection on erfc.
+double TwoSidedNormalQuantile(double p) {
+  double lo = 0.0, hi = 40.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (std::erfc(mid / std::sqrt(2.0)) > p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+void ForegroundOptions::Check() const {
+  Require(false_alarm_per_pixel > 0.0 && false_alarm_per_pixel < 0.5,
+          "ForegroundOptions: false_alarm_per_pixel",
+          "expected a probability in (0, 0.5), got " + std::to_string(false_alarm_per_pixel));
+  Require(weak_false_alarm_per_pixel >= false_alarm_per_pixel && weak_false_alarm_per_pixel < 0.5,
+          "ForegroundOptions: weak_false_alarm_per_pixel",
+          "expected a probability in [false_alarm_per_pixel, 0.5), got " +
+              std::to_string(weak_false_alarm_per_pixel));
+  Require(shadow_min > 0.0 && shadow_min < 1.0, "ForegroundOptions: shadow_min",
+          "expected a brightness ratio in (0, 1), got " + std::to_string(shadow_min));
+  Require(sigma_floor > 0.0 && sigma_floor < 64.0, "ForegroundOptions: sigma_floor",
+          "expected grey levels in (0, 64), got " + std::to_string(sigma_floor));
+}
+
+double ForegroundOptions::BrightnessThreshold() const {
+  return TwoSidedNormalQuantile(false_alarm_per_pixel);
+}
+
+double ForegroundOptions::WeakRatio() const {
+  return TwoSidedNormalQuantile(weak_false_alarm_per_pixel) / BrightnessThreshold();
+}
+
+double ForegroundOptions::ChromaThreshold() const {
+  // P(chi_2 > t) = exp(-t^2 / 2).
+  return std::sqrt(-2.0 * std::log(false_alarm_per_pixel));
+}
+
+void CleanupOptions::Check() const {
+  Require(min_component_fraction >= 0.0 && min_component_fraction < 0.1,
+          "CleanupOptions: min_component_fraction",
+          "expected a fraction of the image in [0, 0.1), got " +
+              std::to_string(min_component_fraction));
+  Require(close_radius_fraction >= 0.0 && close_radius_fraction < 0.05,
+          "CleanupOptions: close_radius_fraction",
+          "expected a fraction of the image diagonal in [0, 0.05), got " +
+              std::to_string(close_radius_fraction));
+  Require(max_hole_fraction >= 0.0 && max_hole_fraction < 0.1, "CleanupOptions: max_hole_fraction",
+          "expected a fraction of the image in [0, 0.1), got " + std::to_string(max_hole_fraction));
+}
+
+int CleanupOptions::CloseRadiusPx(cv::Size size) const {
+  const double diagonal = std::hypot(size.width, size.height);
+  if (close_radius_fraction == 0.0) return 0;
+  return std::max(1, static_cast<int>(std::lround(close_radius_fraction * diagonal)));
+}
+
+double GlobalGain(const cv::Mat& image, const cv::Mat& background, const cv::Mat& valid) {
+  const int channels = image.channels();
+  std::vector<float> ratios;
+  ratios.reserve(static_cast<size_t>(image.rows) * image.cols);
+  for (int y = 0; y < image.rows; ++y) {
+    const uint8_t* ip = image.ptr<uint8_t>(y);
+    const uint8_t* bp = background.ptr<uint8_t>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      if (!IsValid(valid, y, x)) continue;
+      double ib = 0.0, bb = 0.0;
+      for (int c = 0; c < channels; ++c) {
+        ib += double(ip[x * channels + c]) * bp[x * channels + c];
+        bb += double(bp[x * channels + c]) * bp[x * channels + c];
+      }
+      // Below 16 grey levels a ratio is mostly noise.
+      if (bb >= 256.0 * channels) ratios.push_back(static_cast<float>(ib / bb));
+    }
+  }
+  if (ratios.empty()) return 1.0;
+  auto mid = ratios.begin() + static_cast<std::ptrdiff_t>((ratios.size() - 1) / 2);
+  std::nth_element(ratios.begin(), mid, ratios.end());
+  return *mid > 0.0f ? *mid : 1.0;
+}
+
+std::vector<double> NoiseSigma(const cv::Mat& image, const cv::Mat& background,
+                               const cv::Mat& valid, double gain, double floor, bool skip_zero) {
+  const int channels = image.channels();
+  std::vector<double> sigma(channels, floor);
+  for (int c = 0; c < channels; ++c) {
+    // Differences -255..255 in a histogram, then their absolute deviations.
+    std::vector<int64_t> diff(511, 0);
+    int64_t count = 0;
+    for (int y = 0; y < image.rows; ++y) {
+      const uint8_t* i = image.ptr<uint8_t>(y);
+      const uint8_t* b = background.ptr<uint8_t>(y);
+      for (int x = 0; x < image.cols; ++x) {
+        if (!IsValid(valid, y, x)) continue;
+        const long d = std::lround(i[x * channels + c] - gain * b[x * channels + c]);
+        if (skip_zero && d == 0) continue;
+        ++diff[std::clamp<long>(d, -255, 255) + 255];
+        ++count;
+      }
+    }
+    if (count == 0) continue;
+    const int median = HistogramMedian(diff, count) - 255;
+    std::vector<int64_t> deviation(511, 0);
+    for (int d = 0; d < 511; ++d) deviation[std::abs(d - 255 - median)] += diff[d];
+    // The median deviation, interpolated within its one-level bin (values spread
+    // evenly over [v - 0.5, v + 0.5], the bin of 0 over [0, 0.5]): integer medians alone
+    // would make sigma jump between multiples of 1.48.
+    const int v = HistogramMedian(deviation, count);
+    int64_t below = 0;
+    for (int u = 0; u < v; ++u) below += deviation[u];
+    const double rank = 0.5 * static_cast<double>(count);
+    const double f = std::clamp((rank - below) / std::max<int64_t>(1, deviation[v]), 0.0, 1.0);
+    const double mad = v == 0 ? 0.5 * f : v - 0.5 + f;
+    sigma[c] = std::max(floor, 1.4826 * mad);
+  }
+  return sigma;
+}
+
+cv::Mat ClassifyForeground(const cv::Mat& image, const cv::Mat& background, const cv::Mat& valid,
+                           const ForegroundOptions& options, bool background_includes_image,
+                           ForegroundStats* stats) {
+  options.Check();
+  Require(image.type() == CV_8UC1 || image.type() == CV_8UC3, "ClassifyForeground: image",
+          "expected an 8-bit gray or BGR image, got " + SizeText(image));
+  Require(background.type() == image.type() && background.size() == image.size(),
+          "ClassifyForeground: background",
+          "expected the image's size and channels (" + SizeText(image) + "), got " +
+              SizeText(background));
+  Require(valid.empty() || (valid.type() == CV_8UC1 && valid.size() == image.size()),
+          "ClassifyForeground: valid", "expected an 8-bit mask of the image's size");
+  const int channels = image.channels();
+  const double gain = GlobalGain(image, background, valid);
+  const std::vector<double> sigma =
+      NoiseSigma(image, background, valid, gain, options.sigma_floor, background_includes_image);
+  std::vector<double> inv_sigma(channels);
+  for (int c = 0; c < channels; ++c) inv_sigma[c] = 1.0 / sigma[c];
+
+  // Per pixel, its score: how far past the strong thresholds its distortion is (> 1 is
+  // foreground at the strong false-alarm rate), in noise units divided by the threshold.
+  const double t1 = options.BrightnessThreshold();
+  const double t2 = options.ChromaThreshold();
+  cv::Mat score = cv::Mat::zeros(image.size(), CV_32FC1);
+  int64_t valid_count = 0;
+  for (int y = 0; y < image.rows; ++y) {
+    const uint8_t* ip = image.ptr<uint8_t>(y);
+    const uint8_t* bp = background.ptr<uint8_t>(y);
+    float* sp = score.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      if (!IsValid(valid, y, x)) continue;
+      ++valid_count;
+      double ib = 0.0, bb = 0.0, ii = 0.0;
+      for (int c = 0; c < channels; ++c) {
+        const double iv = ip[x * channels + c] * inv_sigma[c];
+        const double bv = bp[x * channels + c] * inv_sigma[c];
+        ib += iv * bv;
+        bb += bv * bv;
+        ii += iv * iv;
+      }
+      double cd, change, ratio;
+      if (bb > 1.0) {
+        const double alpha = ib / bb;
+        ratio = alpha / gain;
+        cd = std::sqrt(std::max(0.0, ii - ib * ib / bb));
+        change = (ratio - 1.0) * std::sqrt(bb);  // brightness change, noise units
+      } else {
+        // A background within noise of black has no colour to keep: the image's own
+        // brightness is the change.
+        ratio = 1.0;
+        cd = 0.0;
+        change = std::sqrt(ii);
+      }
+      double s;
+      if (channels == 1) {
+        s = std::abs(change) / t1;
+      } else {
+        // Within the shadow band [shadow_min, 1 / shadow_min] only the colour decides.
+        s = cd / t2;
+        if (ratio < options.shadow_min || ratio * options.shadow_min > 1.0)
+          s = std::max(s, std::abs(change) / t1);
+      }
+      sp[x] = static_cast<float>(s);
+    }
+  }
+  // Hysteresis (as Canny's edges): pixels past the weak thresholds are foreground when
+  // 8-connected to one past the strong ones -- the person's edge pixels, half person and
+  // half background, and low-contrast parts next to clear ones.
+  const double weak = options.WeakRatio();
+  cv::Mat candidate = score > weak;
+  cv::Mat labels;
+  const int count = cv::connectedComponents(candidate, labels, 8, CV_32S);
+  std::vector<uint8_t> strong(count, 0);
+  for (int y = 0; y < image.rows; ++y) {
+    const float* sp = score.ptr<float>(y);
+    const int* lp = labels.ptr<int>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      if (sp[x] > 1.0f) strong[lp[x]] = 255;
+    }
+  }
+  strong[0] = 0;
+  cv::Mat mask(image.size(), CV_8UC1);
+  int64_t foreground = 0;
+  for (int y = 0; y < image.rows; ++y) {
+    const int* lp = labels.ptr<int>(y);
+    uint8_t* m = mask.ptr<uint8_t>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      m[x] = strong[lp[x]];
+      foreground += m[x] != 0;
+    }
+  }
+  if (stats != nullptr) {
+    stats->sigma = sigma;
+    stats->gain = gain;
+    stats->fraction = valid_count > 0 ? static_cast<double>(foreground) / valid_count : 0.0;
+  }
+  return mask;
+}
+
+cv::Mat CleanMask(const cv::Mat& raw, const cv::Mat& valid, const CleanupOptions& options) {
+  options.Check();
+  DOME_CHECK(raw.type() == CV_8UC1, "CleanMask: an 8-bit mask");
+  const double pixels = static_cast<double>(raw.rows) * raw.cols;
+  cv::Mat mask = raw.clone();
+  // 1. Small components (8-connected) go: isolated false alarms.
+  {
+    cv::Mat labels, component_stats, centroids;
+    const int count = cv::connectedComponentsWithStats(mask, labels, component_stats, centroids, 8);
+    const double min_area = options.min_component_fraction * pixels;
+    std::vector<uint8_t> keep(count, 0);
+    for (int i = 1; i < count; ++i)
+      keep[i] = component_stats.at<int>(i, cv::CC_STAT_AREA) >= min_area ? 255 : 0;
+    for (int y = 0; y < mask.rows; ++y) {
+      const int* l = labels.ptr<int>(y);
+      uint8_t* m = mask.ptr<uint8_t>(y);
+      for (int x = 0; x < mask.cols; ++x) m[x] = keep[l[x]];
+    }
+  }
+  // 2. Closing with a disc: bridges cracks where the person matches the background.
+  // The image is padded by the radius (with background) so that the closing does not
+  // glue the silhouette to the border.
+  {
+    const int r = options.CloseRadiusPx(mask.size());
+    const cv::Mat disc =
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
+    cv::Mat padded;
+    cv::copyMakeBorder(mask, padded, r, r, r, r, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::morphologyEx(padded, padded, cv::MORPH_CLOSE, disc, cv::Point(-1, -1), 1,
+                     cv::BORDER_CONSTANT, cv::Scalar(0));
+    mask = padded(cv::Rect(r, r, mask.cols, mask.rows)).clone();
+  }
+  // 3. Small holes (4-connected background pieces off the border) are filled.
+  {
+    cv::Mat background = 255 - mask;
+    cv::Mat labels, component_stats, centroids;
+    const int count =
+        cv::connectedComponentsWithStats(background, labels, component_stats, centroids, 4);
+    const double max_area = options.max_hole_fraction * pixels;
+    std::vector<uint8_t> fill(count, 0);
+    for (int i = 1; i < count; ++i) {
+      const int x = component_stats.at<int>(i, cv::CC_STAT_LEFT);
+      const int y = component_stats.at<int>(i, cv::CC_STAT_TOP);
+      const int w = component_stats.at<int>(i, cv::CC_STAT_WIDTH);
+      const int h = component_stats.at<int>(i, cv::CC_STAT_HEIGHT);
+      const bool touches_border = x == 0 || y == 0 || x + w == mask.cols || y + h == mask.rows;
+      fill[i] = !touches_border && component_stats.at<int>(i, cv::CC_STAT_AREA) <= max_area;
+    }
+    for (int y = 0; y < mask.rows; ++y) {
+      const int* l = labels.ptr<int>(y);
+      uint8_t* m = mask.ptr<uint8_t>(y);
+      for (int x = 0; x < mask.cols; ++x) {
+        if (fill[l[x]]) m[x] = 255;
+      }
+    }
+  }
+  if (!valid.empty()) mask.setTo(0, valid == 0);
+  return mask;
+}
+
+cv::Mat MedianImage(const std::vector<cv::Mat>& images) {
+  DOME_CHECK(!images.empty(), "MedianImage: at least one image");
+  const cv::Mat& first = images.front();
+  for (const auto& m : images)
+    DOME_CHECK(m.type() == first.type() && m.size() == first.size(),
+               "MedianImage: images of one size and type");
+  const int values = first.cols * first.channels();
+  const size_t count = images.size();
+  const size_t rank = (count - 1) / 2;
+  cv::Mat out(first.size(), first.type());
+  std::vector<uint8_t> samples(count);
+  for (int y = 0; y < first.rows; ++y) {
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int v = 0; v < values; ++v) {
+      for (size_t i = 0; i < count; ++i) samples[i] = images[i].ptr<uint8_t>(y)[v];
+      std::nth_element(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(rank),
+                       samples.end());
+      o[v] = samples[rank];
+    }
+  }
+  return out;
+}
+
+double MaskIoU(const cv::Mat& a, const cv::Mat& b) {
+  DOME_CHECK(a.size() == b.size() && a.type() == CV_8UC1 && b.type() == CV_8UC1,
+             "MaskIoU: two 8-bit masks of one size");
+  const int inter = cv::countNonZero((a != 0) & (b != 0));
+  const int uni = cv::countNonZero((a != 0) | (b != 0));
+  return uni == 0 ? 1.0 : static_cast<double>(inter) / uni;
+}
+
+}  // namespace dome::silhouette

@@ -1,0 +1,135 @@
+// Foreground masks from a background image: a colour model robust to lighting and
+// shadows, and the morphological clean-up of its raw decisions.
+//
+// Images: 8-bit gray (CV_8UC1) or BGR (CV_8UC3), the camera's own pixel grid (no
+// undistortion: a mask is used where its image is). A mask is CV_8UC1, 255 = foreground
+// (what moves: the people), 0 = background, the size of its image.
+//
+// The model (after Horprasert, Harwood and Davis, "A statistical approach for real-time
+// robust background subtraction and shadow detection", ICCV FRAME-RATE workshop 1999).
+// Each pixel's colour I (one value per channel) is compared with the background's B:
+//   brightness distortion  alpha = argmin_a |(I - a B) / sigma|^2   (1 = as bright as B)
+//   chromaticity distortion CD   = |(I - alpha B) / sigma|          (noise units)
+// where sigma (per channel, grey levels) is the noise of I - B estimated from the image
+// pair itself (NoiseSigma below). A shadow or a dimmer lamp scales B (alpha < 1) without
+// changing its colour (small CD); a person changes the colour, or the brightness by more
+// than a shadow can. The whole image's brightness may change between the plate and the
+// frame (exposure, lamps): alpha is taken relative to the global gain g (GlobalGain:
+// the median brightness ratio, which the background, most of the image, fixes).
+//
+// A pixel is strongly foreground when, with t1 and t2 the thresholds of ForegroundOptions:
+//   CD > t2                                   (colour changed; BGR only), or
+//   alpha / g outside [shadow_min, 1 / shadow_min] and |alpha / g - 1| |B / sigma| > t1
+//                                             (darker than a shadow, or brighter than a
+//                                             shadow's removal can make it).
+// Brightening is tolerated like darkening (Horprasert's "highlighted background"): a
+// median background can hold the shadow a person cast in most of the instants, and the
+// lit floor where that shadow has gone is background.
+// A grey image has no chromaticity (CD is 0), so nothing tells a shadow from a darker
+// person: on gray images any brightness change beyond t1 noise units is foreground. Pixels past
+// the weak thresholds join the foreground when connected to a strong pixel (hysteresis).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace dome::silhouette {
+
+struct ForegroundOptions {
+  // Probability that a background pixel with Gaussian noise is called foreground, per
+  // pixel (dimensionless). The thresholds follow from it: t1 the two-sided normal
+  // quantile (brightness, 1 degree of freedom), t2 = sqrt(-2 ln p) the chi quantile with
+  // 2 degrees of freedom (chromaticity of BGR: 3 channels less the brightness).
+  // 1e-4 leaves ~2 isolated false pixels in a 160x120 image and ~200 in a 1920x1080 one,
+  // which the clean-up's component rule removes.
+  double false_alarm_per_pixel = 1e-4;
+  // The same for the weak thresholds of the hysteresis: a pixel past them is
+  // foreground when 8-connected to one past the strong thresholds. Background pixels
+  // next to the person pass them at this rate (1 in 100 of the silhouette's outer
+  // ring); the person's edge pixels, half person and half background, show only half
+  // the contrast and need them. The weak thresholds are the strong ones times
+  // WeakRatio() (the ratio of the normal quantiles, used for both tests).
+  double weak_false_alarm_per_pixel = 0.01;
+  // Smallest brightness ratio alpha / g a shadow leaves (dimensionless, 0..1): a pixel
+  // darkened below this is foreground whatever its colour. The dome is lit from many
+  // directions, so a person's shadow dims a surface by well under half (Horprasert's
+  // setting is of the same order).
+  double shadow_min = 0.5;
+  // Lowest noise estimate, grey levels: 8-bit quantisation alone leaves a difference of
+  // two images a spread of ~0.4 levels, and compression or resampling more; a noise-free
+  // synthetic pair must not make every one-level difference foreground.
+  double sigma_floor = 1.0;
+
+  // Throws core::InputError naming the field when out of range.
+  void Check() const;
+  // t1 and t2 above, noise units.
+  double BrightnessThreshold() const;
+  double ChromaThreshold() const;
+  double WeakRatio() const;
+};
+
+// What ClassifyForeground found, for reports.
+struct ForegroundStats {
+  std::vector<double> sigma;  // per channel, grey levels
+  double gain = 1.0;          // g: median brightness ratio image / background
+  double fraction = 0.0;      // raw foreground pixels / valid pixels
+};
+
+// The global gain g: the median over `valid` pixels (empty = all) of the brightness
+// ratio (I.B) / (B.B), pixels with a background under 16 grey levels left out.
+// Robust while the foreground is under half the valid pixels.
+double GlobalGain(const cv::Mat& image, const cv::Mat& background, const cv::Mat& valid);
+
+// The noise of image - gain x background per channel, grey levels: 1.4826 x the median
+// absolute deviation of the difference (rounded to whole levels, the median interpolated
+// within its level) over `valid` pixels (empty = all), floored at `floor`. Robust while
+// the foreground is under half the valid pixels. `skip_zero`: differences of exactly 0
+// are left out -- for a background that is a median of few images including `image`,
+// where the image *is* the median at many background pixels (a third of them for three
+// images) and those zeros would halve the estimate; what remains is the image's spread
+// about the median when it is not the middle value, an over-estimate that errs towards
+// fewer false foreground pixels.
+std::vector<double> NoiseSigma(const cv::Mat& image, const cv::Mat& background,
+                               const cv::Mat& valid, double gain, double floor, bool skip_zero);
+
+// The raw decision per pixel (255 foreground) of `image` against `background` (same
+// size and type, CV_8UC1 or CV_8UC3). `valid` (CV_8UC1, nonzero = has data, or empty
+// for all) excludes pixels without data: they are background. `background_includes_image`:
+// the background is a median over images that include this one (NoiseSigma's
+// skip_zero). Throws core::InputError when the sizes or types differ.
+cv::Mat ClassifyForeground(const cv::Mat& image, const cv::Mat& background, const cv::Mat& valid,
+                           const ForegroundOptions& options, bool background_includes_image,
+                           ForegroundStats* stats = nullptr);
+
+struct CleanupOptions {
+  // Connected foreground pieces (8-connected) smaller than this fraction of the image's
+  // pixels are dropped: the false-alarm rate makes isolated false pixels and pairs, and
+  // a person in a dome camera covers far more. Dropping by area instead of opening
+  // keeps thin parts (a bat or an arm two pixels across).
+  double min_component_fraction = 2e-4;
+  // Radius, pixels, of the closing (dilate then erode with a disc) that bridges cracks
+  // where the person's colour matches the background, as a fraction of the image
+  // diagonal, at least 1 pixel.
+  double close_radius_fraction = 0.002;
+  // Background holes (4-connected, not touching the border) smaller than this fraction
+  // of the image's pixels are filled: camouflage inside the body. Larger holes (the gap
+  // between an arm and the body, between legs) stay.
+  double max_hole_fraction = 2e-4;
+
+  void Check() const;
+  int CloseRadiusPx(cv::Size size) const;
+};
+
+// The clean-up in this order: drop small components, close, fill small holes. Returns
+// a new mask (255 / 0). `valid`, when given, clears pixels without data at the end.
+cv::Mat CleanMask(const cv::Mat& raw, const cv::Mat& valid, const CleanupOptions& options);
+
+// The per-pixel median over `images` (same size and type, CV_8UC1 or CV_8UC3, at least
+// one): for an odd count the middle value, for an even count the lower middle one (a
+// value that occurs). Per channel.
+cv::Mat MedianImage(const std::vector<cv::Mat>& images);
+
+// Intersection over union of two masks (nonzero = foreground); 1 when both are empty.
+double MaskIoU(const cv::Mat& a, const cv::Mat& b);
+
+}  // namespace dome::silhouette

@@ -1,0 +1,217 @@
+#include "silhouette/take_masks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "io/image_io.h"
+
+namespace dome::silhouette {
+
+namespace fs = std::filesystem;
+using core::Require;
+
+namespace {
+
+std::string SizeText(cv::Size s) {
+  return std::to_string(s.width) + "x" + std::to_string(s.height);
+}
+
+cv::Size CameraSize(const take::Take& take, const std::string& camera) {
+  const int index = take.rig.Find(camera);
+  Require(index >= 0, take.RigPath().string(), "no camera '" + camera + "'");
+  const auto& model = take.rig.cameras[index].model;
+  return {model.width_px, model.height_px};
+}
+
+void RequireSize(const fs::path& path, cv::Size got, cv::Size expected, const std::string& camera) {
+  Require(got == expected, path.string(),
+          "image is " + SizeText(got) + ", rig.json says camera '" + camera + "' is " +
+              SizeText(expected));
+}
+
+// `image` with `channels` channels (1 gray, 3 BGR).
+cv::Mat ToChannels(const cv::Mat& image, int channels) {
+  if (image.channels() == channels) return image;
+  cv::Mat out;
+  cv::cvtColor(image, out, channels == 1 ? cv::COLOR_BGR2GRAY : cv::COLOR_GRAY2BGR);
+  return out;
+}
+
+// A given mask as 255 / 0, checked for depth and size.
+cv::Mat ReadMaskFile(const fs::path& path, cv::Size size, const std::string& camera) {
+  const cv::Mat raw = io::ReadImage(path, io::ImageMode::kUnchanged);
+  Require(raw.depth() == CV_8U, path.string(),
+          "expected an 8-bit mask (0 = background, nonzero = foreground), got depth code " +
+              std::to_string(raw.depth()));
+  RequireSize(path, raw.size(), size, camera);
+  cv::Mat first;
+  cv::extractChannel(raw, first, 0);
+  return first != 0;  // 255 / 0
+}
+
+}  // namespace
+
+const char* MaskSourceName(MaskSource source) {
+  switch (source) {
+    case MaskSource::kGiven:
+      return "given";
+    case MaskSource::kPlate:
+      return "plate";
+    case MaskSource::kMedian:
+      return "median";
+  }
+  return "?";
+}
+
+void MaskOptions::Check() const {
+  foreground.Check();
+  cleanup.Check();
+  Require(median_max_instants >= kMinMedianInstants, "MaskOptions: median_max_instants",
+          "expected at least " + std::to_string(kMinMedianInstants) + ", got " +
+              std::to_string(median_max_instants));
+}
+
+std::vector<std::string> MedianInstants(const std::vector<std::string>& instants, int max_count) {
+  const int n = static_cast<int>(instants.size());
+  if (n <= max_count) return instants;
+  std::vector<std::string> out;
+  for (int i = 0; i < max_count; ++i) {
+    const int k = static_cast<int>(std::lround(static_cast<double>(i) * (n - 1) / (max_count - 1)));
+    out.push_back(instants[k]);
+  }
+  return out;
+}
+
+Frame ReadFrame(const fs::path& path, cv::Size size, const std::string& camera) {
+  const cv::Mat raw = io::ReadImage(path, io::ImageMode::kUnchanged);
+  Require(
+      raw.depth() == CV_8U && (raw.channels() == 1 || raw.channels() == 3 || raw.channels() == 4),
+      path.string(),
+      "expected an 8-bit gray, BGR or BGRA image, got " + std::to_string(raw.channels()) +
+          " channel(s) of depth code " + std::to_string(raw.depth()));
+  RequireSize(path, raw.size(), size, camera);
+  Frame frame;
+  if (raw.channels() == 4) {
+    cv::cvtColor(raw, frame.colour, cv::COLOR_BGRA2BGR);
+    cv::Mat alpha;
+    cv::extractChannel(raw, alpha, 3);
+    frame.valid = alpha != 0;
+  } else {
+    frame.colour = raw;
+  }
+  return frame;
+}
+
+fs::path TakeMasks::GivenMaskPath(const std::string& instant, const std::string& camera) const {
+  return take_.dir / "masks" / instant / (camera + ".png");
+}
+
+fs::path TakeMasks::PlatePath(const std::string& camera) const {
+  return take_.dir / "background" / (camera + ".png");
+}
+
+TakeMasks::TakeMasks(take::Take take, const MaskOptions& options)
+    : take_(std::move(take)), options_(options) {
+  options_.Check();
+  std::error_code ec;
+  std::vector<std::string> median_cameras;
+  for (const auto& rc : take_.rig.cameras) {
+    const std::string& id = rc.model.id;
+    const cv::Size size(rc.model.width_px, rc.model.height_px);
+    backgrounds_[id];  // every camera's slot exists, so Mask() never inserts
+    bool any_given = false;
+    for (const auto& instant : take_.instants)
+      any_given = any_given || fs::exists(GivenMaskPath(instant, id), ec);
+    if (any_given) {
+      // Given masks are all or nothing per camera: half given, half derived would mix
+      // two definitions of the silhouette in one camera.
+      for (const auto& instant : take_.instants) {
+        const fs::path path = GivenMaskPath(instant, id);
+        Require(fs::exists(path, ec), path.string(),
+                "missing: camera '" + id +
+                    "' has given masks for other instants, so every "
+                    "instant needs one");
+        ReadMaskFile(path, size, id);  // kind and size, before any work
+      }
+      sources_[id] = MaskSource::kGiven;
+    } else if (fs::exists(PlatePath(id), ec)) {
+      ReadFrame(PlatePath(id), size, id);  // kind and size, before any work
+      sources_[id] = MaskSource::kPlate;
+    } else {
+      sources_[id] = MaskSource::kMedian;
+      median_cameras.push_back(id);
+    }
+  }
+  if (!median_cameras.empty()) {
+    const int n = static_cast<int>(take_.instants.size());
+    Require(n >= MaskOptions::kMinMedianInstants, (take_.dir / "frames").string(),
+            std::to_string(n) + " instant(s): a median background needs at least " +
+                std::to_string(MaskOptions::kMinMedianInstants) +
+                " (the person must be elsewhere in most of them); camera '" +
+                median_cameras.front() + "' has neither background/" + median_cameras.front() +
+                ".png nor masks/<instant>/" + median_cameras.front() + ".png");
+  }
+}
+
+MaskSource TakeMasks::Source(const std::string& camera) const {
+  const auto it = sources_.find(camera);
+  Require(it != sources_.end(), take_.RigPath().string(), "no camera '" + camera + "'");
+  return it->second;
+}
+
+const cv::Mat& TakeMasks::Background(const std::string& camera, int channels) {
+  cv::Mat& slot = backgrounds_.at(camera);
+  if (slot.empty()) {
+    const cv::Size size = CameraSize(take_, camera);
+    if (Source(camera) == MaskSource::kPlate) {
+      slot = ReadFrame(PlatePath(camera), size, camera).colour;
+    } else {
+      std::vector<cv::Mat> images;
+      for (const auto& instant : MedianInstants(take_.instants, options_.median_max_instants)) {
+        images.push_back(
+            ToChannels(ReadFrame(take_.FramePath(instant, camera), size, camera).colour, channels));
+      }
+      slot = MedianImage(images);
+    }
+  }
+  return slot;
+}
+
+cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, MaskInfo* info) {
+  const cv::Size size = CameraSize(take_, camera);
+  const MaskSource source = Source(camera);
+  MaskInfo local;
+  local.source = source;
+  cv::Mat mask;
+  if (source == MaskSource::kGiven) {
+    mask = ReadMaskFile(GivenMaskPath(instant, camera), size, camera);
+  } else {
+    const Frame frame = ReadFrame(take_.FramePath(instant, camera), size, camera);
+    const cv::Mat& background = Background(camera, frame.colour.channels());
+    // A gray plate for colour frames (or the reverse): both in the fewer channels.
+    const int channels = std::min(frame.colour.channels(), background.channels());
+    const cv::Mat raw = ClassifyForeground(
+        ToChannels(frame.colour, channels), ToChannels(background, channels), frame.valid,
+        options_.foreground, source == MaskSource::kMedian, &local.stats);
+    mask = CleanMask(raw, frame.valid, options_.cleanup);
+  }
+  local.fraction = static_cast<double>(cv::countNonZero(mask)) / (size.width * size.height);
+  if (info != nullptr) *info = local;
+  return mask;
+}
+
+cv::Mat MaskPreview(const cv::Mat& image, const cv::Mat& mask) {
+  DOME_CHECK(image.size() == mask.size(), "MaskPreview: a mask of the image's size");
+  cv::Mat bgr = ToChannels(image, 3).clone();
+  cv::Mat dim = bgr / 3;
+  dim.copyTo(bgr, mask == 0);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask.clone(), contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+  const int thickness = std::max(1, static_cast<int>(std::lround(image.cols / 640.0)));
+  cv::drawContours(bgr, contours, -1, cv::Scalar(0, 255, 0), thickness);
+  return bgr;
+}
+
+}  // namespace dome::silhouette

@@ -1,0 +1,104 @@
+// Foreground masks of a take's frames (take/take.h), per camera and instant.
+//
+// Where a camera's masks come from, in this order:
+//   1. given:  TAKE/masks/<instant>/<camera>.png  -- 8-bit gray (or any 8-bit PNG whose
+//              first channel is read), nonzero = foreground; one per instant of the take.
+//   2. plate:  TAKE/background/<camera>.png       -- the empty scene as the camera sees it
+//              (8-bit gray, BGR or BGRA like the frames); each frame is compared with it
+//              (silhouette/background.h).
+//   3. median: neither exists -- the background is the per-pixel median of the camera's
+//              frames over the take's instants. Where the person stands in one instant
+//              they are elsewhere in most others, if the instants are far enough apart in
+//              time and there are at least kMinMedianInstants of them; with fewer, no
+//              median exists and opening the masks fails, naming the take and the folders
+//              that would help.
+// A given mask or plate of another size than rig.json's camera is an error naming the
+// file and both sizes. Frames with alpha: pixels with alpha 0 have no data and are
+// background in every mask.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "silhouette/background.h"
+#include "take/take.h"
+
+namespace dome::silhouette {
+
+enum class MaskSource { kGiven, kPlate, kMedian };
+const char* MaskSourceName(MaskSource source);  // "given", "plate", "median"
+
+struct MaskOptions {
+  ForegroundOptions foreground;
+  CleanupOptions cleanup;
+  // The median background uses at most this many instants (count), spread evenly over
+  // the take (first and last included): more instants are further apart on average
+  // only up to the take's length, and memory grows with the count.
+  int median_max_instants = 15;
+
+  // The fewest instants a median background needs: with two, the median is one of the
+  // two frames and a person in either leaves a ghost; with three, a pixel is background
+  // when the person covers it in at most one of them.
+  static constexpr int kMinMedianInstants = 3;
+
+  void Check() const;
+};
+
+// What one mask came from and looked like.
+struct MaskInfo {
+  MaskSource source = MaskSource::kMedian;
+  double fraction = 0.0;  // foreground pixels / pixels, after clean-up
+  ForegroundStats stats;  // of the classification (not for given masks)
+};
+
+class TakeMasks {
+ public:
+  // Decides each camera's source and checks the given masks' and plates' sizes, so
+  // that errors surface before any work. Throws core::InputError naming the file (a
+  // mask or plate of the wrong size or kind, a given mask missing for an instant) or
+  // the take (too few instants for a median).
+  TakeMasks(take::Take take, const MaskOptions& options);
+
+  const take::Take& take() const { return take_; }
+  MaskSource Source(const std::string& camera) const;
+
+  // The mask (CV_8UC1, 255 / 0, the camera's size) of `camera` at `instant`. Reads the
+  // frames it needs; the median background is computed on first use and kept.
+  // Thread-safe for distinct cameras.
+  cv::Mat Mask(const std::string& instant, const std::string& camera, MaskInfo* info = nullptr);
+
+  std::filesystem::path GivenMaskPath(const std::string& instant, const std::string& camera) const;
+  std::filesystem::path PlatePath(const std::string& camera) const;
+
+ private:
+  // The background of `camera` (plate or median), in the frames' colour (gray or BGR).
+  const cv::Mat& Background(const std::string& camera, int channels);
+
+  take::Take take_;
+  MaskOptions options_;
+  std::map<std::string, MaskSource> sources_;
+  std::map<std::string, cv::Mat> backgrounds_;  // one entry per camera, filled on use
+};
+
+// The instants a median background uses: at most `max_count`, evenly spread over
+// `instants` (indices rounded), first and last included.
+std::vector<std::string> MedianInstants(const std::vector<std::string>& instants, int max_count);
+
+// A frame split into colour (CV_8UC1 or CV_8UC3) and valid pixels (CV_8UC1, empty when
+// the file has no alpha).
+struct Frame {
+  cv::Mat colour;
+  cv::Mat valid;
+};
+// Reads a frame or plate: 8-bit gray, BGR or BGRA. Throws core::InputError naming the
+// file when it is another kind, or not `size` (rig.json's size of `camera`).
+Frame ReadFrame(const std::filesystem::path& path, cv::Size size, const std::string& camera);
+
+// The image darkened to a third outside the mask, with the mask's outline in green: for
+// looking at a mask (BGR, the image's size).
+cv::Mat MaskPreview(const cv::Mat& image, const cv::Mat& mask);
+
+}  // namespace dome::silhouette
