@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""Decimation speed, two dome binaries side by side on one mesh (before / after).
+
+  /usr/bin/python3 bench/fusion/decimation_ab.py BEFORE_DOME AFTER_DOME MESH.ply [--pairs N]
+      [-- DECIMATE_OPTIONS...]
+
+Runs `DOME mesh decimate MESH OUT DECIMATE_OPTIONS` N times (default 7) per binary,
+alternating before / after, and prints JSON: per binary the decimation's CPU seconds and
+wall seconds (as `dome mesh decimate` prints them, PLY read and write apart), their
+medians, and the median over the pairs of after / before (CPU and wall). The outputs of
+the last pair are compared byte for byte ("same_output"). On a machine shared with other
+work the CPU seconds are the steadier figure; medians over many pairs even out the rest.
+"""
+import json, os, statistics, subprocess, sys, tempfile
+
+args = sys.argv[1:]
+extra = []
+if "--" in args:
+    i = args.index("--")
+    args, extra = args[:i], args[i + 1:]
+pairs = 7
+if "--pairs" in args:
+    i = args.index("--pairs")
+    pairs = int(args[i + 1])
+    del args[i:i + 2]
+if len(args) != 3 or pairs < 1:
+    sys.exit("usage: decimation_ab.py BEFORE_DOME AFTER_DOME MESH.ply [--pairs N] [-- OPTIONS]")
+before, after, mesh = args
+out_dir = tempfile.mkdtemp(prefix="decimation_ab_")
+
+
+def run(dome, out):
+    res = subprocess.run([dome, "mesh", "decimate", mesh, out] + extra, check=True,
+                         capture_output=True, text=True)
+    line = json.loads(res.stdout.strip().splitlines()[-1])
+    return line["cpu_seconds"], line["seconds"], line["triangles_out"]
+
+
+runs = {"before": [], "after": []}
+for p in range(pairs):
+    for name, dome in (("before", before), ("after", after)):
+        runs[name].append(run(dome, os.path.join(out_dir, name + ".ply")))
+with open(os.path.join(out_dir, "before.ply"), "rb") as a, \
+        open(os.path.join(out_dir, "after.ply"), "rb") as b:
+    same = a.read() == b.read()
+report = {"mesh": mesh, "options": extra, "pairs": pairs, "same_output": same}
+for name in runs:
+    cpu = [r[0] for r in runs[name]]
+    wall = [r[1] for r in runs[name]]
+    report[name] = {"binary": before if name == "before" else after,
+                    "triangles_out": runs[name][-1][2], "cpu_s": cpu, "wall_s": wall,
+                    "cpu_median_s": statistics.median(cpu),
+                    "wall_median_s": statistics.median(wall)}
+report["after_over_before_cpu"] = statistics.median(
+    a[0] / b[0] for a, b in zip(runs["after"], runs["before"]))
+report["after_over_before_wall"] = statistics.median(
+    a[1] / b[1] for a, b in zip(runs["after"], runs["before"]))
+print(json.dumps(report, indent=1))
