@@ -229,7 +229,23 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
   if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
   if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
   const StereoResult coarse_result = ComputeDepth(coarse, coarse_options);
-  const cv::Mat& coarse_depth = coarse_result.range_images[0].depth_mm;
+  cv::Mat coarse_depth = coarse_result.range_images[0].depth_mm;
+  if (c2f.clip) {
+    // The clip box bounds the scene: a coarse depth whose point lies outside it (grown by
+    // clip_pad_mm) is a wrong match or the background (a table, the walls), and would make
+    // its tile search depths no surface of the box has (or search a tile that sees none).
+    const Eigen::Vector3d lo = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
+    const Eigen::Vector3d hi = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
+    for (int y = 0; y < coarse_depth.rows; ++y) {
+      float* d = coarse_depth.ptr<float>(y);
+      for (int x = 0; x < coarse_depth.cols; ++x) {
+        if (!(d[x] > 0)) continue;
+        const Eigen::Vector3d p =
+            coarse.reference.camera.BackProjectAtDepth(Eigen::Vector2d(x, y), d[x]);
+        if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) d[x] = 0;
+      }
+    }
+  }
   // Inverse depth per coarse level, 1/mm.
   const double coarse_w_step =
       (1.0 / options.z_min_mm - 1.0 / options.z_max_mm) / std::max(1, coarse_result.num_levels - 1);

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "fusion/integrate.h"
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
 #include "io/ply.h"
@@ -104,6 +105,49 @@ TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   EXPECT_EQ(other, Slab(moved, 10, 30, nullptr));
   EXPECT_EQ(first, Slab(blobs, 10, 30, &memo));
   EXPECT_EQ(memo.builds(), 3);
+}
+
+// The job cuts each range image to the rectangle of its depths before building its
+// tables; voxels projecting outside that rectangle had no depth to meet, so the slab is
+// the one fusing the whole images (up to float rounding of the shifted image centre).
+TEST_F(FusionStage, ImagesCutToTheirDepthsFuseAsTheWholeImages) {
+  const JobBlobs blobs = Blobs(1.0);
+  const take::Take take = take::OpenTake(TakeDir());
+  std::vector<fusion::RangeImage> whole;
+  for (const auto& rc : take.rig.cameras) {
+    cv::Mat depth = io::ReadDepthTiff(take.TruthDepthPath(take.instants.front(), rc.model.id));
+    // Only the middle of each image keeps depths, so the cut is a real one.
+    const cv::Rect keep(depth.cols / 4, depth.rows / 4, depth.cols / 2, depth.rows / 2);
+    cv::Mat cut = cv::Mat::zeros(depth.size(), CV_32FC1);
+    depth(keep).copyTo(cut(keep));
+    whole.push_back({rc.model, cut, cv::Mat(), rc.model.id});
+  }
+  // The same images through the job: stereo outputs of the cut depths.
+  JobBlobs cut_blobs{blobs[0]};
+  for (size_t c = 0; c < whole.size(); ++c) {
+    stereo::StereoResult r;
+    r.camera = take.rig.cameras[c].model.id;
+    r.range_images.push_back({7, whole[c].depth_mm, cv::Mat::zeros(whole[c].depth_mm.size(), CV_32FC1)});
+    cut_blobs.push_back(std::make_shared<const std::string>(EncodeStereoOutput(r)));
+  }
+  const fusion::Slab job = fusion::DecodeSlab(Slab(cut_blobs, 20, 40, nullptr), "job");
+  fusion::VolumeGrid grid;
+  grid.origin_mm = Eigen::Vector3d(-1500, -1500, -500);
+  grid.voxel_size_mm = 50;
+  grid.nx = grid.ny = grid.nz = 60;
+  fusion::FusionOptions options;
+  options.truncation_mm = options.front_clamp_mm = 3 * grid.voxel_size_mm;
+  const fusion::Slab direct = fusion::Integrator(grid, whole, options).IntegrateSlab(20, 40);
+  ASSERT_EQ(job.weight.size(), direct.weight.size());
+  int64_t weighted = 0, differ = 0;
+  for (size_t i = 0; i < job.weight.size(); ++i) {
+    weighted += direct.weight[i] > 0;
+    differ += std::abs(job.weight[i] - direct.weight[i]) > 1e-3f ||
+              std::abs(job.distance_mm[i] - direct.distance_mm[i]) > 1e-2f;
+  }
+  EXPECT_GT(weighted, 1000);
+  // A voxel on a triangle's edge may fall on the other side after the rounding.
+  EXPECT_LE(differ, weighted / 1000) << differ << " of " << weighted << " voxels differ";
 }
 
 // The decimate job of `mesh` (the master's surface blob, returned in *blobs) with `dj`.

@@ -225,6 +225,46 @@ TEST(CoarseToFine, TilesWithoutCoarseDepthsAreFilledFromTheirNeighbours) {
   EXPECT_LT(all8.tiles_filled, filled_stats.tiles_filled);
 }
 
+// A clip box holding only part of the plane: coarse depths whose points fall outside it
+// do not seed tiles, so tiles that see only what lies outside the box (a table, the
+// walls beyond the scene) are not searched; the part inside keeps its depths.
+TEST(CoarseToFine, CoarseDepthsOutsideTheClipBoxSeedNoTile) {
+  const double plane_mm = 2000.0;
+  const auto in = PlaneInput(plane_mm, true);
+  const auto& ref = in.reference.camera;
+  CoarseToFineOptions c2f = HalfScaleTiles(40);
+  CoarseToFineStats open_stats, clip_stats;
+  const auto open = ComputeDepthCoarseToFine(in, Options(), c2f, &open_stats).range_images[0];
+  // The box: the plane's points left of the reference camera's centre (world x below
+  // the centre's), the plane's depth +-100 mm.
+  const Eigen::Vector3d centre = ref.BackProjectAtDepth(
+      Eigen::Vector2d(ref.width_px / 2.0, ref.height_px / 2.0), plane_mm);
+  const Eigen::Vector3d corner = ref.BackProjectAtDepth(Eigen::Vector2d(0, 0), plane_mm);
+  const double reach = 2 * (centre - corner).norm();
+  c2f.clip = true;
+  c2f.clip_pad_mm = 10;
+  c2f.clip_min_mm = centre - Eigen::Vector3d(reach, reach, 100);
+  c2f.clip_max_mm = centre + Eigen::Vector3d(0, reach, 100);
+  const auto clip = ComputeDepthCoarseToFine(in, Options(), c2f, &clip_stats).range_images[0];
+  EXPECT_LT(clip_stats.tiles_matched, open_stats.tiles_matched - 10);
+  // A tile straddling the box's edge is searched whole: depths at most a tile and a
+  // window (40 + 9 px, 245 mm at 2 m with f = 400 px) beyond it; none further out.
+  int inside = 0, inside_with = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const double wx = ref.BackProjectAtDepth(Eigen::Vector2d(x, y), plane_mm).x() - centre.x();
+      const float d = clip.depth_mm.at<float>(y, x);
+      if (wx > 49 * plane_mm / kFocalPx) EXPECT_EQ(d, 0.0f) << x << " " << y;
+      if (wx < -40 && open.depth_mm.at<float>(y, x) > 0) {
+        ++inside;
+        inside_with += d > 0;
+      }
+    }
+  }
+  ASSERT_GT(inside, 5000);
+  EXPECT_GT(inside_with, 0.97 * inside);
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});
