@@ -14,7 +14,6 @@
 #include "pipeline/surface_stream.h"
 #include "schema/rig_json.h"
 #include "stereo/cluster.h"
-#include "take/crop.h"
 
 namespace dome::pipeline {
 namespace {
@@ -174,26 +173,6 @@ StageDescriptor StereoStage() {
 
 // ---- fusion ---------------------------------------------------------------------------
 
-// The bounding rectangle of the depths (> 0) of `depth_mm` grown by one pixel on every
-// side and clipped to the image; empty without a depth.
-cv::Rect DepthRect(const cv::Mat& depth_mm) {
-  int x0 = depth_mm.cols, y0 = depth_mm.rows, x1 = -1, y1 = -1;
-  for (int y = 0; y < depth_mm.rows; ++y) {
-    const float* d = depth_mm.ptr<float>(y);
-    for (int x = 0; x < depth_mm.cols; ++x) {
-      if (!(d[x] > 0)) continue;
-      x0 = std::min(x0, x);
-      x1 = std::max(x1, x);
-      y0 = std::min(y0, y);
-      y1 = std::max(y1, y);
-    }
-  }
-  if (x1 < 0) return {};
-  const cv::Rect image(0, 0, depth_mm.cols, depth_mm.rows);
-  return cv::Rect(x0 - 1, y0 - 1, x1 - x0 + 3, y1 - y0 + 3) & image;
-}
-
-
 StageDescriptor FusionStage() {
   StageDescriptor d = Descriptor("fusion", {"stereo"}, [](const SessionPlan& plan) {
     std::vector<std::string> parts;
@@ -240,14 +219,7 @@ StageDescriptor FusionStage() {
                       "expected the stereo output of camera '" + rig.cameras[c].model.id +
                           "', got '" + r.camera + "'");
         for (const auto& ri : r.range_images) {
-          // Fusion builds per-pixel tables of each image for every instant; only the
-          // rectangle of the depths matters (a voxel projecting onto a pixel without a
-          // depth and one projecting outside the image are both left alone), so each
-          // image is cut to it, one pixel kept around (the quads along its border).
-          const cv::Rect rect = DepthRect(ri.depth_mm);
-          if (rect.empty()) continue;  // no depth: nothing to fuse
-          images.push_back({take::CropCamera(rig.cameras[c].model, rect), ri.depth_mm(rect).clone(),
-                            cv::Mat(), BlobName(job, c + 1)});
+          images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
         }
       }
       return PrepareFusion(grid, std::move(images), options);

@@ -10,6 +10,7 @@
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
 #include "stereo/coarse_to_fine.h"
+#include "take/crop.h"
 
 namespace dome::pipeline {
 
@@ -88,11 +89,47 @@ std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& tak
   return results;
 }
 
+namespace {
+
+// The bounding rectangle of the depths (> 0) of `depth_mm` grown by one pixel on every
+// side and clipped to the image; empty without a depth.
+cv::Rect DepthRect(const cv::Mat& depth_mm) {
+  int x0 = depth_mm.cols, y0 = depth_mm.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < depth_mm.rows; ++y) {
+    const float* d = depth_mm.ptr<float>(y);
+    for (int x = 0; x < depth_mm.cols; ++x) {
+      if (!(d[x] > 0)) continue;
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
+  }
+  if (x1 < 0) return {};
+  return cv::Rect(x0 - 1, y0 - 1, x1 - x0 + 3, y1 - y0 + 3) &
+         cv::Rect(0, 0, depth_mm.cols, depth_mm.rows);
+}
+
+}  // namespace
+
 std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
                                               std::vector<fusion::RangeImage> images,
                                               const fusion::FusionOptions& options) {
   auto prepared = std::make_unique<PreparedFusion>();
-  prepared->images = std::move(images);
+  // The integrator builds per-pixel tables of every image; only the rectangle of an
+  // image's depths matters (a voxel projecting onto a pixel without a depth and one
+  // projecting outside the image are both left alone), so each image is cut to it, one
+  // pixel kept around for the quads along its border. An image without depths adds
+  // nothing and is left out.
+  for (fusion::RangeImage& image : images) {
+    fusion::CheckRangeImage(image);  // named before it is cut
+    const cv::Rect rect = DepthRect(image.depth_mm);
+    if (rect.empty()) continue;
+    image.camera = take::CropCamera(image.camera, rect);
+    image.depth_mm = image.depth_mm(rect).clone();
+    if (!image.weight.empty()) image.weight = image.weight(rect).clone();
+    prepared->images.push_back(std::move(image));
+  }
   prepared->integrator = std::make_unique<fusion::Integrator>(grid, prepared->images, options);
   return prepared;
 }

@@ -60,7 +60,8 @@ struct PreparedFusion {
 };
 
 // Range images in the order given: the accumulation order is fixed by it, so every run
-// gives the same bits.
+// gives the same bits. Each image is kept as the rectangle of its depths (its camera
+// cut to match, take/crop.h); images without a depth are left out.
 std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
                                               std::vector<fusion::RangeImage> images,
                                               const fusion::FusionOptions& options);
