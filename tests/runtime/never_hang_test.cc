@@ -177,6 +177,34 @@ TEST_F(NeverHang, ATakeFileDeletedMidSessionFailsItNamingTheFile) {
       << final.error();
 }
 
+// A frame of the last instant that is empty or not a PNG: the master reads every
+// frame at submit and refuses the session there, naming the file, before any job runs
+// and without making the output folder (it was found only by the stereo job decoding
+// it, 30-50 jobs in).
+TEST_F(NeverHang, AnEmptyOrNonPngFrameOfTheLastInstantIsRefusedAtSubmit) {
+  const fs::path take = CopyTake("take_bad_frame");
+  const fs::path frame = LastInstantFrame(take);
+  Master m = StartMaster("master_bad_frame");
+  const struct {
+    std::string bytes;
+    std::string message;
+  } cases[] = {{"", "empty file (0 bytes), expected a PNG"},
+               {"GIF89a, not a PNG", "not a PNG (it does not start with the PNG signature)"}};
+  for (const auto& c : cases) {
+    io::WriteFileAtomically(frame, c.bytes);
+    runtime::Session session = MakeSession(root_ / "bad_frame");
+    session.set_take(take.string());
+    std::string error;
+    try {
+      Submit(m, session);
+    } catch (const core::InputError& e) {
+      error = e.what();
+    }
+    EXPECT_NE(error.find(frame.string() + ": " + c.message), std::string::npos) << error;
+    EXPECT_FALSE(fs::exists(root_ / "bad_frame")) << c.message;
+  }
+}
+
 TEST_F(NeverHang, ATakeFileReplacedMidSessionFailsItNamingTheFile) {
   const fs::path take = CopyTake("take_replaced");
   Master m = StartMaster("master_replaced");
