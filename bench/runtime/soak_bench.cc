@@ -21,9 +21,9 @@
 //
 // The RSS rule: the master's VmRSS is read after every session, of the master process
 // then running (a kill9-master fault starts a new one, which loads every session of
-// the state folder). A master's first sessions lift it to a plateau (malloc's arenas,
-// ZeroMQ's pools, the first session's libraries, as in master_flood_bench) that later
-// sessions do not raise, so a reading counts only once its process has served
+// the state folder). A master's first sessions lift it to a plateau (ZeroMQ's pools,
+// the first session's libraries and decoders) that later sessions do not raise, so a
+// reading counts only once its process has served
 // --warmup sessions (default 5); "before" is the median of the first 10 readings that
 // count, "after" the median of the last 10. Every reading is in OUT/master_rss.jsonl.
 #include <fcntl.h>

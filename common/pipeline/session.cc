@@ -57,7 +57,7 @@ runtime::Session ReadSessionJson(const std::filesystem::path& path) {
 
 SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::string& where) {
   SessionOptions o;
-  o.stereo = FromStereoSettings(s.stereo(), where);
+  o.stereo = FromStereoSettings(s.stereo(), where, {}, "stereo.");
   o.stereo.write_previews = s.has_write_previews() ? s.write_previews() : true;
   o.grid = FromVolume(s.volume(), where);
   o.fusion = FromFusionSettings(s.fusion(), o.grid.voxel_size_mm, where);

@@ -134,6 +134,27 @@ void CheckUnder(const std::string& where, Check check) {
   }
 }
 
+// Runs `read` (reading and checking one settings message), naming the field in its
+// errors as the file that holds the message does, so that a flag and the file field
+// it sets are refused with the same message: "where: <section><field>" (section
+// "stereo." for the stereo settings in a session file, "" in a stereo options file).
+// The errors come as "where: field" (read here) or "field" (an options Check());
+// `own` is the prefix an options Check() puts before its fields ("fusion: "), dropped.
+template <class Read>
+auto NamedAsInFile(const std::string& where, const std::string& section, const std::string& own,
+                   Read read) {
+  try {
+    return read();
+  } catch (const core::InputError& e) {
+    std::string field = e.where();
+    const std::string message =
+        std::string(e.what()).substr(field.empty() ? 0 : field.size() + 2);
+    if (field.rfind(where + ": ", 0) == 0) field = field.substr(where.size() + 2);
+    if (!own.empty() && field.rfind(own, 0) == 0) field = field.substr(own.size());
+    throw core::InputError(where + ": " + section + field, message);
+  }
+}
+
 }  // namespace
 
 runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
@@ -153,6 +174,11 @@ runtime::StereoSettings ToStereoSettings(const TakeStereoOptions& o) {
     r->set_z_max_mm(z.second);
   }
   return s;
+}
+
+TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std::string& where,
+                                     const TakeStereoOptions& base, const std::string& section) {
+  return NamedAsInFile(where, section, "", [&] { return FromStereoSettings(s, where, base); });
 }
 
 TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& s, const std::string& where,
@@ -269,7 +295,12 @@ fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& s, doubl
                                          const std::string& where) {
   fusion::FusionOptions o = DefaultFusionOptions(voxel_size_mm);
   GetSet(FusionSettingFields(), s, &o);
-  CheckUnder(where + ": fusion", [&] { o.Check(); });
+  // The settings are the `fusion` field of a session or a fusion job: its fields are
+  // named as there ("session: fusion.truncation_mm").
+  NamedAsInFile(where, "fusion.", "fusion: ", [&] {
+    o.Check();
+    return 0;
+  });
   return o;
 }
 

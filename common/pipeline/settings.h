@@ -60,6 +60,13 @@ runtime::StereoSettings ToStereoSettings(const stereo::TakeStereoOptions& option
 stereo::TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& settings,
                                              const std::string& where,
                                              const stereo::TakeStereoOptions& base = {});
+// The same, for settings that are the field `section` of a message (a session's
+// "stereo."): errors name the field by its path there, "where: stereo.num_levels", as
+// the session file does.
+stereo::TakeStereoOptions FromStereoSettings(const runtime::StereoSettings& settings,
+                                             const std::string& where,
+                                             const stereo::TakeStereoOptions& base,
+                                             const std::string& section);
 // The stereo options JSON above, over `base`; errors name the source and the field.
 stereo::TakeStereoOptions ParseStereoOptionsJson(const std::string& json, const std::string& where,
                                                  const stereo::TakeStereoOptions& base = {});
@@ -77,7 +84,8 @@ stereo::CoarseToFineOptions FromCoarseToFineSettings(const runtime::CoarseToFine
 runtime::Volume ToVolume(const fusion::VolumeGrid& grid);
 fusion::VolumeGrid FromVolume(const runtime::Volume& volume, const std::string& where);
 // Fusion options <-> FusionSettings: unset fields take the derived defaults for
-// `voxel_size_mm` (pipeline/defaults.h).
+// `voxel_size_mm` (pipeline/defaults.h). Errors name a field as the `fusion` field of
+// a session or job holds it: "where: fusion.truncation_mm".
 runtime::FusionSettings ToFusionSettings(const fusion::FusionOptions& options);
 fusion::FusionOptions FromFusionSettings(const runtime::FusionSettings& settings,
                                          double voxel_size_mm, const std::string& where);

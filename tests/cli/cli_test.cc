@@ -364,8 +364,13 @@ TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
        "dome: session: slab_planes: must be positive, got -3"},
       {"--decimate-ratio 0", R"("decimate_ratio": 0)",
        "dome: session: decimate_ratio: must be in (0, 1], got 0"},
+      // Settings in a section of the session file are named by their path there.
       {"--levels -5", R"("stereo": {"num_levels": -5})",
-       "dome: session: num_levels: must be 0 (from the geometry) or 3..100000, got -5"},
+       "dome: session: stereo.num_levels: must be 0 (from the geometry) or 3..100000, got -5"},
+      {"--windows 4", R"("stereo": {"window_sizes_px": [4]})",
+       "dome: session: stereo.window_sizes_px: "},
+      {"--truncation-mm -5", R"("fusion": {"truncation_mm": -5})",
+       "dome: session: fusion.truncation_mm: must be a positive number of mm, got -5"},
       {"--voxel-mm 1.4e-06", R"("volume": {"voxel_size_mm": 1.4e-06})",
        "dome: session: volume.voxel_size_mm: 1.4e-06 mm makes "},
   };

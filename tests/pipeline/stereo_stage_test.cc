@@ -153,21 +153,21 @@ TEST_F(StereoStage, BadCoarseToFineFieldsAreRefusedNamingTheField) {
   runtime::Session session;
   session.mutable_stereo()->mutable_coarse_to_fine()->set_tile_px(4);
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
-                   {"session.json: coarse_to_fine.tile_px", "at least 8"});
+                   {"session.json: stereo.coarse_to_fine.tile_px", "at least 8"});
   session.mutable_stereo()->mutable_coarse_to_fine()->clear_tile_px();
   session.mutable_stereo()->mutable_coarse_to_fine()->set_fill_min_neighbours(-1);
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
-                   {"session.json: coarse_to_fine.fill_min_neighbours", "0..8"});
+                   {"session.json: stereo.coarse_to_fine.fill_min_neighbours", "0..8"});
   session.mutable_stereo()->mutable_coarse_to_fine()->clear_fill_min_neighbours();
   session.mutable_stereo()->mutable_coarse_to_fine()->add_clip_min_mm(0);
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
-                   {"session.json: coarse_to_fine.clip_min_mm", "3 numbers"});
+                   {"session.json: stereo.coarse_to_fine.clip_min_mm", "3 numbers"});
   auto* c = session.mutable_stereo()->mutable_coarse_to_fine();
   c->clear_clip_min_mm();
   for (double v : {0.0, 0.0, 0.0}) c->add_clip_min_mm(v);
   for (double v : {1.0, -1.0, 1.0}) c->add_clip_max_mm(v);
   ExpectInputError([&] { ResolveSessionOptions(session, "session.json"); },
-                   {"session.json: coarse_to_fine.clip_max_mm", "axis 1"});
+                   {"session.json: stereo.coarse_to_fine.clip_max_mm", "axis 1"});
   // A session file with the block parses through protobuf's JSON mapping.
   TempDir dir;
   io::WriteFileAtomically(dir / "session.json",
@@ -206,7 +206,7 @@ TEST(SessionOptions, SmoothingAndSpeckleFieldsReadAndAreChecked) {
   session.clear_smooth_mu();
   session.mutable_stereo()->set_speckle_area_px(100);
   ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
-                   {"s.json: speckle_step_mm", "positive"});
+                   {"s.json: stereo.speckle_step_mm", "positive"});
 }
 
 // The clean-output rule's session fields: read, turned into the decimation's mm by the

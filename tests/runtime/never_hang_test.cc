@@ -177,6 +177,34 @@ TEST_F(NeverHang, ATakeFileDeletedMidSessionFailsItNamingTheFile) {
       << final.error();
 }
 
+// A frame of the last instant that is empty or not a PNG: the master reads every
+// frame at submit and refuses the session there, naming the file, before any job runs
+// and without making the output folder (it was found only by the stereo job decoding
+// it, 30-50 jobs in).
+TEST_F(NeverHang, AnEmptyOrNonPngFrameOfTheLastInstantIsRefusedAtSubmit) {
+  const fs::path take = CopyTake("take_bad_frame");
+  const fs::path frame = LastInstantFrame(take);
+  Master m = StartMaster("master_bad_frame");
+  const struct {
+    std::string bytes;
+    std::string message;
+  } cases[] = {{"", "empty file (0 bytes), expected a PNG"},
+               {"GIF89a, not a PNG", "not a PNG (it does not start with the PNG signature)"}};
+  for (const auto& c : cases) {
+    io::WriteFileAtomically(frame, c.bytes);
+    runtime::Session session = MakeSession(root_ / "bad_frame");
+    session.set_take(take.string());
+    std::string error;
+    try {
+      Submit(m, session);
+    } catch (const core::InputError& e) {
+      error = e.what();
+    }
+    EXPECT_NE(error.find(frame.string() + ": " + c.message), std::string::npos) << error;
+    EXPECT_FALSE(fs::exists(root_ / "bad_frame")) << c.message;
+  }
+}
+
 TEST_F(NeverHang, ATakeFileReplacedMidSessionFailsItNamingTheFile) {
   const fs::path take = CopyTake("take_replaced");
   Master m = StartMaster("master_replaced");
@@ -308,8 +336,11 @@ TEST_F(NeverHang, AResultOverTheMessageCapFailsTheSessionSayingSo) {
       << final.error();
 }
 
-// Submitting a take of thousands of instants reads and hashes every frame; that work
-// runs beside the master's loop, which meanwhile keeps answering its workers.
+// Submitting a take of thousands of instants reads and hashes every frame and builds a
+// job graph of 84,000 jobs; that work runs beside the master's loop, which meanwhile
+// keeps answering its workers: neither side finds the other silent (the graph built on
+// the loop took it 0.3 s and more under load, past the workers' 600 ms liveness at
+// times).
 TEST_F(NeverHang, ASubmitOfThousandsOfInstantsKeepsTheWorkersConnected) {
   const int kInstants = 4000;  // about a second to plan here: past the workers' 600 ms liveness
   const fs::path big = root_ / "take_big";
@@ -341,6 +372,7 @@ TEST_F(NeverHang, ASubmitOfThousandsOfInstantsKeepsTheWorkersConnected) {
   std::printf("submit of 4000 instants: %.2f s\n", seconds);
   EXPECT_EQ(Status(m, id).state(), "cancelled");
   EXPECT_EQ(m.process->Log().find("lost (no heartbeat"), std::string::npos) << m.process->Log();
+  EXPECT_EQ(w->Log().find("master silent"), std::string::npos) << w->Log();
 }
 
 // A master that runs for good: a session that ended closes its journal and lets go of
