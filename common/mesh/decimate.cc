@@ -1007,6 +1007,8 @@ class EdgeCollapser {
     old_balls_.clear();
     new_tris_.clear();
     new_from_.clear();
+    new_ring_.clear();
+    midpoints_done_.clear();
     for (int s : {u, v}) {
       for (int f : vfaces_[s]) {
         const auto& t = faces_[f];
@@ -1026,18 +1028,30 @@ class EdgeCollapser {
             {centre, std::sqrt(std::max({(p[0] - centre).squaredNorm(), (p[1] - centre).squaredNorm(),
                                          (p[2] - centre).squaredNorm()}))});
         if (has_u && has_v) continue;  // removed by the collapse
-        // Rotated so that x comes first; with the face it was.
+        // Rotated so that x comes first; with the face it was and its other corners.
         new_tris_.push_back({{x, p[(at + 1) % 3], p[(at + 2) % 3]}});
         new_from_.push_back(int(old_tris_.size()) - 1);
+        new_ring_.push_back({t[(at + 1) % 3], t[(at + 2) % 3]});
       }
     }
     double worst2 = 0;
     for (size_t i = 0; i < new_tris_.size(); ++i) {
       const auto& t = new_tris_[i];
-      // The centroid and the midpoints of the edges from x (those on the border too).
-      for (const Eigen::Vector3d& p :
-           {Eigen::Vector3d((t[0] + t[1] + t[2]) / 3.0), Eigen::Vector3d(0.5 * (t[0] + t[1])),
-            Eigen::Vector3d(0.5 * (t[0] + t[2]))}) {
+      // The centroid and the midpoints of the edges from x (those on the border too),
+      // each midpoint once (two new faces share each edge from x: the same point).
+      Eigen::Vector3d points[3] = {(t[0] + t[1] + t[2]) / 3.0};
+      int n_points = 1;
+      for (int k = 0; k < 2; ++k) {
+        const int corner = new_ring_[i][size_t(k)];
+        if (std::find(midpoints_done_.begin(), midpoints_done_.end(), corner) !=
+            midpoints_done_.end()) {
+          continue;
+        }
+        midpoints_done_.push_back(corner);
+        points[n_points++] = 0.5 * (t[0] + t[size_t(k) + 1]);
+      }
+      for (int j = 0; j < n_points; ++j) {
+        const Eigen::Vector3d& p = points[j];
         // The face it came from first: usually the nearest, and once a face is within
         // worst2 the point cannot raise the maximum.
         const auto& o = old_tris_[new_from_[i]];
@@ -1262,6 +1276,8 @@ class EdgeCollapser {
   };
   std::vector<Ball> old_balls_;  // per old face: a ball holding it
   std::vector<int> new_from_;
+  std::vector<std::array<int, 2>> new_ring_;  // per new face, its corners other than x
+  std::vector<int> midpoints_done_;           // corners whose midpoint with x is measured
   // Components: per vertex (-1 when unused), live triangles, area (mm^2), bounding-box
   // diagonal (mm), vertices (CSR); the one with the largest area.
   std::vector<int> comp_of_, comp_live_, comp_start_, comp_vertices_;
