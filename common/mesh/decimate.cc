@@ -320,59 +320,102 @@ double PointTriangleDistance2(const Eigen::Vector3d& p, const Eigen::Vector3d& a
   return (ap - ab * (vb / sum) - ac * (vc / sum)).squaredNorm();
 }
 
-// A min-heap of 64-bit keys with 8 children per node: a pop reads about a third of the
-// cache lines a binary heap's does, and cache misses are what a big queue costs.
-class OctalHeap {
+// A min-heap of (cost, id) pairs, ids in [0, size), each id's slot tracked so that an
+// entry's cost can be changed or the entry removed where it is: the collapser keeps one
+// entry per edge and never a stale one (a queue of stale copies made 12 pushes and pops
+// a collapse, each a run of cache misses through a heap of ~600 k entries). Ties go to
+// the smaller id, so the order is the same on every run. 4 children per node: each
+// move also writes the moved id's slot, so shallower is not cheaper here.
+class IndexedHeap {
  public:
-  bool empty() const { return keys_.empty(); }
-  void clear() { keys_.clear(); }
-  void reserve(size_t n) { keys_.reserve(n); }
-  // Appends without ordering: call Heapify before the next Push or Pop.
-  void Append(uint64_t key) { keys_.push_back(key); }
+  void Reset(size_t ids) {
+    slot_.assign(ids, -1);
+    items_.clear();
+  }
+  bool empty() const { return items_.empty(); }
+  bool Contains(int id) const { return slot_[size_t(id)] >= 0; }
+  int Top() const { return items_[0].id; }
+  // Adds without ordering: call Heapify before any other change.
+  void Append(int id, float cost) {
+    slot_[size_t(id)] = int(items_.size());
+    items_.push_back({cost, id});
+  }
   void Heapify() {
-    for (size_t i = keys_.size() / kArity + 1; i-- > 0;) SiftDown(i);
-  }
-  void Push(uint64_t key) {
-    keys_.push_back(key);
-    size_t i = keys_.size() - 1;
-    while (i > 0) {
-      const size_t parent = (i - 1) / kArity;
-      if (keys_[parent] <= key) break;
-      keys_[i] = keys_[parent];
-      i = parent;
+    for (size_t i = items_.size() / kArity + 1; i-- > 0;) {
+      if (i < items_.size()) SiftDown(i);
     }
-    keys_[i] = key;
   }
-  uint64_t Top() const { return keys_[0]; }
-  uint64_t Pop() {
-    const uint64_t top = keys_[0];
-    keys_[0] = keys_.back();
-    keys_.pop_back();
-    if (!keys_.empty()) SiftDown(0);
-    return top;
+  // Inserts id or changes its cost.
+  void Set(int id, float cost) {
+    const int at = slot_[size_t(id)];
+    if (at < 0) {
+      items_.push_back({cost, id});
+      SiftUp(items_.size() - 1);
+      return;
+    }
+    const float old = items_[size_t(at)].cost;
+    items_[size_t(at)].cost = cost;
+    if (cost < old) {
+      SiftUp(size_t(at));
+    } else {
+      SiftDown(size_t(at));
+    }
+  }
+  void Remove(int id) {
+    const int at = slot_[size_t(id)];
+    if (at < 0) return;
+    slot_[size_t(id)] = -1;
+    const Item last = items_.back();
+    items_.pop_back();
+    if (size_t(at) == items_.size()) return;
+    items_[size_t(at)] = last;
+    slot_[size_t(last.id)] = at;
+    SiftUp(size_t(at));
+    SiftDown(size_t(slot_[size_t(last.id)]));
   }
 
  private:
-  static constexpr size_t kArity = 8;
+  struct Item {
+    float cost;
+    int id;
+  };
+  static constexpr size_t kArity = 4;
+  static bool Less(const Item& a, const Item& b) {
+    return a.cost < b.cost || (a.cost == b.cost && a.id < b.id);
+  }
+  void Place(size_t i, const Item& item) {
+    items_[i] = item;
+    slot_[size_t(item.id)] = int(i);
+  }
+  void SiftUp(size_t i) {
+    const Item item = items_[i];
+    while (i > 0) {
+      const size_t parent = (i - 1) / kArity;
+      if (!Less(item, items_[parent])) break;
+      Place(i, items_[parent]);
+      i = parent;
+    }
+    Place(i, item);
+  }
   void SiftDown(size_t i) {
-    const size_t n = keys_.size();
-    if (i >= n) return;
-    const uint64_t key = keys_[i];
+    const size_t n = items_.size();
+    const Item item = items_[i];
     for (;;) {
       const size_t first = i * kArity + 1;
       if (first >= n) break;
       const size_t last = std::min(first + kArity, n);
       size_t best = first;
       for (size_t c = first + 1; c < last; ++c) {
-        if (keys_[c] < keys_[best]) best = c;
+        if (Less(items_[c], items_[best])) best = c;
       }
-      if (keys_[best] >= key) break;
-      keys_[i] = keys_[best];
+      if (!Less(items_[best], item)) break;
+      Place(i, items_[best]);
       i = best;
     }
-    keys_[i] = key;
+    Place(i, item);
   }
-  std::vector<uint64_t> keys_;
+  std::vector<Item> items_;
+  std::vector<int> slot_;  // per id, its index in items_, or -1
 };
 
 // Symmetric quadric x^T A x + 2 b.x + c: area-weighted squared distances to planes.
@@ -561,7 +604,6 @@ class EdgeCollapser {
     origin_ = QuadricOrigin(mesh);
     pos_.resize(nv);
     for (size_t v = 0; v < nv; ++v) pos_[v] = mesh.vertices[v].cast<double>() - origin_;
-    stamp_.assign(nv, 0);
     alive_.assign(nv, 1);
     locked_.assign(nv, 0);
     border_.assign(nv, 0);
@@ -585,6 +627,7 @@ class EdgeCollapser {
     quad_ = input_quadrics ? *input_quadrics : PlaneQuadrics(mesh, faces_);
     ClassifyVertices();
     LabelComponents();
+    LabelEdges();
   }
 
   int64_t live_faces() const { return live_; }
@@ -592,61 +635,75 @@ class EdgeCollapser {
   int64_t components_deleted() const { return components_deleted_; }
   int64_t triangles_deleted() const { return triangles_deleted_; }
 
-  // Collapses (and deletes components) until `target` faces are left. A collapse refused
-  // for its shape is not retried until an endpoint changes; when the queue runs dry before
-  // the target, all edges are queued again (the neighbourhoods have changed), while that
-  // still helps.
+  // Collapses (and deletes components) until `target` faces are left, cheapest first.
+  // Every edge has one queue entry, its cost recomputed in place when an endpoint
+  // changes. An edge refused for its shape or the error bound leaves the queue until an
+  // endpoint changes; when the queue runs dry before the target, the refused edges are
+  // queued again (their neighbourhoods may have changed), while that still helps.
   void Run(int64_t target) {
-    // About 5 candidates per face are queued in all (each collapse queues its new edges).
-    heap_.reserve(faces_.size() * 5);
-    candidates_.reserve(faces_.size() * 5);
+    const int n_edges = int(edge_.size());
+    heap_.Reset(edge_.size() + comp_live_.size());
+    for (int e = 0; e < n_edges; ++e) {
+      if (edge_state_[e] == kEdgeQueued) heap_.Append(e, EdgeCost(e));
+    }
+    QueueComponentDeletions(/*heaped=*/false);
+    heap_.Heapify();
     for (int pass = 0; pass < kMaxPasses && live_ > target; ++pass) {
-      heap_.clear();
-      candidates_.clear();
-      heaped_ = false;  // the first candidates are heaped at once
-      for (size_t u = 0; u < vfaces_.size(); ++u) {
-        if (alive_[u]) PushEdgesOf(int(u), /*only_greater=*/true);
-      }
-      PushComponentDeletions();
-      heap_.Heapify();
-      heaped_ = true;
-      int64_t changes = 0;
-      while (live_ > target && !heap_.empty()) {
-        const uint64_t key = heap_.Pop();
-        const Candidate c = candidates_[uint32_t(key)];
-        if (c.keep < 0) {
-          changes += DeleteComponent(c.gone, target);
-          continue;
-        }
-        // A vertex's stamp changes when it moves, merges or dies.
-        if (stamp_[c.keep] != c.stamp_keep || stamp_[c.gone] != c.stamp_gone) continue;
-        // Unchanged endpoints: the placement is the one costed at the push.
-        Quadric q = quad_[c.keep];
-        q += quad_[c.gone];
-        const Eigen::Vector3d x = Placement(q, c.keep, c.gone);
-        const double w = q.Weight();
-        const double error = w > 0 ? std::sqrt(std::max(0.0, q.Eval(x)) / w) : 0.0;
-        if (options_.max_error_mm > 0 && error > options_.max_error_mm) continue;
-        // The shape tests before the deviation: about half the candidates that get here
-        // fail them, at a fraction of the deviation's cost.
-        if (!Collapsible(c.keep, c.gone, x)) continue;
-        if (options_.deviation_weight > 0 && !c.deviation_costed) {
-          // Costed lazily, at the pop (measuring the deviation takes far longer than
-          // the quadric): the term only raises the cost, so the candidate goes back
-          // into the queue when something else is now cheaper, and is made when it
-          // comes out again with unchanged endpoints.
-          const double d = Deviation(c.keep, c.gone, x);
-          const double cost = KeyCost(key) + options_.deviation_weight * w * d * d;
-          // Rounding-level deviations (a flat region) leave the order as it was.
-          const double negligible = kDeviationFloor * (pos_[c.keep] - pos_[c.gone]).norm();
-          if (d > negligible && !heap_.empty() && KeyCost(heap_.Top()) < cost) {
-            Candidate again = c;
-            again.deviation_costed = true;
-            Queue(cost, again);
-            continue;
+      if (pass > 0) {
+        // Dry before the target: the refused edges again, and the components left.
+        for (int e = 0; e < n_edges; ++e) {
+          if (edge_state_[e] == kEdgeRefused && alive_[edge_[e].a] && alive_[edge_[e].b]) {
+            edge_state_[e] = kEdgeQueued;
+            heap_.Set(e, EdgeCost(e));
           }
         }
-        Collapse(c.keep, c.gone, x);
+        QueueComponentDeletions(/*heaped=*/true);
+      }
+      int64_t changes = 0;
+      while (live_ > target && !heap_.empty()) {
+        const int id = heap_.Top();
+        if (id >= n_edges) {
+          heap_.Remove(id);
+          changes += DeleteComponent(id - n_edges, target);
+          continue;
+        }
+        int keep = edge_[id].a, gone = edge_[id].b;
+        if (!alive_[keep] || !alive_[gone]) {  // its component was deleted
+          heap_.Remove(id);
+          edge_state_[id] = kEdgeDead;
+          continue;
+        }
+        if (locked_[gone]) std::swap(keep, gone);
+        Quadric q = quad_[keep];
+        q += quad_[gone];
+        const Eigen::Vector3d x = Placement(q, keep, gone);
+        const double w = q.Weight();
+        const double error = w > 0 ? std::sqrt(std::max(0.0, q.Eval(x)) / w) : 0.0;
+        // The shape tests before the deviation: about half the edges that get here
+        // fail them, at a fraction of the deviation's cost.
+        if ((options_.max_error_mm > 0 && error > options_.max_error_mm) ||
+            !Collapsible(keep, gone, x)) {
+          heap_.Remove(id);
+          edge_state_[id] = kEdgeRefused;
+          continue;
+        }
+        if (options_.deviation_weight > 0 && !deviation_costed_[id]) {
+          // Costed lazily, when the edge comes to the top (measuring the deviation takes
+          // far longer than the quadric): the term only raises the cost, so the edge
+          // moves down the queue when something else is now cheaper, and is made when it
+          // comes to the top again unchanged.
+          deviation_costed_[id] = 1;
+          const double d = Deviation(keep, gone, x);
+          // Rounding-level deviations (a flat region) leave the order as it was.
+          const double negligible = kDeviationFloor * (pos_[keep] - pos_[gone]).norm();
+          if (d > negligible) {
+            // q.Eval(x) is the quadric cost the edge was queued at (same placement).
+            heap_.Set(id, float(std::max(0.0, q.Eval(x)) + options_.deviation_weight * w * d * d));
+            if (heap_.Top() != id) continue;
+          }
+        }
+        heap_.Remove(id);
+        Collapse(keep, gone, x);
         ++changes;
         max_error_ = std::max(max_error_, error);
       }
@@ -685,34 +742,56 @@ class EdgeCollapser {
   }
 
  private:
-  // A queued collapse of `gone` into `keep`, valid while both stamps are unchanged; or,
-  // with keep < 0, the deletion of component `gone`.
-  struct Candidate {
-    int keep, gone;
-    uint32_t stamp_keep, stamp_gone;
-    bool deviation_costed = false;  // the cost includes the deviation term
+  // An edge's state: in the queue, out of it until an endpoint changes (refused, or both
+  // endpoints locked), or gone.
+  static constexpr uint8_t kEdgeQueued = 0, kEdgeRefused = 1, kEdgeDead = 2;
+  struct Edge {
+    int a, b;
   };
 
-  static double KeyCost(uint64_t key) {
-    const uint32_t bits = uint32_t(key >> 32);
-    float f;
-    std::memcpy(&f, &bits, sizeof f);
-    return double(f);
+  // One record per edge of faces_ (an edge id per face corner, for the edge from corner m
+  // to m + 1), numbered by their smaller endpoint, then first use. Edges between two
+  // locked vertices never collapse and start dead.
+  void LabelEdges() {
+    face_edges_.assign(faces_.size(), {-1, -1, -1});
+    for (size_t u = 0; u < vfaces_.size(); ++u) {
+      const uint32_t epoch = ++epoch_;
+      for (int f : vfaces_[u]) {
+        const auto& t = faces_[f];
+        for (int m = 0; m < 3; ++m) {
+          const int s = t[m], r = t[(m + 1) % 3];
+          if (std::min(s, r) != int(u)) continue;
+          const int w = s + r - int(u);
+          if (marks_[w].u_epoch != epoch) {
+            marks_[w].u_epoch = epoch;
+            marks_[w].count_u = int(edge_.size());
+            edge_.push_back({int(u), w});
+          }
+          face_edges_[size_t(f)][size_t(m)] = marks_[w].count_u;
+        }
+      }
+    }
+    edge_state_.assign(edge_.size(), kEdgeQueued);
+    for (size_t e = 0; e < edge_.size(); ++e) {
+      if (locked_[edge_[e].a] && locked_[edge_[e].b]) edge_state_[e] = kEdgeDead;
+    }
+    deviation_costed_.assign(edge_.size(), 0);
+    edge_epoch_.assign(edge_.size(), 0);
   }
 
-  // Queues a candidate: heap key = the cost's float bits (ordered as the non-negative
-  // cost), then the candidate's index (ties in push order).
-  void Queue(double cost, const Candidate& c) {
-    uint32_t bits;
-    const float f = float(cost);
-    std::memcpy(&bits, &f, sizeof bits);
-    const uint64_t key = uint64_t(bits) << 32 | uint64_t(candidates_.size());
-    candidates_.push_back(c);
-    if (heaped_) {
-      heap_.Push(key);
-    } else {
-      heap_.Append(key);
-    }
+  // The quadric cost of collapsing edge e at its placement (the locked endpoint kept),
+  // without the deviation term: the edge is queued at this cost whenever an endpoint
+  // changes, the term added when it comes to the top (Run).
+  double EdgeQuadricCost(int e) const {
+    int keep = edge_[e].a, gone = edge_[e].b;
+    if (locked_[gone]) std::swap(keep, gone);
+    Quadric q = quad_[keep];
+    q += quad_[gone];
+    return std::max(0.0, q.Eval(Placement(q, keep, gone)));
+  }
+  float EdgeCost(int e) {
+    deviation_costed_[e] = 0;
+    return float(EdgeQuadricCost(e));
   }
 
   // Connected components (faces joined by shared vertices; collapses never join or split
@@ -788,12 +867,18 @@ class EdgeCollapser {
 
   // Queues the deletion of every live component but the largest, at the cost of moving
   // its whole area by its error estimate (the units of a collapse's quadric cost).
-  void PushComponentDeletions() {
+  void QueueComponentDeletions(bool heaped) {
     if (!(options_.component_deletion_factor > 0)) return;
+    const int n_edges = int(edge_.size());
     for (int c = 0; c < int(comp_live_.size()); ++c) {
       if (c == largest_ || comp_live_[c] == 0) continue;
       const double e = DeletionError(c);
-      Queue(comp_area_[c] * e * e, {-1, c, 0, 0});
+      const float cost = float(comp_area_[c] * e * e);
+      if (heaped) {
+        heap_.Set(n_edges + c, cost);
+      } else {
+        heap_.Append(n_edges + c, cost);
+      }
     }
   }
 
@@ -809,7 +894,6 @@ class EdgeCollapser {
       }
       vfaces_.Clear(v);
       alive_[v] = 0;
-      ++stamp_[v];
     }
     triangles_deleted_ += comp_live_[c];
     ++components_deleted_;
@@ -911,29 +995,6 @@ class EdgeCollapser {
     return x;
   }
 
-  void Push(int a, int b) {
-    if (locked_[a] && locked_[b]) return;
-    if (locked_[a] == 0 && locked_[b] != 0) std::swap(a, b);
-    Quadric q = quad_[a];
-    q += quad_[b];
-    const Eigen::Vector3d x = Placement(q, a, b);
-    const double cost = std::max(0.0, q.Eval(x));
-    Queue(cost, {a, b, stamp_[a], stamp_[b]});
-  }
-
-  // Candidates for the edges from u (to neighbours above u only, for the first pass).
-  void PushEdgesOf(int u, bool only_greater) {
-    const uint32_t epoch = ++epoch_;
-    for (int f : vfaces_[u]) {
-      for (int m = 0; m < 3; ++m) {
-        const int w = faces_[f][m];
-        if (w == u || marks_[w].u_epoch == epoch || (only_greater && w < u)) continue;
-        marks_[w].u_epoch = epoch;
-        Push(u, w);
-      }
-    }
-  }
-
   // How far the new faces of a collapse of v into u at x stray from the surface before,
   // mm: the largest distance of points of the faces around x (centroids and midpoints of
   // the edges from x) to the faces around u and v before the collapse. It sees what the
@@ -946,6 +1007,8 @@ class EdgeCollapser {
     old_balls_.clear();
     new_tris_.clear();
     new_from_.clear();
+    new_ring_.clear();
+    midpoints_done_.clear();
     for (int s : {u, v}) {
       for (int f : vfaces_[s]) {
         const auto& t = faces_[f];
@@ -965,32 +1028,51 @@ class EdgeCollapser {
             {centre, std::sqrt(std::max({(p[0] - centre).squaredNorm(), (p[1] - centre).squaredNorm(),
                                          (p[2] - centre).squaredNorm()}))});
         if (has_u && has_v) continue;  // removed by the collapse
-        // Rotated so that x comes first; with the face it was.
+        // Rotated so that x comes first; with the face it was and its other corners.
         new_tris_.push_back({{x, p[(at + 1) % 3], p[(at + 2) % 3]}});
         new_from_.push_back(int(old_tris_.size()) - 1);
+        new_ring_.push_back({t[(at + 1) % 3], t[(at + 2) % 3]});
       }
     }
     double worst2 = 0;
     for (size_t i = 0; i < new_tris_.size(); ++i) {
       const auto& t = new_tris_[i];
-      // The centroid and the midpoints of the edges from x (those on the border too).
-      for (const Eigen::Vector3d& p :
-           {Eigen::Vector3d((t[0] + t[1] + t[2]) / 3.0), Eigen::Vector3d(0.5 * (t[0] + t[1])),
-            Eigen::Vector3d(0.5 * (t[0] + t[2]))}) {
+      // The centroid and the midpoints of the edges from x (those on the border too),
+      // each midpoint once (two new faces share each edge from x: the same point).
+      Eigen::Vector3d points[3] = {(t[0] + t[1] + t[2]) / 3.0};
+      int n_points = 1;
+      for (int k = 0; k < 2; ++k) {
+        const int corner = new_ring_[i][size_t(k)];
+        if (std::find(midpoints_done_.begin(), midpoints_done_.end(), corner) !=
+            midpoints_done_.end()) {
+          continue;
+        }
+        midpoints_done_.push_back(corner);
+        points[n_points++] = 0.5 * (t[0] + t[size_t(k) + 1]);
+      }
+      for (int j = 0; j < n_points; ++j) {
+        const Eigen::Vector3d& p = points[j];
         // The face it came from first: usually the nearest, and once a face is within
         // worst2 the point cannot raise the maximum.
         const auto& o = old_tris_[new_from_[i]];
         double best = PointTriangleDistance2(p, o[0], o[1], o[2]);
-        for (size_t k = 0; k < old_tris_.size() && best > worst2; ++k) {
+        if (!(best > worst2)) continue;
+        double reach = std::sqrt(best);
+        for (size_t k = 0; k < old_tris_.size(); ++k) {
           // Skipped when no point of the face's ball is nearer than `best`: the distance
-          // to the face is at least that to the ball, which is shrunk by a margin far
-          // above the rounding of either, so the minimum is the same as without the test.
+          // to the face is at least the centre's distance less the radius, compared
+          // squared (no root a face) with a margin far above the rounding of either, so
+          // the minimum is the same as without the test.
           const Ball& ball = old_balls_[k];
-          const double centre_distance = (p - ball.centre).norm();
-          const double bound = centre_distance - ball.radius - 1e-9 * (centre_distance + ball.radius);
-          if (bound > 0 && bound * bound > best) continue;
-          best = std::min(
-              best, PointTriangleDistance2(p, old_tris_[k][0], old_tris_[k][1], old_tris_[k][2]));
+          const double limit = ball.radius + reach;
+          if ((p - ball.centre).squaredNorm() > limit * limit * (1.0 + 1e-9)) continue;
+          const double d2 =
+              PointTriangleDistance2(p, old_tris_[k][0], old_tris_[k][1], old_tris_[k][2]);
+          if (d2 < best) {
+            best = d2;
+            if (!(best > worst2)) break;
+            reach = std::sqrt(best);
+          }
         }
         worst2 = std::max(worst2, best);
       }
@@ -1075,6 +1157,9 @@ class EdgeCollapser {
     return true;
   }
 
+  // Collapses v into u at x. Of the removed faces' edges, u-v and v-a (a the opposite
+  // corner) go, v-a's other face taking u-a's id; v's other edges become u's; every edge
+  // of u then has its cost recomputed in place (queued again if it was refused).
   void Collapse(int u, int v, const Eigen::Vector3d& x) {
     const Eigen::Vector3d e = pos_[v] - pos_[u];
     const double e2 = e.squaredNorm();
@@ -1082,16 +1167,29 @@ class EdgeCollapser {
     if (!colors_.empty()) colors_[u] += t * (colors_[v] - colors_[u]);
     if (!normals_.empty()) normals_[u] += t * (normals_[v] - normals_[u]);
     if (!alphas_.empty()) alphas_[u] += t * (alphas_[v] - alphas_[u]);
+    int merged_from[2] = {-1, -1}, merged_to[2] = {-1, -1}, n_merged = 0;
     for (int f : vfaces_[v]) {
       auto& tri = faces_[f];
       if (tri[0] == u || tri[1] == u || tri[2] == u) {
         face_alive_[f] = 0;
         --live_;
         --comp_live_[comp_of_[u]];
+        int from = -1, to = -1;
         for (int m = 0; m < 3; ++m) {
-          const int a = tri[m];
-          if (a == u || a == v) continue;
-          vfaces_.Remove(a, f);
+          const int a = tri[m], b = tri[(m + 1) % 3], id = face_edges_[f][m];
+          const bool has_u = a == u || b == u, has_v = a == v || b == v;
+          if (has_u && has_v) {
+            Kill(id);
+          } else if (has_v) {
+            from = id;
+          } else {
+            to = id;
+          }
+          if (a != u && a != v) vfaces_.Remove(a, f);
+        }
+        if (from >= 0 && n_merged < 2) {
+          Kill(from);
+          merged_from[n_merged] = from, merged_to[n_merged] = to, ++n_merged;
         }
       } else {
         for (int m = 0; m < 3; ++m) {
@@ -1106,9 +1204,30 @@ class EdgeCollapser {
     quad_[u] += quad_[v];
     border_[u] = border_[u] || border_[v];
     alive_[v] = 0;
-    ++stamp_[v];
-    ++stamp_[u];
-    PushEdgesOf(u, /*only_greater=*/false);
+    const uint32_t epoch = ++epoch_;
+    for (int f : vfaces_[u]) {
+      for (int m = 0; m < 3; ++m) {
+        int& id = face_edges_[f][m];
+        for (int k = 0; k < n_merged; ++k) {
+          if (id == merged_from[k]) id = merged_to[k];
+        }
+        const int a = faces_[f][m], b = faces_[f][(m + 1) % 3];
+        if (a != u && b != u) continue;
+        Edge& edge = edge_[id];
+        if (edge.a == v) edge.a = u;
+        if (edge.b == v) edge.b = u;
+        if (edge_epoch_[id] == epoch) continue;  // each edge once
+        edge_epoch_[id] = epoch;
+        if (edge_state_[id] == kEdgeDead) continue;
+        edge_state_[id] = kEdgeQueued;
+        heap_.Set(id, EdgeCost(id));
+      }
+    }
+  }
+
+  void Kill(int id) {
+    heap_.Remove(id);
+    edge_state_[id] = kEdgeDead;
   }
 
   static constexpr int kMaxPasses = 8;
@@ -1125,7 +1244,6 @@ class EdgeCollapser {
   Eigen::Vector3d origin_;
   std::vector<Eigen::Vector3d> pos_;
   std::vector<Quadric> quad_;
-  std::vector<uint32_t> stamp_;
   std::vector<uint8_t> alive_, locked_, border_;
   FaceLists vfaces_;
   std::vector<Eigen::Vector3i> faces_;
@@ -1142,8 +1260,13 @@ class EdgeCollapser {
   uint32_t epoch_ = 0;
   int64_t live_ = 0;
   double max_error_ = 0.0;
-  OctalHeap heap_;
-  std::vector<Candidate> candidates_;  // indexed by the heap keys' low bits
+  // Edges: endpoints, state, whether the queued cost includes the deviation term, the
+  // last collapse that recomputed it (an epoch); per face, its corners' edges.
+  std::vector<Edge> edge_;
+  std::vector<uint8_t> edge_state_, deviation_costed_;
+  std::vector<uint32_t> edge_epoch_;
+  std::vector<std::array<int, 3>> face_edges_;
+  IndexedHeap heap_;  // edge ids, then edge count + component (deletions)
   // Deviation's scratch: the faces around the edge before and after, and for each after
   // the index of the face it was.
   std::vector<std::array<Eigen::Vector3d, 3>> old_tris_, new_tris_;
@@ -1153,7 +1276,8 @@ class EdgeCollapser {
   };
   std::vector<Ball> old_balls_;  // per old face: a ball holding it
   std::vector<int> new_from_;
-  bool heaped_ = true;
+  std::vector<std::array<int, 2>> new_ring_;  // per new face, its corners other than x
+  std::vector<int> midpoints_done_;           // corners whose midpoint with x is measured
   // Components: per vertex (-1 when unused), live triangles, area (mm^2), bounding-box
   // diagonal (mm), vertices (CSR); the one with the largest area.
   std::vector<int> comp_of_, comp_live_, comp_start_, comp_vertices_;
