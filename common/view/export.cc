@@ -101,6 +101,15 @@ ExportSummary ExportStatic(const ViewerIndex& index, const fs::path& assets_dir,
       const CameraFiles& f = e.cameras[c];
       if (!f.image.empty())
         w.Write("take/" + f.image, io::ReadFileBytes(*index.take_dir / f.image));
+      if (f.mask) {
+        const std::string url = "derived/mask/" + e.name + "/" + index.cameras[c].id + ".png";
+        try {
+          w.Write(url, MaskPreviewFile(index, int(i), int(c)));
+        } catch (const core::InputError& err) {
+          spdlog::warn("dome view --export: {}", err.what());
+          ++w.summary.failed_derived;
+        }
+      }
       if (!f.depth_preview.empty()) {
         w.Write("out/" + f.depth_preview, io::ReadFileBytes(index.out_dir / f.depth_preview));
       } else if (!f.depth_map.empty()) {

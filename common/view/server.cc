@@ -165,6 +165,15 @@ struct ViewerServer::Impl {
                ServeDerived(
                    req.path, "image/png", [&] { return DepthPreviewFile(*idx, i, c); }, res);
              });
+    http.Get(R"(/derived/mask/([^/]+)/([^/]+)\.png)",
+             [this](const httplib::Request& req, httplib::Response& res) {
+               const auto idx = CurrentIndex();
+               const int i = idx->FindInstant(req.matches[1]);
+               const int c = idx->FindCamera(req.matches[2]);
+               if (i < 0 || c < 0) return Refuse(res, 404, "no such instant or camera");
+               ServeDerived(
+                   req.path, "image/png", [&] { return MaskPreviewFile(*idx, i, c); }, res);
+             });
     http.Get(R"(/derived/error/([^/]+)/(fused|decimated)\.f32)", [this](const httplib::Request& req,
                                                                         httplib::Response& res) {
       const auto idx = CurrentIndex();
