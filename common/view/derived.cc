@@ -1,5 +1,6 @@
 #include "view/derived.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -67,7 +68,14 @@ std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera) {
   core::Require(e.cameras[camera].mask && index.take_dir.has_value(), e.name + "/" + id,
                 "no mask for this camera and instant" +
                     (index.masks_unavailable.empty() ? "" : ": " + index.masks_unavailable));
-  silhouette::TakeMasks masks(take::OpenTake(*index.take_dir), silhouette::MaskOptions{});
+  // The take of this camera only: opening masks checks every camera's given masks and
+  // plates, which a request for one camera's should not read.
+  take::Take take = take::OpenTake(*index.take_dir);
+  auto& cameras = take.rig.cameras;
+  cameras.erase(std::remove_if(cameras.begin(), cameras.end(),
+                               [&](const auto& c) { return c.model.id != id; }),
+                cameras.end());
+  silhouette::TakeMasks masks(std::move(take), silhouette::MaskOptions{});
   const cv::Mat mask = masks.Mask(e.name, id);
   const cv::Mat frame =
       silhouette::ReadFrame(masks.take().FramePath(e.name, id), mask.size(), id).colour;

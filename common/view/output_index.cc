@@ -98,13 +98,15 @@ ViewerIndex BuildIndex(const fs::path& out_dir, const std::optional<fs::path>& t
     const double depth =
         options.frustum_depth_mm > 0 ? options.frustum_depth_mm : DefaultFrustumDepthMm(take->rig);
     for (const auto& rc : take->rig.cameras) index.cameras.push_back(FrustumOf(rc.model, depth));
-    // Opening the masks only decides each camera's source and checks sizes (no image
-    // is read); a take without any source is shown without masks, saying why.
+    // Each camera's mask source from which files exist (no image is read: the index
+    // is rebuilt on every page load); a take without any source is shown without
+    // masks, saying why. A malformed given mask or plate is named when its mask is
+    // asked for (derived.h).
     index.mask_sources.assign(index.cameras.size(), "");
     try {
-      const silhouette::TakeMasks masks(*take, silhouette::MaskOptions{});
+      const auto sources = silhouette::DecideMaskSources(*take);
       for (size_t c = 0; c < index.cameras.size(); ++c)
-        index.mask_sources[c] = silhouette::MaskSourceName(masks.Source(index.cameras[c].id));
+        index.mask_sources[c] = silhouette::MaskSourceName(sources.at(index.cameras[c].id));
     } catch (const core::InputError& e) {
       index.masks_unavailable = e.what();
     }
