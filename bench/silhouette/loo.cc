@@ -9,6 +9,9 @@
 // from TAKE (silhouette/take_masks.h: given > plate > the median over the instants) and:
 //   IoU    the decimated mesh rendered into c (silhouette/render.h, c's exact lens)
 //          against c's mask;
+//   inside the fraction of the rendered pixels inside c's mask (debris outside the
+//          people lowers it; a mesh in the wrong place would put it near the mask's
+//          share of the image);
 //   PSNR   the textured mesh (the atlas; the per-vertex colours when no OBJ was
 //          written) rendered into c against c's image, over the pixels inside both the
 //          mask and the rendering (what the rendering misses of the mask counts in
@@ -169,7 +172,7 @@ io::Mesh VisualHull(const std::vector<const geometry::TsaiCamera*>& cameras,
 
 struct Row {
   std::string instant, camera;
-  double iou = NAN, psnr = NAN, hull_iou = NAN;
+  double iou = NAN, inside = NAN, psnr = NAN, hull_iou = NAN;
   int parts = 0, triangles = 0;
   std::string colour;  // "atlas", "vertex" or "" (no mesh)
 };
@@ -205,8 +208,8 @@ int Main(int argc, char** argv) {
   const take::Take& take = masks.take();
   const auto& cams = take.rig.cameras;
   std::vector<Row> rows;
-  std::printf("%-12s %-8s %7s %8s %6s %9s %9s  %s\n", "instant", "camera", "IoU", "PSNR dB",
-              "parts", "triangles", "hull IoU", "colour");
+  std::printf("%-12s %-8s %7s %7s %8s %6s %9s %9s  %s\n", "instant", "camera", "IoU", "inside",
+              "PSNR dB", "parts", "triangles", "hull IoU", "colour");
   for (const auto& instant : take.instants) {
     std::vector<cv::Mat> instant_masks;
     for (const auto& c : cams) instant_masks.push_back(masks.Mask(instant, c.model.id));
@@ -230,6 +233,8 @@ int Main(int argc, char** argv) {
         const silhouette::MeshRendering r = silhouette::RenderMesh(cam, mesh);
         rendered_mask = silhouette::RenderedMask(r);
         row.iou = silhouette::MaskIoU(rendered_mask, mask);
+        const int rendered = cv::countNonZero(rendered_mask);
+        if (rendered > 0) row.inside = double(cv::countNonZero(rendered_mask & mask)) / rendered;
         if (fs::exists(dir / "textured.obj") && fs::exists(dir / "textured.png")) {
           const TexturedObj obj = ReadTexturedObj(dir / "textured.obj");
           const cv::Mat atlas = io::ReadImage(dir / "textured.png", io::ImageMode::kBgr8);
@@ -256,8 +261,9 @@ int Main(int argc, char** argv) {
         row.hull_iou =
             silhouette::MaskIoU(silhouette::RenderedMask(silhouette::RenderMesh(cam, hull)), mask);
       }
-      std::printf("%-12s %-8s %7.3f %8.2f %6d %9d %9.3f  %s\n", instant.c_str(), cam.id.c_str(),
-                  row.iou, row.psnr, row.parts, row.triangles, row.hull_iou, row.colour.c_str());
+      std::printf("%-12s %-8s %7.3f %7.3f %8.2f %6d %9d %9.3f  %s\n", instant.c_str(),
+                  cam.id.c_str(), row.iou, row.inside, row.psnr, row.parts, row.triangles,
+                  row.hull_iou, row.colour.c_str());
       std::fflush(stdout);
       if (!preview_dir.empty()) {
         cv::Mat side;
@@ -270,21 +276,33 @@ int Main(int argc, char** argv) {
       rows.push_back(row);
     }
   }
-  std::printf("\nmeans over instants\n%-8s %7s %8s %6s %9s\n", "camera", "IoU", "PSNR dB", "parts",
-              "hull IoU");
+  std::printf("\nmeans over instants\n%-8s %7s %7s %8s %6s %9s\n", "camera", "IoU", "inside",
+              "PSNR dB", "parts", "hull IoU");
   for (const auto& c : cams) {
     std::vector<Row> of;
     for (const auto& r : rows)
       if (r.camera == c.model.id) of.push_back(r);
     double parts = 0;
     for (const auto& r : of) parts += r.parts;
-    std::printf("%-8s %7.3f %8.2f %6.1f %9.3f\n", c.model.id.c_str(), Mean(of, &Row::iou),
-                Mean(of, &Row::psnr), parts / of.size(), Mean(of, &Row::hull_iou));
+    std::printf("%-8s %7.3f %7.3f %8.2f %6.1f %9.3f\n", c.model.id.c_str(), Mean(of, &Row::iou),
+                Mean(of, &Row::inside), Mean(of, &Row::psnr), parts / of.size(),
+                Mean(of, &Row::hull_iou));
   }
   double parts = 0;
   for (const auto& r : rows) parts += r.parts;
-  std::printf("%-8s %7.3f %8.2f %6.1f %9.3f\n", "all", Mean(rows, &Row::iou),
-              Mean(rows, &Row::psnr), parts / rows.size(), Mean(rows, &Row::hull_iou));
+  std::printf("%-8s %7.3f %7.3f %8.2f %6.1f %9.3f\n", "all", Mean(rows, &Row::iou),
+              Mean(rows, &Row::inside), Mean(rows, &Row::psnr), parts / rows.size(),
+              Mean(rows, &Row::hull_iou));
+  // Per instant, the means over the cameras left out (the figures are per
+  // instant).
+  for (const auto& instant : take.instants) {
+    std::vector<Row> of;
+    for (const auto& r : rows)
+      if (r.instant == instant) of.push_back(r);
+    std::printf("%-12s IoU %.3f  inside %.3f  PSNR %.2f dB  hull IoU %.3f\n", instant.c_str(),
+                Mean(of, &Row::iou), Mean(of, &Row::inside), Mean(of, &Row::psnr),
+                Mean(of, &Row::hull_iou));
+  }
   return 0;
 }
 
