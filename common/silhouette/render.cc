@@ -62,59 +62,67 @@ MeshRendering RenderMesh(const geometry::TsaiCamera& camera, const io::Mesh& mes
 
 cv::Mat RenderedMask(const MeshRendering& rendering) { return rendering.face >= 0; }
 
-cv::Mat ShadeVertexColours(const MeshRendering& rendering, const io::Mesh& mesh) {
-  core::Require(mesh.HasColors(), "ShadeVertexColours: mesh", "has no per-vertex colours");
+namespace {
+
+// A BGR image, black where the rendering has no surface, else shade(face, weights).
+template <typename Shade>
+cv::Mat ShadeSurface(const MeshRendering& rendering, Shade&& shade) {
   cv::Mat out(rendering.face.size(), CV_8UC3, cv::Scalar::all(0));
   for (int y = 0; y < out.rows; ++y) {
     const int* fp = rendering.face.ptr<int>(y);
     const cv::Vec3f* wp = rendering.weights.ptr<cv::Vec3f>(y);
     cv::Vec3b* op = out.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      if (fp[x] < 0) continue;
-      const Eigen::Vector3i& f = mesh.faces[fp[x]];
-      for (int ch = 0; ch < 3; ++ch) {
-        double v = 0.0;
-        for (int k = 0; k < 3; ++k) v += wp[x][k] * mesh.colors[f[k]][ch];
-        op[x][2 - ch] = cv::saturate_cast<uint8_t>(v);  // RGB -> BGR
-      }
-    }
+    for (int x = 0; x < out.cols; ++x)
+      if (fp[x] >= 0) op[x] = shade(fp[x], wp[x]);
   }
   return out;
+}
+
+}  // namespace
+
+cv::Mat ShadeVertexColours(const MeshRendering& rendering, const io::Mesh& mesh) {
+  core::Require(mesh.HasColors(), "ShadeVertexColours: mesh", "has no per-vertex colours");
+  return ShadeSurface(rendering, [&](int face, const cv::Vec3f& w) {
+    const Eigen::Vector3i& f = mesh.faces[face];
+    cv::Vec3b bgr;
+    for (int ch = 0; ch < 3; ++ch) {
+      double v = 0.0;
+      for (int k = 0; k < 3; ++k) v += w[k] * mesh.colors[f[k]][ch];
+      bgr[2 - ch] = cv::saturate_cast<uint8_t>(v);  // RGB -> BGR
+    }
+    return bgr;
+  });
 }
 
 cv::Mat ShadeAtlas(const MeshRendering& rendering, const std::vector<Eigen::Vector2f>& uv,
                    const cv::Mat& atlas) {
   core::Require(atlas.type() == CV_8UC3 && !atlas.empty(), "ShadeAtlas: atlas",
                 "expected a BGR 8-bit image");
-  cv::Mat out(rendering.face.size(), CV_8UC3, cv::Scalar::all(0));
   const int aw = atlas.cols, ah = atlas.rows;
-  for (int y = 0; y < out.rows; ++y) {
-    const int* fp = rendering.face.ptr<int>(y);
-    const cv::Vec3f* wp = rendering.weights.ptr<cv::Vec3f>(y);
-    cv::Vec3b* op = out.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      if (fp[x] < 0) continue;
-      const size_t base = 3 * size_t(fp[x]);
-      core::Require(base + 2 < uv.size(), "ShadeAtlas: uv", "fewer than 3 coordinates per face");
-      double u = 0.0, v = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        u += wp[x][k] * uv[base + k].x();
-        v += wp[x][k] * uv[base + k].y();
-      }
-      const double tx = std::clamp(u * aw - 0.5, 0.0, aw - 1.0);
-      const double ty = std::clamp((1.0 - v) * ah - 0.5, 0.0, ah - 1.0);
-      const int ix = std::min(int(tx), aw - 2 < 0 ? 0 : aw - 2);
-      const int iy = std::min(int(ty), ah - 2 < 0 ? 0 : ah - 2);
-      const int jx = std::min(ix + 1, aw - 1), jy = std::min(iy + 1, ah - 1);
-      const double fx = tx - ix, fy = ty - iy;
-      for (int ch = 0; ch < 3; ++ch) {
-        const double top = (1 - fx) * atlas.at<cv::Vec3b>(iy, ix)[ch] + fx * atlas.at<cv::Vec3b>(iy, jx)[ch];
-        const double bottom = (1 - fx) * atlas.at<cv::Vec3b>(jy, ix)[ch] + fx * atlas.at<cv::Vec3b>(jy, jx)[ch];
-        op[x][ch] = cv::saturate_cast<uint8_t>((1 - fy) * top + fy * bottom);
-      }
+  return ShadeSurface(rendering, [&](int face, const cv::Vec3f& w) {
+    const size_t base = 3 * size_t(face);
+    core::Require(base + 2 < uv.size(), "ShadeAtlas: uv", "fewer than 3 coordinates per face");
+    double u = 0.0, v = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      u += w[k] * uv[base + k].x();
+      v += w[k] * uv[base + k].y();
     }
-  }
-  return out;
+    const double tx = std::clamp(u * aw - 0.5, 0.0, aw - 1.0);
+    const double ty = std::clamp((1.0 - v) * ah - 0.5, 0.0, ah - 1.0);
+    const int ix = std::min(int(tx), std::max(0, aw - 2));
+    const int iy = std::min(int(ty), std::max(0, ah - 2));
+    const int jx = std::min(ix + 1, aw - 1), jy = std::min(iy + 1, ah - 1);
+    const double fx = tx - ix, fy = ty - iy;
+    cv::Vec3b bgr;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double top =
+          (1 - fx) * atlas.at<cv::Vec3b>(iy, ix)[ch] + fx * atlas.at<cv::Vec3b>(iy, jx)[ch];
+      const double bottom =
+          (1 - fx) * atlas.at<cv::Vec3b>(jy, ix)[ch] + fx * atlas.at<cv::Vec3b>(jy, jx)[ch];
+      bgr[ch] = cv::saturate_cast<uint8_t>((1 - fy) * top + fy * bottom);
+    }
+    return bgr;
+  });
 }
 
 double MaskedPsnr(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
