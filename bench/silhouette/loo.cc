@@ -20,8 +20,8 @@
 //   hull   for scale, the plain visual hull of the other cameras' masks: voxels of the
 //          run's volume (report.json) whose centre projects into every other camera's
 //          image inside its mask, rendered into c as cubes; its IoU with c's mask. The
-//          voxel edge is the volume's longest side / --hull-voxels (default 200: ~13 mm
-//          for Panoptic's 2.6 m box, a tenth of a person's arm).
+//          voxel edge is the volume's longest side / --hull-voxels (default 200: 18 mm
+//          for Panoptic's derived volume, 3.6 m long: a fifth of an arm's width).
 // Prints a table per instant and camera, then the means; with --preview writes
 // DIR/<instant>/<c>.png: c's image beside the rendering, each darkened outside c's mask and
 // with its outline (silhouette::MaskPreview), 960 px wide in all.
