@@ -24,7 +24,7 @@ void AddViewCommand(CLI::App* app, int* exit_code) {
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("OUT", a->out, "output folder (OUT/<instant>/mesh.ply, ...)")->required();
-  cmd->add_option("--take", a->take, "take folder: cameras, images, truth");
+  cmd->add_option("--take", a->take, "take folder: cameras, images, masks, truth");
   cmd->add_option("--port", a->server.port, "TCP port (0: any free port)")->capture_default_str();
   cmd->add_option("--bind", a->server.bind_address, "address to listen on")->capture_default_str();
   cmd->add_option("--export", a->export_dir,

@@ -25,6 +25,7 @@
     status: $('status'), legend: $('legend'), panel: $('camera-panel'),
     cameraTitle: $('camera-title'), cameraImage: $('camera-image'),
     cameraDepth: $('camera-depth'), depthCaption: $('depth-caption'),
+    cameraMask: $('camera-mask'), maskCaption: $('mask-caption'),
     cameraClose: $('camera-close'), source: $('source'), loop: $('loop'), speed: $('speed'),
     stats: $('stats'),
   };
@@ -576,6 +577,11 @@
     ui.depthCaption.textContent = files.depth
       ? (files.depth_source === 'truth' ? 'depth (truth), near red, far blue' : 'depth (stereo), near red, far blue')
       : 'no depth map for this instant';
+    // The mask beside the image: the image darkened outside it, its outline in green.
+    setImage(ui.cameraMask, files.mask);
+    ui.maskCaption.textContent = files.mask
+      ? 'mask (' + files.mask_source + '), background darkened'
+      : 'no mask' + (INDEX.masks_unavailable ? ': ' + INDEX.masks_unavailable : ' for this instant');
   }
   ui.cameraClose.addEventListener('click', () => { state.selectedCamera = -1; updateCameraPanel(); });
 

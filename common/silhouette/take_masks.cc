@@ -112,19 +112,46 @@ fs::path TakeMasks::PlatePath(const std::string& camera) const {
   return take_.dir / "background" / (camera + ".png");
 }
 
+std::map<std::string, MaskSource> DecideMaskSources(const take::Take& take) {
+  std::error_code ec;
+  std::map<std::string, MaskSource> sources;
+  std::vector<std::string> median_cameras;
+  for (const auto& rc : take.rig.cameras) {
+    const std::string& id = rc.model.id;
+    bool any_given = false;
+    for (const auto& instant : take.instants)
+      any_given = any_given || fs::exists(take.dir / "masks" / instant / (id + ".png"), ec);
+    if (any_given) {
+      sources[id] = MaskSource::kGiven;
+    } else if (fs::exists(take.dir / "background" / (id + ".png"), ec)) {
+      sources[id] = MaskSource::kPlate;
+    } else {
+      sources[id] = MaskSource::kMedian;
+      median_cameras.push_back(id);
+    }
+  }
+  if (!median_cameras.empty()) {
+    const int n = static_cast<int>(take.instants.size());
+    Require(n >= MaskOptions::kMinMedianInstants, (take.dir / "frames").string(),
+            std::to_string(n) + " instant(s): a median background needs at least " +
+                std::to_string(MaskOptions::kMinMedianInstants) +
+                " (the person must be elsewhere in most of them); camera '" +
+                median_cameras.front() + "' has neither background/" + median_cameras.front() +
+                ".png nor masks/<instant>/" + median_cameras.front() + ".png");
+  }
+  return sources;
+}
+
 TakeMasks::TakeMasks(take::Take take, const MaskOptions& options)
     : take_(std::move(take)), options_(options) {
   options_.Check();
+  sources_ = DecideMaskSources(take_);
   std::error_code ec;
-  std::vector<std::string> median_cameras;
   for (const auto& rc : take_.rig.cameras) {
     const std::string& id = rc.model.id;
     const cv::Size size(rc.model.width_px, rc.model.height_px);
     backgrounds_[id];  // every camera's slot exists, so Mask() never inserts
-    bool any_given = false;
-    for (const auto& instant : take_.instants)
-      any_given = any_given || fs::exists(GivenMaskPath(instant, id), ec);
-    if (any_given) {
+    if (sources_.at(id) == MaskSource::kGiven) {
       // Given masks are all or nothing per camera: half given, half derived would mix
       // two definitions of the silhouette in one camera.
       for (const auto& instant : take_.instants) {
@@ -135,23 +162,9 @@ TakeMasks::TakeMasks(take::Take take, const MaskOptions& options)
                     "instant needs one");
         ReadMaskFile(path, size, id);  // kind and size, before any work
       }
-      sources_[id] = MaskSource::kGiven;
-    } else if (fs::exists(PlatePath(id), ec)) {
+    } else if (sources_.at(id) == MaskSource::kPlate) {
       ReadFrame(PlatePath(id), size, id);  // kind and size, before any work
-      sources_[id] = MaskSource::kPlate;
-    } else {
-      sources_[id] = MaskSource::kMedian;
-      median_cameras.push_back(id);
     }
-  }
-  if (!median_cameras.empty()) {
-    const int n = static_cast<int>(take_.instants.size());
-    Require(n >= MaskOptions::kMinMedianInstants, (take_.dir / "frames").string(),
-            std::to_string(n) + " instant(s): a median background needs at least " +
-                std::to_string(MaskOptions::kMinMedianInstants) +
-                " (the person must be elsewhere in most of them); camera '" +
-                median_cameras.front() + "' has neither background/" + median_cameras.front() +
-                ".png nor masks/<instant>/" + median_cameras.front() + ".png");
   }
 }
 

@@ -54,6 +54,13 @@ struct MaskInfo {
   ForegroundStats stats;  // of the classification (not for given masks)
 };
 
+// Each camera's source as TakeMasks decides it, from which files exist (nothing is
+// read, so it is cheap): given when any instant has a given mask, else plate, else
+// median. Throws core::InputError naming the take when a camera needs a median and
+// the take has fewer than kMinMedianInstants instants (TakeMasks also checks the
+// given masks' and plates' kinds and sizes).
+std::map<std::string, MaskSource> DecideMaskSources(const take::Take& take);
+
 class TakeMasks {
  public:
   // Decides each camera's source and checks the given masks' and plates' sizes, so

@@ -1,5 +1,6 @@
 #include "view/derived.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -10,6 +11,8 @@
 #include "eval/triangle_bvh.h"
 #include "io/depth_tiff.h"
 #include "io/ply.h"
+#include "silhouette/take_masks.h"
+#include "take/take.h"
 
 namespace dome::view {
 
@@ -54,6 +57,31 @@ std::string DepthPreviewFile(const ViewerIndex& index, int instant, int camera) 
   const cv::Mat preview = io::DepthPreview(io::ReadDepthMap(path));
   std::vector<uchar> png;
   core::Require(cv::imencode(".png", preview, png), path.string(), "could not encode the preview");
+  return std::string(png.begin(), png.end());
+}
+
+std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera) {
+  DOME_CHECK(instant >= 0 && instant < int(index.instants.size()), "instant out of range");
+  const InstantEntry& e = index.instants[instant];
+  DOME_CHECK(camera >= 0 && camera < int(e.cameras.size()), "camera out of range");
+  const std::string& id = index.cameras[camera].id;
+  core::Require(e.cameras[camera].mask && index.take_dir.has_value(), e.name + "/" + id,
+                "no mask for this camera and instant" +
+                    (index.masks_unavailable.empty() ? "" : ": " + index.masks_unavailable));
+  // The take of this camera only: opening masks checks every camera's given masks and
+  // plates, which a request for one camera's should not read.
+  take::Take take = take::OpenTake(*index.take_dir);
+  auto& cameras = take.rig.cameras;
+  cameras.erase(std::remove_if(cameras.begin(), cameras.end(),
+                               [&](const auto& c) { return c.model.id != id; }),
+                cameras.end());
+  silhouette::TakeMasks masks(std::move(take), silhouette::MaskOptions{});
+  const cv::Mat mask = masks.Mask(e.name, id);
+  const cv::Mat frame =
+      silhouette::ReadFrame(masks.take().FramePath(e.name, id), mask.size(), id).colour;
+  std::vector<uchar> png;
+  core::Require(cv::imencode(".png", silhouette::MaskPreview(frame, mask), png), e.name + "/" + id,
+                "could not encode the mask preview");
   return std::string(png.begin(), png.end());
 }
 

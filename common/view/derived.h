@@ -29,4 +29,10 @@ std::string VertexErrorFile(const ViewerIndex& index, int instant, MeshVariant v
 // when the depth map is missing or malformed.
 std::string DepthPreviewFile(const ViewerIndex& index, int instant, int camera);
 
+// A PNG of camera `camera`'s image at `instant` darkened outside its foreground mask,
+// with the mask's outline (silhouette::MaskPreview; the mask from silhouette::TakeMasks
+// with default options, as `dome masks` writes it). Throws core::InputError naming the
+// camera when it has no mask, or the file that cannot be read.
+std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera);
+
 }  // namespace dome::view

@@ -99,18 +99,24 @@ ExportSummary ExportStatic(const ViewerIndex& index, const fs::path& assets_dir,
     }
     for (size_t c = 0; c < e.cameras.size(); ++c) {
       const CameraFiles& f = e.cameras[c];
-      if (!f.image.empty())
-        w.Write("take/" + f.image, io::ReadFileBytes(*index.take_dir / f.image));
-      if (!f.depth_preview.empty()) {
-        w.Write("out/" + f.depth_preview, io::ReadFileBytes(index.out_dir / f.depth_preview));
-      } else if (!f.depth_map.empty()) {
-        const std::string url = "derived/depth/" + e.name + "/" + index.cameras[c].id + ".png";
+      // derived/<kind>/<instant>/<camera>.png; one that cannot be made is counted.
+      auto write_derived = [&](const char* kind, auto&& file) {
+        const std::string url =
+            std::string("derived/") + kind + "/" + e.name + "/" + index.cameras[c].id + ".png";
         try {
-          w.Write(url, DepthPreviewFile(index, int(i), int(c)));
+          w.Write(url, file(index, int(i), int(c)));
         } catch (const core::InputError& err) {
           spdlog::warn("dome view --export: {}", err.what());
           ++w.summary.failed_derived;
         }
+      };
+      if (!f.image.empty())
+        w.Write("take/" + f.image, io::ReadFileBytes(*index.take_dir / f.image));
+      if (f.mask) write_derived("mask", MaskPreviewFile);
+      if (!f.depth_preview.empty()) {
+        w.Write("out/" + f.depth_preview, io::ReadFileBytes(index.out_dir / f.depth_preview));
+      } else if (!f.depth_map.empty()) {
+        write_derived("depth", DepthPreviewFile);
       }
     }
   }

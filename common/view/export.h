@@ -8,7 +8,7 @@
 //       domeBlob("<url>", "<base64 of the file>");
 //     (or domeBlobError("<url>", "<why>") when a derived file could not be made),
 //     loaded by the page with a <script> element, which file:// allows;
-//   DIR/take/frames/<instant>/<camera>.png, DIR/derived/depth/... and
+//   DIR/take/frames/<instant>/<camera>.png, DIR/derived/depth/..., DIR/derived/mask/... and
 //   DIR/out/<instant>/preview/...   images, shown with <img>, which file:// allows.
 // The same folder also works behind any static HTTP server.
 #pragma once
@@ -24,7 +24,7 @@ namespace dome::view {
 struct ExportSummary {
   int64_t files = 0;           // files written
   int64_t bytes = 0;           // bytes written
-  int64_t failed_derived = 0;  // error/depth files that could not be computed
+  int64_t failed_derived = 0;  // error/depth/mask files that could not be computed
 };
 
 // Writes the export into `dir` (created when missing; files there are replaced).

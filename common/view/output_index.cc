@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "silhouette/take_masks.h"
 #include "take/take.h"
 #include "take/timecode.h"
 
@@ -97,6 +98,18 @@ ViewerIndex BuildIndex(const fs::path& out_dir, const std::optional<fs::path>& t
     const double depth =
         options.frustum_depth_mm > 0 ? options.frustum_depth_mm : DefaultFrustumDepthMm(take->rig);
     for (const auto& rc : take->rig.cameras) index.cameras.push_back(FrustumOf(rc.model, depth));
+    // Each camera's mask source from which files exist (no image is read: the index
+    // is rebuilt on every page load); a take without any source is shown without
+    // masks, saying why. A malformed given mask or plate is named when its mask is
+    // asked for (derived.h).
+    index.mask_sources.assign(index.cameras.size(), "");
+    try {
+      const auto sources = silhouette::DecideMaskSources(*take);
+      for (size_t c = 0; c < index.cameras.size(); ++c)
+        index.mask_sources[c] = silhouette::MaskSourceName(sources.at(index.cameras[c].id));
+    } catch (const core::InputError& e) {
+      index.masks_unavailable = e.what();
+    }
   }
   // HH-MM-SS-FF names sort in time order as strings.
   for (const std::string& name : names) {
@@ -130,6 +143,7 @@ ViewerIndex BuildIndex(const fs::path& out_dir, const std::optional<fs::path>& t
           c.depth_source = "truth";
         }
         if (!c.depth_preview.empty()) c.depth_source = "stereo";
+        c.mask = !c.image.empty() && !index.mask_sources[e.cameras.size()].empty();
         e.cameras.push_back(std::move(c));
       }
     }
@@ -170,8 +184,13 @@ std::string IndexJson(const ViewerIndex& index, bool packed) {
         depth = "out/" + f.depth_preview;
       else if (!f.depth_map.empty())
         depth = "derived/depth/" + e.name + "/" + index.cameras[c].id + ".png";
-      files.push_back(
-          {{"image", Url("take/", f.image)}, {"depth", depth}, {"depth_source", f.depth_source}});
+      const std::string& id = index.cameras[c].id;
+      files.push_back({{"image", Url("take/", f.image)},
+                       {"depth", depth},
+                       {"depth_source", f.depth_source},
+                       {"mask", f.mask ? core::Json("derived/mask/" + e.name + "/" + id + ".png")
+                                       : core::Json()},
+                       {"mask_source", index.mask_sources[c]}});
     }
     instants.push_back({{"name", e.name},
                         {"label", e.label},
@@ -191,7 +210,8 @@ std::string IndexJson(const ViewerIndex& index, bool packed) {
                         {"error_range_mm", index.options.error_range_mm},
                         {"play_rate_hz", index.options.play_rate_hz},
                         {"cameras", std::move(cameras)},
-                        {"instants", std::move(instants)}};
+                        {"instants", std::move(instants)},
+                        {"masks_unavailable", index.masks_unavailable}};
   // A packed export is opened from file://, where the page cannot fetch (a 4D file is
   // read as a stream): its 4D files are not offered.
   j["sequences"] = core::Json::array();

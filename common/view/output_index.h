@@ -1,5 +1,6 @@
 // What the viewer shows: the instants of an output folder, the files each one has,
-// the rig's cameras as frusta, and where each camera's image and depth map are.
+// the rig's cameras as frusta, and where each camera's image, depth map and foreground
+// mask are.
 //
 // Output folder (what `dome fuse`, `dome mesh`, `dome stereo` and `dome run` write):
 //   OUT/<instant>/mesh.ply              fused mesh, binary PLY, world mm
@@ -10,7 +11,9 @@
 //   OUT/<instant>/preview/<camera>.png  colour-mapped stereo depth (dome stereo)
 //   OUT/*.dome4d                        4D files (dome export), played as a source
 // Take (optional, --take): TAKE/rig.json, TAKE/frames/<instant>/<camera>.png,
-// TAKE/truth/<instant>/mesh.ply and TAKE/truth/<instant>/depth/<camera>.tiff.
+// TAKE/truth/<instant>/mesh.ply and TAKE/truth/<instant>/depth/<camera>.tiff; a camera's
+// masks are those of silhouette/take_masks.h (given, from a background plate, or from
+// the median over the take's instants).
 //
 // <instant> is HH-MM-SS-FF (take/timecode.h); an instant is listed when OUT or the
 // take's frames have a folder for it, so an instant whose meshes were never written
@@ -19,7 +22,9 @@
 // URLs in the index are relative to the page: "out/<path in OUT>", "take/<path in
 // TAKE>", "derived/depth/<instant>/<camera>.png" (a depth TIFF colour-mapped by the
 // server or at export) and "derived/error/<instant>/<variant>.f32" (per-vertex
-// distance to the truth mesh, little-endian float32, mm, in the PLY's vertex order).
+// distance to the truth mesh, little-endian float32, mm, in the PLY's vertex order) and
+// "derived/mask/<instant>/<camera>.png" (the image darkened outside the camera's mask,
+// with its outline: silhouette::MaskPreview).
 #pragma once
 
 #include <Eigen/Core>
@@ -62,6 +67,7 @@ struct CameraFiles {
   std::string depth_preview;        // path in OUT of a preview PNG written by dome stereo; ""
   std::filesystem::path depth_map;  // depth TIFF to colour-map (OUT, else truth); ""
   std::string depth_source;         // "stereo" or "truth"; "" when no depth
+  bool mask = false;                // the image exists and its camera has masks
 };
 
 struct InstantEntry {
@@ -90,6 +96,11 @@ struct ViewerIndex {
   std::vector<InstantEntry> instants;  // in time order
   // 4D files of `dome export` at OUT's top level (OUT/*.dome4d), paths in OUT, sorted.
   std::vector<std::string> sequences;
+  // Per camera (as `cameras`), where its masks come from: "given", "plate" or "median"
+  // (silhouette::MaskSourceName); all "" when the take offers none, and then
+  // `masks_unavailable` says why (the take's error, e.g. too few instants for a median).
+  std::vector<std::string> mask_sources;
+  std::string masks_unavailable;
 
   // Index of the instant with this folder name, or -1.
   int FindInstant(const std::string& name) const;

@@ -156,15 +156,19 @@ struct ViewerServer::Impl {
       if (!take_dir) return Refuse(res, 404, "dome view was started without --take");
       ServeFile(*take_dir, req.matches[1], res);
     });
-    http.Get(R"(/derived/depth/([^/]+)/([^/]+)\.png)",
-             [this](const httplib::Request& req, httplib::Response& res) {
-               const auto idx = CurrentIndex();
-               const int i = idx->FindInstant(req.matches[1]);
-               const int c = idx->FindCamera(req.matches[2]);
-               if (i < 0 || c < 0) return Refuse(res, 404, "no such instant or camera");
-               ServeDerived(
-                   req.path, "image/png", [&] { return DepthPreviewFile(*idx, i, c); }, res);
-             });
+    // A camera's derived PNG at an instant: derived/<kind>/<instant>/<camera>.png.
+    using CameraFile = std::string (*)(const ViewerIndex&, int, int);
+    for (const auto& [kind, file] : {std::pair<const char*, CameraFile>{"depth", DepthPreviewFile},
+                                     std::pair<const char*, CameraFile>{"mask", MaskPreviewFile}}) {
+      http.Get(std::string("/derived/") + kind + R"(/([^/]+)/([^/]+)\.png)",
+               [this, file = file](const httplib::Request& req, httplib::Response& res) {
+                 const auto idx = CurrentIndex();
+                 const int i = idx->FindInstant(req.matches[1]);
+                 const int c = idx->FindCamera(req.matches[2]);
+                 if (i < 0 || c < 0) return Refuse(res, 404, "no such instant or camera");
+                 ServeDerived(req.path, "image/png", [&] { return file(*idx, i, c); }, res);
+               });
+    }
     http.Get(R"(/derived/error/([^/]+)/(fused|decimated)\.f32)", [this](const httplib::Request& req,
                                                                         httplib::Response& res) {
       const auto idx = CurrentIndex();

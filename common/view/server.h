@@ -10,6 +10,7 @@
 //   GET /take/<path>                       a file of TAKE
 //   GET /derived/depth/<instant>/<camera>.png   colour-mapped depth (view/derived.h)
 //   GET /derived/error/<instant>/<fused|decimated>.f32   per-vertex error, float32 mm
+//   GET /derived/mask/<instant>/<camera>.png    the image with its mask (view/derived.h)
 //   GET /<path>                            a page asset (viewer.js, three/...)
 // Paths are confined with view/path_safety.h: a refused path answers 403, a file that
 // is not there 404, a derived file whose input is malformed 422 with the reason;

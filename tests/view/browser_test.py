@@ -6,8 +6,8 @@ instant's meshes and removes another's textured mesh, then checks in the browser
 the mesh is drawn (canvas pixels where the mesh projects differ from the background and
 are background again with the mesh hidden), that play advances the VITC label through
 every instant, that the broken and missing instants are shown as missing with a message
-while the others still draw, that clicking a camera's frustum shows its image and depth
-map, that error colouring loads, and that the static export draws from file://.
+while the others still draw, that clicking a camera's frustum shows its image, depth map and
+mask, that error colouring loads, and that the static export draws from file://.
 Exit 0: passed; 1: failed; 77: skipped (Chromium or python3-websocket absent).
 """
 
@@ -171,6 +171,24 @@ def main():
         print("camera %s: image %s, depth %s" % (cam_id, img, depth))
         assert img == [width, height, "take/frames/%s/%s.png" % (instants[0], cam_id)], img
         assert depth[:2] == [width, height], depth
+        # Beside them the camera's mask (the take's background plates): the image
+        # darkened outside it, its outline in pure green where the person is.
+        b.wait_for("(() => { const i = document.getElementById('camera-mask');"
+                   " return i.complete && i.naturalWidth > 0; })()", 20)
+        mask = b.eval("(() => { const i = document.getElementById('camera-mask');"
+                      " return [i.naturalWidth, i.naturalHeight, i.getAttribute('src')]; })()")
+        caption = b.eval("document.getElementById('mask-caption').textContent")
+        green = b.eval("(() => { const i = document.getElementById('camera-mask');"
+                       " const c = document.createElement('canvas'); c.width = i.naturalWidth;"
+                       " c.height = i.naturalHeight; const g = c.getContext('2d'); g.drawImage(i, 0, 0);"
+                       " const d = g.getImageData(0, 0, c.width, c.height).data; let n = 0;"
+                       " for (let k = 0; k < d.length; k += 4)"
+                       "   if (d[k] === 0 && d[k + 1] === 255 && d[k + 2] === 0) ++n;"
+                       " return n; })()")
+        print("camera %s: mask %s, %r, %d outline pixels" % (cam_id, mask, caption, green))
+        assert mask == [width, height, "derived/mask/%s/%s.png" % (instants[0], cam_id)], mask
+        assert caption == "mask (plate), background darkened", caption
+        assert green > 20, green
 
         # 5. Error colouring against the truth mesh, with the legend in mm.
         b.eval("(() => { const v = document.getElementById('variant'); v.value = 'decimated';"
@@ -201,6 +219,9 @@ def main():
         s = wait_settled(b, 1)
         assert s["missing"] and "textured.glb" in s["status"], s
         assert not b.console, b.console
+        # The masks are exported beside the images.
+        assert os.path.getsize(os.path.join(exported, "derived", "mask", instants[0],
+                                            cam_id + ".png")) > 0
     finally:
         b.close()
     if not args.keep:

@@ -5,8 +5,11 @@
 #include <cmath>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "io/file_util.h"
+#include "io/image_io.h"
+#include "silhouette/take_masks.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 #include "view_fixture.h"
@@ -82,6 +85,58 @@ TEST(DerivedFiles, DepthPreviewIsAColourMappedPng) {
   dome::testing::ExpectInputError([&] { DepthPreviewFile(index, 0, 1); }, {"c1", "no depth map"});
   io::WriteFileAtomically(f.take / "truth" / f.instants[0] / "depth" / "c0.tiff", "not a tiff");
   dome::testing::ExpectInputError([&] { DepthPreviewFile(index, 0, 0); }, {"c0.tiff"});
+}
+
+TEST(DerivedFiles, MaskPreviewIsTheImageWithItsMask) {
+  dome::testing::TempDir tmp;
+  const auto f = testing::MakeViewFixture(tmp.path());
+  // c1 gets a background plate: its first frame, darker than half in a square that the
+  // frame shows white; the mask must find the square exactly (the plate equals the
+  // frame elsewhere).
+  const take::Take take = take::OpenTake(f.take);
+  const auto frame_path = take.FramePath(f.instants[0], "c1");
+  cv::Mat frame = io::ReadImage(frame_path, io::ImageMode::kGray8);
+  const cv::Rect square(20, 12, 16, 14);
+  cv::Mat plate = frame.clone();
+  plate(square) = plate(square) / 2;
+  std::filesystem::create_directories(f.take / "background");
+  io::WriteImage(f.take / "background" / "c1.png", plate);
+  frame(square).setTo(255);
+  io::WriteImage(frame_path, frame);
+  const ViewerIndex index = BuildIndex(f.out, f.take);
+  EXPECT_EQ(index.mask_sources, (std::vector<std::string>{"median", "plate", "median", "median"}));
+  EXPECT_EQ(index.masks_unavailable, "");
+  const std::string png = MaskPreviewFile(index, 0, 1);
+  const cv::Mat img = cv::imdecode(std::vector<uchar>(png.begin(), png.end()), cv::IMREAD_COLOR);
+  cv::Mat expected_mask = cv::Mat::zeros(48, 64, CV_8UC1);
+  expected_mask(square).setTo(255);
+  const cv::Mat expected = silhouette::MaskPreview(frame, expected_mask);
+  ASSERT_EQ(img.size(), expected.size());
+  cv::Mat diff;
+  cv::absdiff(img, expected, diff);
+  cv::cvtColor(diff, diff, cv::COLOR_BGR2GRAY);
+  std::vector<cv::Point> where;
+  cv::findNonZero(diff, where);
+  EXPECT_EQ(where.size(), 0u) << "first at " << (where.empty() ? cv::Point() : where[0]);
+  EXPECT_NE(IndexJson(index, false).find("\"mask\": \"derived/mask/" + f.instants[0] +
+                                         "/c1.png\", \"mask_source\": \"plate\""),
+            std::string::npos);
+}
+
+TEST(DerivedFiles, TakeWithoutMasksSaysWhy) {
+  dome::testing::TempDir tmp;
+  // Two instants, no plates or given masks: no median background is possible.
+  const auto rig = take::testing::MakeRingRig(2, 64, 48);
+  const auto take = take::testing::WriteTake(tmp / "take", rig, 2);
+  std::filesystem::create_directories(tmp / "out");
+  const ViewerIndex index = BuildIndex(tmp / "out", take);
+  EXPECT_NE(index.masks_unavailable.find("at least 3"), std::string::npos)
+      << index.masks_unavailable;
+  ASSERT_EQ(index.instants.size(), 2u);
+  EXPECT_FALSE(index.instants[0].cameras[0].mask);
+  EXPECT_NE(IndexJson(index, false).find("\"mask\": null"), std::string::npos);
+  dome::testing::ExpectInputError([&] { MaskPreviewFile(index, 0, 0); },
+                                  {index.instants[0].name + "/c0", "no mask", "at least 3"});
 }
 
 }  // namespace
