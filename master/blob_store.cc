@@ -45,7 +45,7 @@ runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& byt
     io::WriteFileAtomically(path, bytes);
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_[ref.sha256()] = Entry{{path}, bytes.size(), name, true};
+  Hold(ref.sha256(), path, bytes.size(), name);
   return ref;
 }
 
@@ -61,7 +61,7 @@ bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
   }
   if (net::Sha256Hex(bytes) != sha256) return false;
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_[sha256] = Entry{{path}, bytes.size(), sha256, true};
+  Hold(sha256, path, bytes.size(), sha256);
   return true;
 }
 
@@ -108,13 +108,22 @@ std::optional<runtime::BlobRef> BlobStore::Find(const std::string& sha256) const
   return ref;
 }
 
+void BlobStore::Hold(const std::string& sha256, const fs::path& path, uint64_t size,
+                     const std::string& name) {
+  Entry& e = entries_[sha256];
+  if (!e.owned) e = Entry{{}, size, name, true, 0};  // an output's file replaces take files
+  if (std::find(e.paths.begin(), e.paths.end(), path) == e.paths.end()) e.paths.push_back(path);
+  ++e.refs;
+}
+
 void BlobStore::Drop(const std::string& sha256) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = entries_.find(sha256);
   if (it == entries_.end()) return;
   if (it->second.owned) {
+    if (--it->second.refs > 0) return;
     std::error_code ec;
-    fs::remove(it->second.paths.front(), ec);
+    for (const auto& path : it->second.paths) fs::remove(path, ec);
   }
   entries_.erase(it);
 }

@@ -30,7 +30,8 @@ class BlobStore {
   // and what happened ("" for an unknown blob).
   std::optional<std::string> Read(const std::string& sha256, std::string* error) const;
   std::optional<runtime::BlobRef> Find(const std::string& sha256) const;
-  // Forgets a blob; removes its file when the store wrote it under an output folder.
+  // Lets go of one output held under these bytes (one AddBytes or Adopt); the last one
+  // forgets the blob and removes the files the store wrote for it.
   void Drop(const std::string& sha256);
   // Forgets a blob and leaves its files alone (the outputs of a session that ended stay
   // in its folder for a later resume, its take files where they are): the next session
@@ -47,7 +48,15 @@ class BlobStore {
     uint64_t size = 0;
     std::string name;
     bool owned = false;  // written by AddBytes: removed by Drop
+    // Outputs held under these bytes (AddBytes and Adopt calls not yet dropped): two
+    // outputs may be the same bytes (an empty slab of two instants), and the first one
+    // dropped must not take the other's.
+    int refs = 0;
   };
+  // One more output held under `sha256` at `path` (mutex_ held).
+  void Hold(const std::string& sha256, const std::filesystem::path& path, uint64_t size,
+            const std::string& name);
+
   mutable std::mutex mutex_;
   std::map<std::string, Entry> entries_;
 };
