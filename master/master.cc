@@ -675,6 +675,7 @@ struct Master::Impl {
     job.set_instant(s->plan.instants[n.instant]);
     job.set_threads(w.threads);
     job.set_stage(stages.stages[n.stage].name);
+    job.set_max_result_bytes(options.socket.max_message_bytes);
     const pipeline::JobContext ctx{
         s->plan, n.instant, n.part,
         [&](const std::string& stage, int part) -> const std::vector<runtime::BlobRef>& {

@@ -38,6 +38,10 @@ void WorkerOptions::Check() const {
 // Replies for one blob that do not hash to its address before the jobs needing it are
 // failed (count).
 constexpr int kMaxCorruptReplies = 3;
+// What a BlobReply adds to the blob it carries (proto/runtime.proto: the envelope's
+// version and field tags, the 64-character address, varint lengths): about 90 bytes;
+// rounded up.
+constexpr int64_t kBlobReplyFramingBytes = 256;
 
 struct Worker::Impl {
   zmq::context_t* context;
@@ -50,6 +54,9 @@ struct Worker::Impl {
   std::set<std::string> requested;     // blobs asked for, not yet received
   std::map<std::string, int> corrupt;  // blob -> replies that did not hash to its address
   std::string running_id;              // the job on the job thread; "" when none
+  // The largest result the master takes for that job, bytes: the smaller of its cap
+  // (Job.max_result_bytes) and this worker's own.
+  int64_t running_cap = 0;
   pipeline::JobMemo memo;              // used by the running job only; outlives it
   std::future<runtime::JobResult> running;
   Clock::time_point master_expiry, next_heartbeat;
@@ -114,6 +121,19 @@ struct Worker::Impl {
       return;
     }
     for (const auto& b : job.blobs()) {
+      // Each blob comes in a reply of its own. One over this worker's cap would be
+      // refused (over twice the cap, dropped unread with the connection) and asked for
+      // again without end: the job fails naming the input and the cap.
+      if (int64_t(b.size()) + kBlobReplyFramingBytes > options.socket.max_message_bytes) {
+        FailQueued(job.id(), "its input " + b.name() + " is " + std::to_string(b.size()) +
+                                 " bytes, over this worker's message cap of " +
+                                 std::to_string(options.socket.max_message_bytes) +
+                                 " bytes with its reply's framing (--max-message-bytes, on "
+                                 "the master and its workers alike)");
+        return;
+      }
+    }
+    for (const auto& b : job.blobs()) {
       const std::string& sha = b.sha256();
       if (requested.count(sha) != 0 || cache.Get(sha)) continue;
       // One blob per request: replies stay under the message cap, and they pipeline.
@@ -135,6 +155,9 @@ struct Worker::Impl {
     runtime::Job j = std::move(queue.front());
     queue.pop_front();
     running_id = j.id();
+    running_cap = j.max_result_bytes() > 0
+                      ? std::min(j.max_result_bytes(), options.socket.max_message_bytes)
+                      : options.socket.max_message_bytes;
     running = std::async(std::launch::async, [this, j = std::move(j), held = std::move(held)]() {
       runtime::JobResult result;
       result.set_job_id(j.id());
@@ -292,16 +315,17 @@ struct Worker::Impl {
         *env.mutable_result() = running.get();
         running_id.clear();
         const size_t bytes = env.ByteSizeLong();
-        if (int64_t(bytes) > options.socket.max_message_bytes) {
-          // The master would refuse it (or its socket drop it unread) and take this
-          // worker for lost, again and again: say what happened instead.
+        if (int64_t(bytes) > running_cap) {
+          // The master would refuse it (or its socket drop it unread with the
+          // connection, when over twice its cap) and take this worker for lost, again
+          // and again: say what happened instead.
           const std::string id = env.result().job_id();
           env.mutable_result()->Clear();
           env.mutable_result()->set_job_id(id);
           env.mutable_result()->set_ok(false);
           env.mutable_result()->set_error(
               "its result is " + std::to_string(bytes) + " bytes, over the message cap of " +
-              std::to_string(options.socket.max_message_bytes) +
+              std::to_string(running_cap) +
               " bytes (--max-message-bytes, on the master and its workers alike)");
         }
         ++stats.jobs;

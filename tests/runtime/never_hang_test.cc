@@ -426,5 +426,39 @@ TEST_F(NeverHang, OutputFoldersOutsideTheOutRootAreRefusedCreatingNothing) {
   ExpectSameOutputs(reference_, inside);
 }
 
+// A master whose message cap is below its worker's: a depth map (about 150 KB) is over
+// twice the master's 50,000 bytes, which its socket drops unread with the connection;
+// the worker reconnected and the job counted as lost with it, five times, and the
+// session failed as "lost (no heartbeat ...)". Each job carries the master's cap, so
+// the worker reports the result as over it, and the session fails saying so.
+TEST_F(NeverHang, AResultOverTheMastersCapBelowTheWorkersIsNamedAsSuch) {
+  Master m = StartMaster("master_cap_below", {"--max-message-bytes", "50000"});
+  auto w = StartWorker(m, "c1");  // its own cap: the default, 256 MiB
+  const auto final = WaitForEnd(m, Submit(m, MakeSession(root_ / "cap_below")), 60);
+  ASSERT_EQ(final.state(), "failed") << m.process->Log();
+  EXPECT_NE(final.error().find(" bytes, over the message cap of 50000 bytes (--max-message-bytes"),
+            std::string::npos)
+      << final.error();
+  EXPECT_EQ(m.process->Log().find("lost (no heartbeat"), std::string::npos) << m.process->Log();
+}
+
+// A worker whose message cap is below a job's input (the small take's frames are about
+// 15 KB): the master's reply carrying it was refused by the worker (or, over twice its
+// cap, dropped unread with the connection) and the worker waited for it: the session
+// was still running 60 s later, left to the job time-outs. The worker checks each
+// input's size against its cap when the job comes, and the session fails naming the
+// input and the cap.
+TEST_F(NeverHang, AnInputOverAWorkersMessageCapIsNamedAsSuch) {
+  Master m = StartMaster("master_input_cap");
+  auto w = StartWorker(m, "i1", {"--max-message-bytes", "10000"});
+  const auto final = WaitForEnd(m, Submit(m, MakeSession(root_ / "input_cap")), 60);
+  ASSERT_EQ(final.state(), "failed") << m.process->Log();
+  EXPECT_NE(final.error().find(" bytes, over this worker's message cap of 10000 bytes with its "
+                               "reply's framing (--max-message-bytes"),
+            std::string::npos)
+      << final.error();
+  EXPECT_NE(final.error().find("its input frames/"), std::string::npos) << final.error();
+}
+
 }  // namespace
 }  // namespace dome
