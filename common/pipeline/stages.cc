@@ -187,14 +187,14 @@ std::vector<NamedFile> TexturedFiles(const mesh::TexturedMesh& textured) {
 std::string DecimationSummaryJson(const mesh::DecimationSummary& s) {
   const core::Json j = {{"triangles_in", s.triangles_in},
                         {"triangles_out", s.triangles_out},
-                                    {"components_removed", s.components_removed},
-                                    {"triangles_removed", s.triangles_removed},
-                                    {"specks_removed", s.specks_removed},
-                                    {"speck_triangles", s.speck_triangles},
-                                    {"components_deleted", s.components_deleted},
-                                    {"triangles_deleted", s.triangles_deleted},
-                                    {"error_mm", s.error_mm},
-                                    {"seconds", s.seconds}};
+                        {"components_removed", s.components_removed},
+                        {"triangles_removed", s.triangles_removed},
+                        {"specks_removed", s.specks_removed},
+                        {"speck_triangles", s.speck_triangles},
+                        {"components_deleted", s.components_deleted},
+                        {"triangles_deleted", s.triangles_deleted},
+                        {"error_mm", s.error_mm},
+                        {"seconds", s.seconds}};
   return core::DumpJson(j);
 }
 

@@ -50,9 +50,9 @@ struct SceneExtentOptions {
   // voxel, a larger margin makes it coarser (Robovision: 0.164 mm at 0.1, 0.150 mm at
   // 0.05).
   double margin_fraction = 0.05;
-  int max_instants = 3;               // instants looked at, evenly spaced (>= 1)
-  int min_points = 200;               // fewer kept points: the view sphere's box is used
-  int num_threads = 0;                // 0: all hardware threads
+  int max_instants = 3;  // instants looked at, evenly spaced (>= 1)
+  int min_points = 200;  // fewer kept points: the view sphere's box is used
+  int num_threads = 0;   // 0: all hardware threads
 
   // Throws core::InputError naming the option ("scene.window_px") when out of range.
   void Check() const;

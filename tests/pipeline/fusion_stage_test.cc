@@ -49,14 +49,25 @@ class FusionStage : public SmallTakeSuite {
     return blobs;
   }
 
-  // The fusion job of planes [k0, k1) over `blobs`: a 3 m cube of 50 mm voxels.
-  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1) {
+  // The jobs' volume: a 3 m cube of 50 mm voxels.
+  static fusion::VolumeGrid Grid() {
     fusion::VolumeGrid grid;
     grid.origin_mm = Eigen::Vector3d(-1500, -1500, -500);
     grid.voxel_size_mm = 50;
     grid.nx = grid.ny = grid.nz = 60;
+    return grid;
+  }
+  // Truncation and clamp of 3 voxels.
+  static fusion::FusionOptions Options() {
     fusion::FusionOptions options;
-    options.truncation_mm = options.front_clamp_mm = 3 * grid.voxel_size_mm;
+    options.truncation_mm = options.front_clamp_mm = 3 * Grid().voxel_size_mm;
+    return options;
+  }
+
+  // The fusion job of planes [k0, k1) over `blobs`.
+  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1) {
+    const fusion::VolumeGrid grid = Grid();
+    const fusion::FusionOptions options = Options();
     runtime::Job job;
     job.set_id("s/i/fusion/" + std::to_string(k0));
     job.set_threads(2);
@@ -127,17 +138,12 @@ TEST_F(FusionStage, ImagesCutToTheirDepthsFuseAsTheWholeImages) {
   for (size_t c = 0; c < whole.size(); ++c) {
     stereo::StereoResult r;
     r.camera = take.rig.cameras[c].model.id;
-    r.range_images.push_back({7, whole[c].depth_mm, cv::Mat::zeros(whole[c].depth_mm.size(), CV_32FC1)});
+    r.range_images.push_back(
+        {7, whole[c].depth_mm, cv::Mat::zeros(whole[c].depth_mm.size(), CV_32FC1)});
     cut_blobs.push_back(std::make_shared<const std::string>(EncodeStereoOutput(r)));
   }
   const fusion::Slab job = fusion::DecodeSlab(Slab(cut_blobs, 20, 40, nullptr), "job");
-  fusion::VolumeGrid grid;
-  grid.origin_mm = Eigen::Vector3d(-1500, -1500, -500);
-  grid.voxel_size_mm = 50;
-  grid.nx = grid.ny = grid.nz = 60;
-  fusion::FusionOptions options;
-  options.truncation_mm = options.front_clamp_mm = 3 * grid.voxel_size_mm;
-  const fusion::Slab direct = fusion::Integrator(grid, whole, options).IntegrateSlab(20, 40);
+  const fusion::Slab direct = fusion::Integrator(Grid(), whole, Options()).IntegrateSlab(20, 40);
   ASSERT_EQ(job.weight.size(), direct.weight.size());
   int64_t weighted = 0, differ = 0;
   for (size_t i = 0; i < job.weight.size(); ++i) {
@@ -211,9 +217,9 @@ TEST(DecimateStage, SpecksAreDroppedAndCounted) {
       }
     }
   };
-  grid(0, 0, 0, 20, 20, 10, 10);       // the surface: 800 triangles
-  grid(50, 50, 50, 2, 2, 1, 1);        // a speck: 8
-  grid(0, 250, 0, 15, 1, 10, 0.5f);    // a thin strip: 30
+  grid(0, 0, 0, 20, 20, 10, 10);     // the surface: 800 triangles
+  grid(50, 50, 50, 2, 2, 1, 1);      // a speck: 8
+  grid(0, 250, 0, 15, 1, 10, 0.5f);  // a thin strip: 30
   runtime::DecimateJob dj;
   dj.set_ratio(0.5);
   dj.set_speck_area_fraction(0.01);
@@ -229,14 +235,13 @@ TEST(DecimateStage, SpecksAreDroppedAndCounted) {
   const io::Mesh d = io::ParsePly(out[0].data(), "decimated");
   float z_max = -1, y_max = -1;
   for (const auto& p : d.vertices) z_max = std::max(z_max, p.z()), y_max = std::max(y_max, p.y());
-  EXPECT_LT(z_max, 1e-3f);     // the speck (at z = 50 mm) is gone
-  EXPECT_GT(y_max, 250.0f);    // the strip stays
+  EXPECT_LT(z_max, 1e-3f);   // the speck (at z = 50 mm) is gone
+  EXPECT_GT(y_max, 250.0f);  // the strip stays
   EXPECT_EQ(summary["triangles_out"], int64_t(d.faces.size()));
   // Without the rule (a session's speck_area_fraction 0) nothing is dropped.
   dj.set_speck_area_fraction(0);
   job.set_settings(dj.SerializeAsString());
-  EXPECT_EQ(core::Json::parse(RunJob(*DefaultStages(), job, blobs)[1].data())["specks_removed"],
-            0);
+  EXPECT_EQ(core::Json::parse(RunJob(*DefaultStages(), job, blobs)[1].data())["specks_removed"], 0);
 }
 
 // A job names the stage that runs it; a name no stage has is refused, naming the job.

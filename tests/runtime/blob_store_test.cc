@@ -2,10 +2,10 @@
 #include "master/blob_store.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 
 #include "net/content_hash.h"
 
@@ -17,7 +17,8 @@ namespace fs = std::filesystem;
 // session): the surface of the first instant drops its slabs while the second's
 // surface still has to read its own. The blob stays until the last one is dropped.
 TEST(BlobStore, OutputsWithTheSameBytesAreDroppedOneByOne) {
-  const fs::path dir = fs::temp_directory_path() / ("dome_blob_store_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("dome_blob_store_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   BlobStore store;
   const std::string bytes(1000, 'x');

@@ -237,8 +237,8 @@ TEST(CoarseToFine, CoarseDepthsOutsideTheClipBoxSeedNoTile) {
   const auto open = ComputeDepthCoarseToFine(in, Options(), c2f, &open_stats).range_images[0];
   // The box: the plane's points left of the reference camera's centre (world x below
   // the centre's), the plane's depth +-100 mm.
-  const Eigen::Vector3d centre = ref.BackProjectAtDepth(
-      Eigen::Vector2d(ref.width_px / 2.0, ref.height_px / 2.0), plane_mm);
+  const Eigen::Vector3d centre =
+      ref.BackProjectAtDepth(Eigen::Vector2d(ref.width_px / 2.0, ref.height_px / 2.0), plane_mm);
   const Eigen::Vector3d corner = ref.BackProjectAtDepth(Eigen::Vector2d(0, 0), plane_mm);
   const double reach = 2 * (centre - corner).norm();
   c2f.clip = true;
