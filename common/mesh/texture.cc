@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/parallel_for.h"
+#include "geometry/raster.h"
 #include "geometry/undistort.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
@@ -120,29 +121,12 @@ std::vector<float> RenderZBuffer(const geometry::TsaiCamera& cam, const FastView
     const Eigen::Vector3d& b = proj[f[1]];
     const Eigen::Vector3d& c = proj[f[2]];
     if (a.z() <= 0 || b.z() <= 0 || c.z() <= 0) continue;
-    const int x0 = std::max(0, int(std::ceil(std::min({a.x(), b.x(), c.x()}))));
-    const int x1 = std::min(w - 1, int(std::floor(std::max({a.x(), b.x(), c.x()}))));
-    const int y0 = std::max(0, int(std::ceil(std::min({a.y(), b.y(), c.y()}))));
-    const int y1 = std::min(h - 1, int(std::floor(std::max({a.y(), b.y(), c.y()}))));
-    const double area = (b.x() - a.x()) * (c.y() - a.y()) - (c.x() - a.x()) * (b.y() - a.y());
-    if (x0 > x1 || y0 > y1 || std::abs(area) < 1e-12) continue;
-    const double inv_area = 1.0 / area;
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
-        double wa = (b.x() - x) * (c.y() - y) - (c.x() - x) * (b.y() - y);
-        double wb = (c.x() - x) * (a.y() - y) - (a.x() - x) * (c.y() - y);
-        if (exact) {
-          wa /= area, wb /= area;
-        } else {  // the same weights to within rounding
-          wa *= inv_area, wb *= inv_area;
-        }
-        const double wc = 1.0 - wa - wb;
-        if (wa < -1e-9 || wb < -1e-9 || wc < -1e-9) continue;
-        const float z = float(wa * a.z() + wb * b.z() + wc * c.z());
-        float& dst = zbuf[size_t(y) * w + x];
-        dst = std::min(dst, z);
-      }
-    }
+    geometry::RasterizeTriangle(a.head<2>(), b.head<2>(), c.head<2>(), w, h, /*divide=*/exact,
+                                [&](int x, int y, double wa, double wb, double wc) {
+                                  const float z = float(wa * a.z() + wb * b.z() + wc * c.z());
+                                  float& dst = zbuf[size_t(y) * w + x];
+                                  dst = std::min(dst, z);
+                                });
   }
   return zbuf;
 }

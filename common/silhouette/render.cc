@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "geometry/raster.h"
 
 namespace dome::silhouette {
 
@@ -30,32 +31,20 @@ MeshRendering RenderMesh(const geometry::TsaiCamera& camera, const io::Mesh& mes
     const Eigen::Vector3d& b = proj[face[1]];
     const Eigen::Vector3d& c = proj[face[2]];
     if (a.z() <= 0 || b.z() <= 0 || c.z() <= 0) continue;
-    const int x0 = std::max(0, int(std::ceil(std::min({a.x(), b.x(), c.x()}))));
-    const int x1 = std::min(w - 1, int(std::floor(std::max({a.x(), b.x(), c.x()}))));
-    const int y0 = std::max(0, int(std::ceil(std::min({a.y(), b.y(), c.y()}))));
-    const int y1 = std::min(h - 1, int(std::floor(std::max({a.y(), b.y(), c.y()}))));
-    const double area = (b.x() - a.x()) * (c.y() - a.y()) - (c.x() - a.x()) * (b.y() - a.y());
-    if (x0 > x1 || y0 > y1 || std::abs(area) < 1e-12) continue;
-    for (int y = y0; y <= y1; ++y) {
-      int* fp = r.face.ptr<int>(y);
-      float* dp = r.depth.ptr<float>(y);
-      cv::Vec3f* wp = r.weights.ptr<cv::Vec3f>(y);
-      for (int x = x0; x <= x1; ++x) {
-        // Image-space barycentrics; a centre on an edge (|l| at rounding level) counts.
-        const double la = ((b.x() - x) * (c.y() - y) - (c.x() - x) * (b.y() - y)) / area;
-        const double lb = ((c.x() - x) * (a.y() - y) - (a.x() - x) * (c.y() - y)) / area;
-        const double lc = 1.0 - la - lb;
-        if (la < -1e-9 || lb < -1e-9 || lc < -1e-9) continue;
-        // Perspective-correct: 1/z is linear in the image, and so are attributes / z.
-        const double qa = la / a.z(), qb = lb / b.z(), qc = lc / c.z();
-        const double s = qa + qb + qc;
-        const float z = float(1.0 / s);
-        if (!(z < dp[x])) continue;
-        dp[x] = z;
-        fp[x] = int(f);
-        wp[x] = cv::Vec3f(float(qa / s), float(qb / s), float(qc / s));
-      }
-    }
+    geometry::RasterizeTriangle(a.head<2>(), b.head<2>(), c.head<2>(), w, h, /*divide=*/true,
+                                [&](int x, int y, double la, double lb, double lc) {
+                                  // Perspective-correct: 1/z is linear in the image, and so are
+                                  // attributes / z.
+                                  const double qa = la / a.z(), qb = lb / b.z(), qc = lc / c.z();
+                                  const double s = qa + qb + qc;
+                                  const float z = float(1.0 / s);
+                                  float& dz = r.depth.at<float>(y, x);
+                                  if (!(z < dz)) return;
+                                  dz = z;
+                                  r.face.at<int>(y, x) = int(f);
+                                  r.weights.at<cv::Vec3f>(y, x) =
+                                      cv::Vec3f(float(qa / s), float(qb / s), float(qc / s));
+                                });
   }
   return r;
 }
