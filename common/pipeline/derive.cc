@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
 #include "stereo/scene_extent.h"
@@ -23,28 +25,39 @@ std::string Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
 
 struct GreyStats {
   double median = 0, p99 = 0;
+  std::map<std::string, cv::Mat> frames;  // frame path -> image, for the scene's extent
 };
 
 // Median and 99th percentile of the valid greys (alpha 255 where there is alpha) of
-// every camera's frame at `instant`, sampled on a grid of at most ~64k pixels each.
-GreyStats FrameGreys(const take::Take& take, const std::string& instant) {
-  std::vector<int> histogram(256, 0);
-  int64_t total = 0;
-  for (const auto& rc : take.rig.cameras) {
-    const cv::Mat image = stereo::ReadFrame(take.FramePath(instant, rc.model.id));
-    cv::Mat grey;
-    if (image.channels() == 1) grey = image;
-    if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-    if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-    const int step = std::max(1, int(std::sqrt(double(image.total()) / 65536.0)));
-    for (int y = 0; y < image.rows; y += step) {
-      for (int x = 0; x < image.cols; x += step) {
-        if (image.channels() == 4 && image.at<cv::Vec4b>(y, x)[3] != 255) continue;
-        ++histogram[grey.at<uint8_t>(y, x)];
-        ++total;
+// every camera's frame at `instant`, sampled on a grid of at most ~64k pixels each. The
+// frames are read in parallel and kept: the scene's extent looks at them again.
+GreyStats FrameGreys(const take::Take& take, const std::string& instant, int num_threads) {
+  const auto& cams = take.rig.cameras;
+  std::vector<cv::Mat> images(cams.size());
+  std::vector<std::vector<int64_t>> histograms(cams.size(), std::vector<int64_t>(256, 0));
+  core::ParallelFor(0, int64_t(cams.size()), num_threads, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      const cv::Mat image = stereo::ReadFrame(take.FramePath(instant, cams[c].model.id));
+      images[c] = image;
+      cv::Mat grey;
+      if (image.channels() == 1) grey = image;
+      if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+      if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+      const int step = std::max(1, int(std::sqrt(double(image.total()) / 65536.0)));
+      for (int y = 0; y < image.rows; y += step) {
+        for (int x = 0; x < image.cols; x += step) {
+          if (image.channels() == 4 && image.at<cv::Vec4b>(y, x)[3] != 255) continue;
+          ++histograms[c][grey.at<uint8_t>(y, x)];
+        }
       }
     }
+  });
+  std::vector<int64_t> histogram(256, 0);
+  int64_t total = 0;
+  for (const auto& h : histograms) {
+    for (int g = 0; g < 256; ++g) histogram[g] += h[g];
   }
+  for (int64_t n : histogram) total += n;
   GreyStats s;
   core::Require(total > 0, take.dir.string(), "no valid pixel in the frames of " + instant);
   auto quantile = [&](double q) {
@@ -57,6 +70,8 @@ GreyStats FrameGreys(const take::Take& take, const std::string& instant) {
   };
   s.median = quantile(0.5);
   s.p99 = quantile(0.99);
+  for (size_t c = 0; c < cams.size(); ++c)
+    s.frames.emplace(take.FramePath(instant, cams[c].model.id).string(), std::move(images[c]));
   return s;
 }
 
@@ -93,7 +108,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
   const bool large = pixels >= kLargeImagePx;
 
   // Greys: from the images' statistics.
-  const GreyStats greys = FrameGreys(take, instants[instants.size() / 2]);
+  GreyStats greys = FrameGreys(take, instants[instants.size() / 2], request.num_threads);
   if (!st->has_normalize_contrast()) {
     // Most of the grey range unused: stretch the 1st..99th percentile to 0..255.
     st->set_normalize_contrast(greys.p99 < 128);
@@ -138,7 +153,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     stereo::SceneExtentOptions eo;
     eo.num_threads = request.num_threads;
     const stereo::SceneExtent e =
-        stereo::EstimateSceneExtent(take, instants, so.stereo, so.cluster, eo);
+        stereo::EstimateSceneExtent(take, instants, so.stereo, so.cluster, eo, greys.frames);
     lo = e.min_mm;
     hi = e.max_mm;
     camera_depth = e.camera_depth_mm;
@@ -151,6 +166,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
         e.from_stereo ? "coarse stereo" : "too few coarse points: the view sphere",
         e.instants.size(), e.reduction, e.points, 100 * eo.margin_fraction));
   }
+  greys.frames.clear();  // read once for both; not held through the rest
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double footprint = stereo::PixelFootprintMm(take.rig, centre);
   double voxel = vol->has_voxel_size_mm() ? vol->voxel_size_mm() : 0.0;

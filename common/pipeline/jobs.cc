@@ -1,6 +1,9 @@
 #include "pipeline/jobs.h"
 
+#include <algorithm>
 #include <cstring>
+#include <deque>
+#include <functional>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -45,6 +48,50 @@ cv::Mat DecodeFloatImage(const runtime::FloatImage& f, const std::string& where)
   cv::Mat m(f.rows(), f.cols(), CV_32FC1);
   if (!f.data().empty()) std::memcpy(m.data, f.data().data(), f.data().size());
   return m;
+}
+
+// The smallest rectangle holding every non-zero value of two maps of one size (0x0 at
+// 0, 0 when there is none).
+cv::Rect NonZeroRect(const cv::Mat& a, const cv::Mat& b) {
+  DOME_CHECK(a.size() == b.size() && a.type() == CV_32FC1 && b.type() == CV_32FC1,
+             "two float maps of one size");
+  int x0 = a.cols, y0 = a.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    int first = -1, last = -1;
+    for (int x = 0; x < a.cols; ++x) {
+      if (pa[x] != 0.0f || pb[x] != 0.0f) {
+        if (first < 0) first = x;
+        last = x;
+      }
+    }
+    if (first < 0) continue;
+    x0 = std::min(x0, first);
+    x1 = std::max(x1, last);
+    y0 = std::min(y0, y);
+    y1 = y;
+  }
+  if (x1 < 0) return cv::Rect(0, 0, 0, 0);
+  return cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+}
+
+// `crop` put back at (x0, y0) of its full_cols x full_rows image of zeros.
+cv::Mat PlaceRect(const runtime::StereoRangeImage& ri, const cv::Mat& crop,
+                  const std::string& where) {
+  const int64_t rows = ri.full_rows(), cols = ri.full_cols(), x0 = ri.x0(), y0 = ri.y0();
+  core::Require(ri.has_full_rows() && ri.has_full_cols() && ri.has_x0() && ri.has_y0(), where,
+                "needs all of full_rows, full_cols, x0 and y0, or none");
+  core::Require(rows >= 1 && cols >= 1 && rows * cols <= (int64_t(1) << 31) && x0 >= 0 &&
+                    y0 >= 0 && x0 + crop.cols <= cols && y0 + crop.rows <= rows,
+                where,
+                "a " + std::to_string(crop.cols) + "x" + std::to_string(crop.rows) +
+                    " rectangle at " + std::to_string(x0) + ", " + std::to_string(y0) +
+                    " does not fit a " + std::to_string(cols) + "x" + std::to_string(rows) +
+                    " image");
+  cv::Mat full(int(rows), int(cols), CV_32FC1, cv::Scalar(0));
+  if (!crop.empty()) crop.copyTo(full(cv::Rect(int(x0), int(y0), crop.cols, crop.rows)));
+  return full;
 }
 
 std::string JobWhere(const runtime::Job& job) { return "job " + job.id(); }
@@ -110,6 +157,32 @@ std::vector<std::string> OnePart(const SessionPlan& plan) {
 
 // ---- stereo ---------------------------------------------------------------------------
 
+// Decoded frames kept by a worker between stereo jobs, by the digest of their bytes.
+// At most kBudgetBytes of pixels: past it the oldest go first (the instant's frames
+// come in camera order, and a job's neighbours are its nearest cameras).
+class DecodedFrames {
+ public:
+  static constexpr size_t kBudgetBytes = size_t(512) << 20;
+
+  cv::Mat Get(const std::string& sha256, const std::function<cv::Mat()>& decode) {
+    for (const auto& [digest, image] : frames_) {
+      if (digest == sha256) return image;
+    }
+    cv::Mat image = decode();
+    bytes_ += image.total() * image.elemSize();
+    frames_.emplace_back(sha256, image);
+    while (bytes_ > kBudgetBytes && frames_.size() > 1) {
+      bytes_ -= frames_.front().second.total() * frames_.front().second.elemSize();
+      frames_.pop_front();
+    }
+    return image;
+  }
+
+ private:
+  std::deque<std::pair<std::string, cv::Mat>> frames_;
+  size_t bytes_ = 0;
+};
+
 StageDescriptor StereoStage() {
   StageDescriptor d = Descriptor("stereo", {}, [](const SessionPlan& plan) {
     return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
@@ -129,18 +202,28 @@ StageDescriptor StereoStage() {
     }
     SetJob(sj, std::move(blobs), job);
   };
-  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto sj = JobSettings<runtime::StereoJob>(job);
     RequireBlobs(job, blobs, 2 + sj.neighbours_size());
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
+    // Each frame of an instant is the reference of one stereo job and a neighbour in
+    // others' (2-4 jobs): a worker decodes it once and keeps it for the instant's
+    // next stereo jobs, by the blob's digest (the same bytes, the same image).
+    DecodedFrames* decoded =
+        memo ? memo->Get<DecodedFrames>("stereo frames", [] { return std::make_unique<DecodedFrames>(); })
+             : nullptr;
+    auto frame = [&](size_t i) {
+      if (!decoded) return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged);
+      return decoded->Get(job.blobs(int(i)).sha256(),
+                          [&] { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); });
+    };
     stereo::StereoInput input;
     input.reference.camera = RigCameraOf(rig, sj.camera(), job);
-    input.reference.image = FrameBlob(job, blobs, 1, io::ImageMode::kUnchanged);
+    input.reference.image = frame(1);
     for (int n = 0; n < sj.neighbours_size(); ++n) {
-      input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job),
-                                  FrameBlob(job, blobs, 2 + n, io::ImageMode::kUnchanged)});
+      input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frame(2 + n)});
     }
     const stereo::StereoResult result = Stereo(input, options, JobWhere(job));
     std::vector<runtime::Output> outputs(1);
@@ -402,8 +485,16 @@ std::string EncodeStereoOutput(const stereo::StereoResult& result) {
   for (const auto& r : result.range_images) {
     auto* ri = out.add_range_images();
     ri->set_window_px(r.window_px);
-    *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm);
-    *ri->mutable_reliability() = EncodeFloatImage(r.reliability);
+    // Only the rectangle of the depths travels: outside it both maps are 0, and a
+    // clipped camera's depths cover a part of its frame (Robovision: the object on
+    // the table), so the fusion jobs and the store get a fraction of the bytes.
+    const cv::Rect rect = NonZeroRect(r.depth_mm, r.reliability);
+    ri->set_full_rows(r.depth_mm.rows);
+    ri->set_full_cols(r.depth_mm.cols);
+    ri->set_x0(rect.x);
+    ri->set_y0(rect.y);
+    *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm(rect));
+    *ri->mutable_reliability() = EncodeFloatImage(r.reliability(rect));
     ri->set_density(r.density);
   }
   std::string bytes;
@@ -422,6 +513,10 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
     r.window_px = ri.window_px();
     r.depth_mm = DecodeFloatImage(ri.depth_mm(), where + ": depth_mm");
     r.reliability = DecodeFloatImage(ri.reliability(), where + ": reliability");
+    if (ri.has_full_rows() || ri.has_full_cols() || ri.has_x0() || ri.has_y0()) {
+      r.depth_mm = PlaceRect(ri, r.depth_mm, where + ": depth_mm");
+      r.reliability = PlaceRect(ri, r.reliability, where + ": reliability");
+    }
     r.density = ri.density();
     result.range_images.push_back(std::move(r));
   }

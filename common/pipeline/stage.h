@@ -18,9 +18,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <typeindex>
+#include <typeinfo>
 #include <vector>
 
 #include "pipeline/session.h"
@@ -142,31 +145,38 @@ std::vector<runtime::Output> RunJob(const StageSet& stages, const runtime::Job& 
                                     const JobBlobs& blobs, JobMemo* memo = nullptr);
 
 // What a worker keeps from one job for the next, so that work shared by jobs is done
-// once (the decoded range images and tables of the instant whose slabs it fuses). One
-// entry, keyed by what it was built from, so that a job's outputs are the same bytes
-// with or without a memo. Not thread-safe: one job at a time.
+// once: the decoded range images and tables of the instant whose slabs it fuses, the
+// decoded frames of its stereo jobs. One entry of each kind (type), keyed by what it
+// was built from, so that a job's outputs are the same bytes with or without a memo;
+// kinds apart, so that stereo jobs of the next instant between an instant's slab jobs
+// do not drop the slabs' tables. Not thread-safe: one job at a time.
 class JobMemo {
  public:
-  // The entry for `key`, built by `build` unless it is the one kept.
+  // The entry of kind T for `key`, built by `build` unless it is the one kept.
   template <class T>
   T* Get(const std::string& key, const std::function<std::unique_ptr<T>()>& build) {
-    if (!value_ || key_ != key) {
-      value_.reset();  // the old entry goes before the new one is built: one in memory
-      key_.clear();
-      value_ = std::shared_ptr<void>(build().release(), [](void* p) { delete static_cast<T*>(p); });
-      key_ = key;
+    Entry& e = entries_[std::type_index(typeid(T))];
+    if (!e.value || e.key != key) {
+      e.value.reset();  // the old entry goes before the new one is built: one in memory
+      e.key.clear();
+      e.value = std::shared_ptr<void>(build().release(), [](void* p) { delete static_cast<T*>(p); });
+      e.key = key;
       ++builds_;
     }
-    return static_cast<T*>(value_.get());
+    return static_cast<T*>(e.value.get());
   }
   // How many entries were built (a figure for tests and logs).
   int64_t builds() const { return builds_; }
 
  private:
-  std::string key_;
-  std::shared_ptr<void> value_;
+  struct Entry {
+    std::string key;
+    std::shared_ptr<void> value;
+  };
+  std::map<std::type_index, Entry> entries_;
   int64_t builds_ = 0;
 };
+
 
 // Helpers for descriptors: the output named `name` of `result` (throws InputError
 // naming `where` when missing), and the blob-layout checks of a job.

@@ -80,7 +80,8 @@ double PixelFootprintMm(const geometry::Rig& rig, const Eigen::Vector3d& point_m
 
 SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::string>& instants,
                                 const StereoOptions& greys, const ClusterOptions& cluster,
-                                const SceneExtentOptions& options) {
+                                const SceneExtentOptions& options,
+                                const std::map<std::string, cv::Mat>& decoded) {
   options.Check();
   const auto& cams = take.rig.cameras;
   core::Require(cams.size() >= 2, "rig.json", "needs at least two cameras to find the scene");
@@ -155,11 +156,20 @@ SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::s
     clusters[c] = SelectCluster(take.rig, cams[c].model.id, cluster);
     reduced[c] = Ideal(ReducedCamera(cams[c].model, f));
   }
-  auto grey_of = [&](int t, int c) {
-    StereoView v{cams[c].model, ReadFrame(take.FramePath(e.instants[t], cams[c].model.id))};
-    const cv::Mat g = GreyImage(v, greys, /*undistort=*/true, "camera '" + v.camera.id + "'");
-    return f > 1 ? ReduceGrey(g, f) : g;
-  };
+  // Every camera's reduced grey image, made once: each is the reference of its own job
+  // and a neighbour in others' (decoding and undistorting a frame is most of the cost).
+  std::vector<cv::Mat> reduced_greys(jobs.size());
+  core::ParallelFor(0, int64_t(jobs.size()), options.num_threads, [&](int64_t j0, int64_t j1) {
+    for (int64_t j = j0; j < j1; ++j) {
+      const auto& model = cams[jobs[j].camera].model;
+      const std::string path = take.FramePath(e.instants[jobs[j].instant], model.id).string();
+      const auto given = decoded.find(path);
+      StereoView v{model, given != decoded.end() ? given->second : ReadFrame(path)};
+      const cv::Mat g = GreyImage(v, greys, /*undistort=*/true, "camera '" + model.id + "'");
+      reduced_greys[j] = f > 1 ? ReduceGrey(g, f) : g;
+    }
+  });
+  auto grey_of = [&](int t, int c) { return reduced_greys[size_t(t) * cams.size() + c]; };
   core::ParallelFor(0, int64_t(jobs.size()), options.num_threads, [&](int64_t j0, int64_t j1) {
     for (int64_t j = j0; j < j1; ++j) {
       const int t = jobs[j].instant, c = jobs[j].camera;

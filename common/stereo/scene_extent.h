@@ -26,6 +26,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -75,9 +77,12 @@ struct SceneExtent {
 
 // Throws core::InputError when the cameras' axes do not converge (parallel axes, or
 // the centre behind most cameras), naming what to give instead (a box).
+// `decoded`: frames the caller has already read (frame path -> the image as ReadFrame
+// gives it), used instead of reading those files again.
 SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::string>& instants,
                                 const StereoOptions& greys, const ClusterOptions& cluster,
-                                const SceneExtentOptions& options);
+                                const SceneExtentOptions& options,
+                                const std::map<std::string, cv::Mat>& decoded = {});
 
 // Pixel footprint at the scene: the median over cameras of (depth of `point_mm` / focal
 // length in pixels), mm per pixel.

@@ -22,6 +22,7 @@
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
 #include "take/take.h"
+#include "testing/expect_error.h"
 
 namespace dome::pipeline {
 namespace {
@@ -106,6 +107,17 @@ TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
   EXPECT_EQ(memo.builds(), 1);
 }
 
+// An entry of another kind (a stereo job's frames, between two slab jobs on one
+// worker) leaves the slabs' tables kept.
+TEST_F(FusionStage, AnEntryOfAnotherKindBetweenSlabJobsLeavesTheirTables) {
+  const JobBlobs blobs = Blobs(1.0);
+  JobMemo memo;
+  const std::string first = Slab(blobs, 0, 20, &memo);
+  memo.Get<std::string>("other", [] { return std::make_unique<std::string>("frames"); });
+  EXPECT_EQ(Slab(blobs, 20, 40, &memo), Slab(blobs, 20, 40, nullptr));
+  EXPECT_EQ(memo.builds(), 2);  // the tables once, the other entry once
+}
+
 TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   const JobBlobs blobs = Blobs(1.0), moved = Blobs(1.05);
   JobMemo memo;
@@ -165,6 +177,51 @@ runtime::Job DecimateJobOf(const io::Mesh& mesh, const runtime::DecimateJob& dj,
   job.add_blobs()->set_sha256(net::Sha256Hex(*(*blobs)[0]));
   job.set_settings(dj.SerializeAsString());
   return job;
+}
+
+// A stereo output carries only the rectangle of its depths; decoded, both maps are the
+// whole images again, bit for bit (zeros outside), and an output without depths holds
+// none. A rectangle that does not fit its image is refused, naming the field.
+TEST(StereoOutput, CarriesTheRectangleOfItsDepthsAndDecodesToTheWholeImages) {
+  stereo::StereoResult r;
+  r.camera = "cam";
+  r.num_levels = 50;
+  stereo::RangeImage ri;
+  ri.window_px = 7;
+  ri.depth_mm = cv::Mat(120, 160, CV_32FC1, cv::Scalar(0));
+  ri.reliability = cv::Mat(120, 160, CV_32FC1, cv::Scalar(0));
+  cv::RNG rng(3);
+  rng.fill(ri.depth_mm(cv::Rect(40, 30, 50, 20)), cv::RNG::UNIFORM, 900.0, 1100.0);
+  rng.fill(ri.reliability(cv::Rect(40, 30, 50, 20)), cv::RNG::UNIFORM, 0.1, 3.0);
+  ri.reliability.at<float>(70, 130) = 0.5f;  // a reliability alone widens the rectangle
+  ri.density = 0.05;
+  r.range_images.push_back(ri);
+  stereo::RangeImage none = ri;
+  none.depth_mm = cv::Mat(120, 160, CV_32FC1, cv::Scalar(0));
+  none.reliability = none.depth_mm.clone();
+  r.range_images.push_back(none);
+  const std::string bytes = EncodeStereoOutput(r);
+  EXPECT_LT(bytes.size(), size_t(91 * 41 * 8 + 200));  // 40..130 x 30..70, two maps
+  const stereo::StereoResult back = DecodeStereoOutput(bytes, "test");
+  ASSERT_EQ(back.range_images.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const auto& a = r.range_images[k];
+    const auto& b = back.range_images[k];
+    ASSERT_EQ(b.depth_mm.size(), cv::Size(160, 120));
+    ASSERT_EQ(b.reliability.size(), cv::Size(160, 120));
+    EXPECT_EQ(cv::norm(a.depth_mm, b.depth_mm, cv::NORM_INF), 0.0) << k;
+    EXPECT_EQ(cv::norm(a.reliability, b.reliability, cv::NORM_INF), 0.0) << k;
+  }
+  runtime::StereoOutput bad;
+  ASSERT_TRUE(bad.ParseFromString(bytes));
+  bad.mutable_range_images(0)->set_x0(120);
+  dome::testing::ExpectInputError([&] { DecodeStereoOutput(bad.SerializeAsString(), "blob 3"); },
+                   {"blob 3: depth_mm",
+                    "a 91x41 rectangle at 120, 30 does not fit a 160x120 image"});
+  bad.mutable_range_images(0)->set_x0(40);
+  bad.mutable_range_images(0)->clear_full_rows();
+  dome::testing::ExpectInputError([&] { DecodeStereoOutput(bad.SerializeAsString(), "blob 3"); },
+                   {"blob 3: depth_mm", "needs all of full_rows, full_cols, x0 and y0, or none"});
 }
 
 TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "io/file_util.h"
+#include "net/content_hash.h"
 #include "pipeline/jobs.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
@@ -30,7 +31,8 @@ class StereoStage : public SmallTakeSuite {
  protected:
   // The stereo job of camera `id` at the first instant with `settings`, run as a worker
   // runs it; returns the first window's depth (mm, 0 = none).
-  static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings) {
+  static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings,
+                              JobMemo* memo = nullptr, std::string* stereo_blob = nullptr) {
     const take::Take take = take::OpenTake(TakeDir());
     const std::string instant = take.instants.front();
     const stereo::TakeStereoOptions options = FromStereoSettings(settings, "test");
@@ -56,7 +58,10 @@ class StereoStage : public SmallTakeSuite {
       add(take.FramePath(instant, v.camera.id));
     }
     job.set_settings(stereo_job.SerializeAsString());
-    const auto outputs = RunJob(*DefaultStages(), job, blobs);
+    for (int i = 0; i < job.blobs_size(); ++i)
+      job.mutable_blobs(i)->set_sha256(net::Sha256Hex(*blobs[size_t(i)]));
+    const auto outputs = RunJob(*DefaultStages(), job, blobs, memo);
+    if (stereo_blob) *stereo_blob = outputs.at(0).data();
     // The stereo blob, then the result's files (depth and reliability; no previews).
     EXPECT_EQ(outputs.size(), 3u);
     const stereo::StereoResult result = DecodeStereoOutput(outputs.at(0).data(), "test");
@@ -75,6 +80,21 @@ class StereoStage : public SmallTakeSuite {
     return ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
 };
+
+// A worker keeps the decoded frames of an instant for its next stereo jobs (a frame is
+// the reference of one and a neighbour of others): the outputs are the bytes of jobs
+// run without it, and the memo's entry is built once for all the jobs.
+TEST_F(StereoStage, FramesKeptBetweenJobsGiveTheSameOutputs) {
+  const runtime::StereoSettings settings = DefaultSettings();
+  JobMemo memo;
+  for (const std::string id : {"c00", "c01", "c00"}) {
+    std::string with, without;
+    RunStereoJob(id, settings, &memo, &with);
+    RunStereoJob(id, settings, nullptr, &without);
+    EXPECT_EQ(with, without) << id;
+  }
+  EXPECT_EQ(memo.builds(), 1);
+}
 
 TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
   const runtime::StereoSettings full = DefaultSettings();

@@ -139,6 +139,31 @@ TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
   EXPECT_EQ(g.at<float>(0, 199), 255.0f);
 }
 
+// The stretch's percentiles are the exact order statistics (what a full selection
+// gives) on a float image of many distinct values, negative ones and both zeros
+// included: the stretched image is the one computed from std::nth_element's values.
+TEST(GreyImage, StretchUsesTheExactPercentiles) {
+  StereoView view;
+  view.camera = PlaneCamera("c", 0, 0, 300, 200);
+  view.image = cv::Mat(200, 300, CV_32FC1);
+  cv::RNG rng(7);
+  rng.fill(view.image, cv::RNG::NORMAL, 60.0, 25.0);
+  view.image.at<float>(0, 0) = -0.0f;
+  view.image.at<float>(0, 1) = 0.0f;
+  view.image(cv::Rect(0, 100, 300, 20)).setTo(42.0f);  // a run of equal values
+  StereoOptions o;
+  o.normalize_contrast = true;
+  const cv::Mat g = GreyImage(view, o, false, "view");
+  std::vector<float> v(view.image.begin<float>(), view.image.end<float>());
+  const size_t i1 = v.size() / 100, i99 = v.size() * 99 / 100;
+  std::nth_element(v.begin(), v.begin() + i1, v.end());
+  const float lo = v[i1];
+  std::nth_element(v.begin(), v.begin() + i99, v.end());
+  const float hi = v[i99];
+  const cv::Mat expected = (view.image - lo) * (255.0 / (hi - lo));
+  EXPECT_EQ(cv::norm(g, expected, cv::NORM_INF), 0.0);
+}
+
 // sqrt_greys maps each image once, before matching: the depths are those of images
 // mapped beforehand and matched as they are (which would differ if the mapping were
 // applied twice or not at all); and the plane is still recovered.
