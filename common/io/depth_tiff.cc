@@ -140,25 +140,28 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where) {
   }
 }
 
-std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where) {
-  CheckDepthMap(depth_mm, where);
-  core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
+namespace {
+
+// One float sample per pixel, strips; Deflate (fastest level) with the floating-point
+// predictor, or PackBits.
+std::string EncodeFloatTiffWith(const cv::Mat& m, bool deflate, const char* description,
+                                const std::string& where) {
   TiffMessages messages;
   MemoryFile file;
   {
     TiffHandle tif = OpenTiff(&file, "w", &messages);
     core::Require(tif != nullptr, where, "cannot start a TIFF: " + messages.error);
     TIFF* t = tif.get();
-    const bool deflate = TIFFIsCODECConfigured(COMPRESSION_ADOBE_DEFLATE) != 0;
-    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(depth_mm.cols));
-    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(depth_mm.rows));
+    deflate = deflate && TIFFIsCODECConfigured(COMPRESSION_ADOBE_DEFLATE) != 0;
+    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(m.cols));
+    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(m.rows));
     TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, uint16_t{1});
     TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, uint16_t{32});
     TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, uint16_t{SAMPLEFORMAT_IEEEFP});
     TIFFSetField(t, TIFFTAG_PHOTOMETRIC, uint16_t{PHOTOMETRIC_MINISBLACK});
     TIFFSetField(t, TIFFTAG_PLANARCONFIG, uint16_t{PLANARCONFIG_CONTIG});
     TIFFSetField(t, TIFFTAG_COMPRESSION,
-                 static_cast<uint16_t>(deflate ? COMPRESSION_ADOBE_DEFLATE : COMPRESSION_NONE));
+                 static_cast<uint16_t>(deflate ? COMPRESSION_ADOBE_DEFLATE : COMPRESSION_PACKBITS));
     // Floating-point predictor: byte-plane differencing, which makes smooth depth
     // surfaces compress well under Deflate.
     if (deflate) {
@@ -168,18 +171,33 @@ std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where) {
       TIFFSetField(t, TIFFTAG_ZIPQUALITY, 1);
     }
     TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, TIFFDefaultStripSize(t, 0));
-    TIFFSetField(t, TIFFTAG_IMAGEDESCRIPTION, kDescription);
+    TIFFSetField(t, TIFFTAG_IMAGEDESCRIPTION, description);
     TIFFSetField(t, TIFFTAG_SOFTWARE, "dome");
-    std::vector<float> row(depth_mm.cols);
+    std::vector<float> row(m.cols);
     bool ok = true;
-    for (int y = 0; y < depth_mm.rows && ok; ++y) {
-      std::memcpy(row.data(), depth_mm.ptr<float>(y), row.size() * sizeof(float));
+    for (int y = 0; y < m.rows && ok; ++y) {
+      std::memcpy(row.data(), m.ptr<float>(y), row.size() * sizeof(float));
       ok = TIFFWriteScanline(t, row.data(), static_cast<uint32_t>(y), 0) == 1;
     }
     ok = ok && TIFFFlush(t) == 1;
     core::Require(ok, where, "encoding failed: " + messages.error);
   }
   return std::move(file.bytes);
+}
+
+}  // namespace
+
+std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where) {
+  CheckDepthMap(depth_mm, where);
+  core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
+  return EncodeFloatTiffWith(depth_mm, /*deflate=*/true, kDescription, where);
+}
+
+std::string EncodeRunLengthFloatTiff(const cv::Mat& image, const std::string& description,
+                                     const std::string& where) {
+  core::Require(!image.empty() && image.type() == CV_32FC1, where,
+                "a float TIFF needs a non-empty 1-channel float image");
+  return EncodeFloatTiffWith(image, /*deflate=*/false, description.c_str(), where);
 }
 
 void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) {

@@ -37,6 +37,12 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where);
 // Float TIFF. The writer throws core::InputError naming the file when the map is
 // not a valid depth map (see CheckDepthMap) or the folder is missing / not writable.
 void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm);
+// Any 1-channel float image as a float TIFF like the depth maps' but PackBits-compressed
+// (run lengths: cheap, and the zeros of a map that is mostly empty shrink to a 64th),
+// with `description` as its ImageDescription; for maps beside the depth maps
+// (reliability). Throws core::InputError naming `where` for an empty or non-float image.
+std::string EncodeRunLengthFloatTiff(const cv::Mat& image, const std::string& description,
+                                     const std::string& where);
 cv::Mat ReadDepthTiff(const std::filesystem::path& path);
 // The same file as bytes (the writer's file, byte for byte), and read back from bytes;
 // errors name `where`.

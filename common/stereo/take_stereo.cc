@@ -72,12 +72,12 @@ std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write
         result.camera + (k == 0 ? "" : " window " + std::to_string(r.window_px));
     files.push_back({"depth" + sfx + "/" + result.camera + ".tiff",
                      io::EncodeDepthTiff(r.depth_mm, "depth map of " + name)});
-    std::vector<uchar> bytes;
-    // Uncompressed: LZW costs more CPU than the stereo job's decoding of its frames,
-    // for a file that compresses poorly anyway (noisy floats).
-    cv::imencode(".tiff", r.reliability, bytes, {cv::IMWRITE_TIFF_COMPRESSION, 1});
+    // PackBits: Deflate or LZW cost more CPU than the stereo job's decoding of its
+    // frames for a map of noisy floats, whose zeros (no depth) run lengths hold.
     files.push_back({"reliability" + sfx + "/" + result.camera + ".tiff",
-                     std::string(bytes.begin(), bytes.end())});
+                     io::EncodeRunLengthFloatTiff(
+                         r.reliability, "dome reliability: matching-cost curvature, 0 = no depth",
+                         "reliability map of " + name)});
     if (write_previews) {
       files.push_back({"preview" + sfx + "/" + result.camera + ".png",
                        io::EncodeDepthPreviewPng(r.depth_mm, "depth map of " + name)});

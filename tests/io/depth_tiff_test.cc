@@ -112,6 +112,36 @@ TEST(DepthTiff, InteroperatesWithOpenCv) {
   EXPECT_EQ(cv::norm(back, depth, cv::NORM_INF), 0.0);
 }
 
+// The run-length float TIFF (reliability maps): PackBits, the same values bit for bit
+// through OpenCV, a mostly-zero map in a fraction of its raw size; an empty or
+// non-float image is refused naming where.
+TEST(RunLengthFloatTiff, PackBitsRoundTripThroughOpenCv) {
+  TempDir dir;
+  cv::Mat m(120, 200, CV_32FC1, cv::Scalar(0));
+  cv::RNG rng(5);
+  rng.fill(m(cv::Rect(50, 40, 60, 30)), cv::RNG::UNIFORM, 0.0, 40.0);
+  const std::string bytes = EncodeRunLengthFloatTiff(m, "test map", "map");
+  EXPECT_LT(bytes.size(), size_t(60 * 30 * 4 + 120 * 200 * 4 / 40));
+  const auto path = dir / "map.tiff";
+  WriteFileAtomically(path, bytes);
+  TIFF* t = TIFFOpen(path.c_str(), "r");
+  ASSERT_NE(t, nullptr);
+  uint16_t compression = 0, format = 0;
+  TIFFGetFieldDefaulted(t, TIFFTAG_COMPRESSION, &compression);
+  TIFFGetFieldDefaulted(t, TIFFTAG_SAMPLEFORMAT, &format);
+  TIFFClose(t);
+  EXPECT_EQ(compression, COMPRESSION_PACKBITS);
+  EXPECT_EQ(format, SAMPLEFORMAT_IEEEFP);
+  const cv::Mat back = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(back.type(), CV_32FC1);
+  EXPECT_EQ(cv::norm(back, m, cv::NORM_INF), 0.0);
+  ExpectInputError([] { EncodeRunLengthFloatTiff(cv::Mat(), "d", "reliability map of c1"); },
+                   {"reliability map of c1", "a float TIFF needs a non-empty 1-channel float image"});
+  ExpectInputError(
+      [] { EncodeRunLengthFloatTiff(cv::Mat(4, 4, CV_8UC1), "d", "reliability map of c1"); },
+      {"reliability map of c1", "1-channel float"});
+}
+
 TEST(DepthTiff, ReadsTiledFiles) {
   TempDir dir;
   const cv::Mat depth = SampleDepth(40, 37);
