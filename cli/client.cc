@@ -17,6 +17,7 @@
 #include "io/file_util.h"
 #include "net/events.h"
 #include "net/wire.h"
+#include "take/take.h"
 #include "worker/worker.h"
 
 namespace dome::client {
@@ -222,9 +223,18 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   }
 }
 
-runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& options,
+int EmbeddedWorkers(const runtime::Session& session) {
+  if (session.noop_jobs() > 0) return 2;
+  int64_t instants = session.instants_size();
+  if (instants == 0) instants = int64_t(take::OpenTake(session.take()).instants.size());
+  return instants == 1 ? 1 : 2;
+}
+
+runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& given,
                                    std::FILE* out) {
-  core::Require(options.workers >= 1, "--workers", "must be at least 1");
+  core::Require(given.workers >= 0, "--workers", "must be 0 (from the session) or more");
+  EmbeddedOptions options = given;
+  if (options.workers == 0) options.workers = EmbeddedWorkers(session);
   zmq::context_t context;
   scheduler::MasterOptions mo = options.master;
   const std::string tag =

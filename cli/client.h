@@ -68,13 +68,22 @@ std::map<std::string, runtime::CaptureStatus> WatchCapture(
     int timeout_ms, const net::SocketOptions& socket = net::SocketOptions{});
 
 struct EmbeddedOptions {
-  int workers = 2;                  // in-process workers (count)
+  // In-process workers (count); 0: from the session (EmbeddedWorkers).
+  int workers = 0;
   int threads_per_worker = 0;       // <= 0: hardware threads / workers, at least 1
   int64_t cache_mb = 1024;          // each worker's blob cache, MiB
   scheduler::MasterOptions master;  // endpoints are replaced by inproc:// ones
   // The stages the workers run; null: the master's (tests give them another set).
   std::shared_ptr<const pipeline::StageSet> worker_stages;
 };
+
+// The in-process workers for `session` when none are asked for: one for a session of
+// one instant, two otherwise. With one instant no stage of another instant can run
+// beside a stage, so a second worker would only decode the frames and build the
+// fusion tables a second time, and idle in the one-job stages (decimation, texture)
+// while one worker with every thread runs them in parallel; with many instants two
+// workers overlap an instant's single jobs with the next instant's stereo.
+int EmbeddedWorkers(const runtime::Session& session);
 
 // Runs `session` on an embedded master with in-process workers; progress to `out`.
 runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& options,

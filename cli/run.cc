@@ -202,7 +202,9 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
   auto m = std::make_shared<MasterArgs>();
   auto e = std::make_shared<client::EmbeddedOptions>();
   AddSessionFlags(cmd, a.get(), false);
-  cmd->add_option("--workers", e->workers, "in-process workers when no --master")
+  cmd->add_option("--workers", e->workers,
+                  "in-process workers when no --master (0: one for a session of one instant, "
+                  "else two)")
       ->capture_default_str();
   cmd->add_option("--threads", e->threads_per_worker, "threads per in-process worker (0: share)")
       ->capture_default_str();

@@ -117,5 +117,23 @@ TEST(StageSet, AWorkerWithoutTheStageFailsTheSessionNamingIt) {
       << status.error();
 }
 
+// `dome run`'s in-process workers when none are asked for: one (with every thread)
+// for a session of one instant, two for more, counted from the take when the session
+// names none; a take that cannot be opened is named.
+TEST(EmbeddedWorkers, OneForOneInstantTwoForMore) {
+  runtime::Session s;
+  s.add_instants("00-00-00-00");
+  EXPECT_EQ(client::EmbeddedWorkers(s), 1);
+  s.add_instants("00-00-00-05");
+  EXPECT_EQ(client::EmbeddedWorkers(s), 2);
+  runtime::Session noop;
+  noop.set_noop_jobs(10);
+  EXPECT_EQ(client::EmbeddedWorkers(noop), 2);
+  testing::TempDir dir;
+  runtime::Session missing;
+  missing.set_take((dir / "no-take").string());
+  EXPECT_THROW(client::EmbeddedWorkers(missing), core::InputError);
+}
+
 }  // namespace
 }  // namespace dome
