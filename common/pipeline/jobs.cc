@@ -4,9 +4,11 @@
 #include <cstring>
 #include <deque>
 #include <functional>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/parallel_for.h"
 #include "fusion/volume.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
@@ -157,31 +159,77 @@ std::vector<std::string> OnePart(const SessionPlan& plan) {
 
 // ---- stereo ---------------------------------------------------------------------------
 
-// Decoded frames kept by a worker between stereo jobs, by the digest of their bytes.
-// At most kBudgetBytes of pixels: past it the oldest go first (the instant's frames
-// come in camera order, and a job's neighbours are its nearest cameras).
+// Decoded frames kept by a worker between jobs, by the digest of their bytes: each
+// frame of an instant is the reference of one stereo job, a neighbour in others' (2-4
+// jobs), and one of the texture job's views. At most kBudgetBytes of pixels: past it
+// the oldest go first (an instant's frames come in camera order, and a stereo job's
+// neighbours are its nearest cameras).
 class DecodedFrames {
  public:
   static constexpr size_t kBudgetBytes = size_t(512) << 20;
 
-  cv::Mat Get(const std::string& sha256, const std::function<cv::Mat()>& decode) {
-    for (const auto& [digest, image] : frames_) {
-      if (digest == sha256) return image;
+  // The frame decoded in `mode`, or an empty image. A frame kept as decoded unchanged
+  // serves a BGR request when it is 8-bit BGR, or 8-bit BGRA whose colour channels are
+  // what decoding it as BGR gives (PNG's alpha is dropped, not composited).
+  cv::Mat Find(const std::string& sha256, io::ImageMode mode) const {
+    for (const Frame& f : frames_) {
+      if (f.sha256 != sha256) continue;
+      if (f.mode == mode) return f.image;
+      if (mode != io::ImageMode::kBgr8 || f.mode != io::ImageMode::kUnchanged) continue;
+      if (f.image.type() == CV_8UC3) return f.image;
+      if (f.image.type() == CV_8UC4) {
+        cv::Mat bgr;
+        cv::cvtColor(f.image, bgr, cv::COLOR_BGRA2BGR);
+        return bgr;
+      }
     }
-    cv::Mat image = decode();
+    return cv::Mat();
+  }
+  void Add(const std::string& sha256, io::ImageMode mode, const cv::Mat& image) {
     bytes_ += image.total() * image.elemSize();
-    frames_.emplace_back(sha256, image);
+    frames_.push_back({sha256, mode, image});
     while (bytes_ > kBudgetBytes && frames_.size() > 1) {
-      bytes_ -= frames_.front().second.total() * frames_.front().second.elemSize();
+      bytes_ -= frames_.front().image.total() * frames_.front().image.elemSize();
       frames_.pop_front();
     }
-    return image;
   }
 
  private:
-  std::deque<std::pair<std::string, cv::Mat>> frames_;
+  struct Frame {
+    std::string sha256;
+    io::ImageMode mode;
+    cv::Mat image;
+  };
+  std::deque<Frame> frames_;
   size_t bytes_ = 0;
 };
+
+// Blobs `first`.. of `job` decoded in `mode`: those `memo` keeps as they are, the rest
+// decoded on the job's threads and kept.
+std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t first,
+                                io::ImageMode mode, JobMemo* memo) {
+  DecodedFrames* kept =
+      memo ? memo->Get<DecodedFrames>("frames", [] { return std::make_unique<DecodedFrames>(); })
+           : nullptr;
+  std::vector<cv::Mat> images(blobs.size() - first);
+  std::vector<size_t> missing;
+  for (size_t i = first; i < blobs.size(); ++i) {
+    const cv::Mat found = kept ? kept->Find(job.blobs(int(i)).sha256(), mode) : cv::Mat();
+    if (!found.empty()) {
+      images[i - first] = found;
+    } else {
+      missing.push_back(i);
+    }
+  }
+  core::ParallelFor(0, int64_t(missing.size()), job.threads(), [&](int64_t b, int64_t e) {
+    for (int64_t k = b; k < e; ++k)
+      images[missing[k] - first] = FrameBlob(job, blobs, missing[k], mode);
+  });
+  if (kept) {
+    for (size_t i : missing) kept->Add(job.blobs(int(i)).sha256(), mode, images[i - first]);
+  }
+  return images;
+}
 
 StageDescriptor StereoStage() {
   StageDescriptor d = Descriptor("stereo", {}, [](const SessionPlan& plan) {
@@ -208,22 +256,13 @@ StageDescriptor StereoStage() {
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
-    // Each frame of an instant is the reference of one stereo job and a neighbour in
-    // others' (2-4 jobs): a worker decodes it once and keeps it for the instant's
-    // next stereo jobs, by the blob's digest (the same bytes, the same image).
-    DecodedFrames* decoded =
-        memo ? memo->Get<DecodedFrames>("stereo frames", [] { return std::make_unique<DecodedFrames>(); })
-             : nullptr;
-    auto frame = [&](size_t i) {
-      if (!decoded) return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged);
-      return decoded->Get(job.blobs(int(i)).sha256(),
-                          [&] { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); });
-    };
+    const std::vector<cv::Mat> frames =
+        FrameBlobs(job, blobs, 1, io::ImageMode::kUnchanged, memo);
     stereo::StereoInput input;
     input.reference.camera = RigCameraOf(rig, sj.camera(), job);
-    input.reference.image = frame(1);
+    input.reference.image = frames[0];
     for (int n = 0; n < sj.neighbours_size(); ++n) {
-      input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frame(2 + n)});
+      input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
     }
     const stereo::StereoResult result = Stereo(input, options, JobWhere(job));
     std::vector<runtime::Output> outputs(1);
@@ -413,7 +452,7 @@ StageDescriptor TextureStage() {
     tj.set_atlas(ctx.plan.options.texture);
     SetJob(tj, std::move(blobs), job);
   };
-  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto tj = JobSettings<runtime::TextureJob>(job);
     RequireBlobs(job, blobs, 2);
     const geometry::Rig rig = RigBlob(job, blobs);
@@ -421,11 +460,10 @@ StageDescriptor TextureStage() {
     core::Require(blobs.size() == rig.cameras.size() + 2, JobWhere(job),
                   "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +
                       "), got " + std::to_string(blobs.size() - 2));
+    const std::vector<cv::Mat> frames = FrameBlobs(job, blobs, 2, io::ImageMode::kBgr8, memo);
     std::vector<mesh::TextureView> views;
-    for (size_t c = 0; c < rig.cameras.size(); ++c) {
-      views.push_back({rig.cameras[c].model, FrameBlob(job, blobs, c + 2, io::ImageMode::kBgr8),
-                       BlobName(job, c + 2)});
-    }
+    for (size_t c = 0; c < rig.cameras.size(); ++c)
+      views.push_back({rig.cameras[c].model, frames[c], BlobName(job, c + 2)});
     mesh::TextureOptions options;
     options.num_threads = job.threads();
     const TextureResult textured = Texture(std::move(decimated), views, options, tj.atlas());

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "core/error.h"
 #include "io/file_util.h"
@@ -45,6 +47,26 @@ TEST(ReadImage, RobovisionRgbaInEveryMode) {
   cv::Mat alpha;
   cv::extractChannel(bgra, alpha, 3);
   EXPECT_EQ(cv::countNonZero(alpha == 255) + cv::countNonZero(alpha == 0), alpha.total());
+  // Decoded as BGR, the alpha is dropped, not composited: the colour channels of the
+  // unchanged decode (the stage's frame memo serves BGR requests from them).
+  cv::Mat dropped;
+  cv::cvtColor(raw, dropped, cv::COLOR_BGRA2BGR);
+  EXPECT_EQ(cv::norm(dropped, bgr, cv::NORM_INF), 0.0);
+}
+
+// The same for a BGRA PNG with colour under transparent pixels.
+TEST(DecodeImage, BgrOfABgraPngIsItsColourChannels) {
+  cv::Mat bgra(40, 60, CV_8UC4);
+  cv::RNG(9).fill(bgra, cv::RNG::UNIFORM, 0, 256);
+  std::vector<uchar> png;
+  ASSERT_TRUE(cv::imencode(".png", bgra, png));
+  const std::string bytes(png.begin(), png.end());
+  const cv::Mat raw = DecodeImage(bytes, ImageMode::kUnchanged, "bgra.png");
+  ASSERT_EQ(raw.type(), CV_8UC4);
+  EXPECT_EQ(cv::norm(raw, bgra, cv::NORM_INF), 0.0);
+  cv::Mat dropped;
+  cv::cvtColor(raw, dropped, cv::COLOR_BGRA2BGR);
+  EXPECT_EQ(cv::norm(dropped, DecodeImage(bytes, ImageMode::kBgr8, "bgra.png"), cv::NORM_INF), 0.0);
 }
 
 TEST(PngHeader, SaysSizeAndTypeWithoutDecoding) {
