@@ -778,14 +778,12 @@ class EdgeCollapser {
     }
   }
 
-  // The live mesh, for the pass over the joined regions: its vertices in first-use order
-  // over the live faces (*used: their ids here), their positions, attributes and
-  // quadrics (a seam vertex's: only those of the vertices collapsed into it), the faces
-  // renumbered.
-  void Export(std::vector<int>* used, CollapseInput* out) const {
+  // The live faces, their vertices renumbered in first-use order (*used: their ids
+  // here).
+  std::vector<Eigen::Vector3i> LiveFaces(std::vector<int>* used) const {
     std::vector<int> remap(pos_.size(), -1);
+    std::vector<Eigen::Vector3i> out;
     used->clear();
-    out->faces.clear();
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
       Eigen::Vector3i face;
@@ -797,8 +795,16 @@ class EdgeCollapser {
         }
         face[m] = remap[v];
       }
-      out->faces.push_back(face);
+      out.push_back(face);
     }
+    return out;
+  }
+
+  // The live mesh, for the pass over the joined regions: LiveFaces, and per vertex its
+  // position, attributes and quadric (a seam vertex's: only those of the vertices
+  // collapsed into it).
+  void Export(std::vector<int>* used, CollapseInput* out) const {
+    out->faces = LiveFaces(used);
     out->origin = origin_;
     out->pos.resize(used->size());
     out->quadrics.resize(used->size());
@@ -817,30 +823,21 @@ class EdgeCollapser {
 
   io::Mesh Result() const {
     io::Mesh out;
-    std::vector<int> remap(pos_.size(), -1);
-    for (size_t f = 0; f < faces_.size(); ++f) {
-      if (!face_alive_[f]) continue;
-      Eigen::Vector3i face;
-      for (int m = 0; m < 3; ++m) {
-        const int v = faces_[f][m];
-        if (remap[v] < 0) {
-          remap[v] = int(out.vertices.size());
-          out.vertices.push_back((pos_[v] + origin_).cast<float>());
-          if (!colors_.empty()) {
-            out.colors.push_back(
-                colors_[v].array().round().max(0.0f).min(255.0f).cast<uint8_t>().matrix());
-          }
-          if (!normals_.empty()) {
-            const float len = normals_[v].norm();
-            out.normals.push_back(len > 0 ? Eigen::Vector3f(normals_[v] / len) : normals_[v]);
-          }
-          if (!alphas_.empty()) {
-            out.alphas.push_back(uint8_t(std::clamp(std::lround(alphas_[v]), 0l, 255l)));
-          }
-        }
-        face[m] = remap[v];
+    std::vector<int> used;
+    out.faces = LiveFaces(&used);
+    for (int v : used) {
+      out.vertices.push_back((pos_[v] + origin_).cast<float>());
+      if (!colors_.empty()) {
+        out.colors.push_back(
+            colors_[v].array().round().max(0.0f).min(255.0f).cast<uint8_t>().matrix());
       }
-      out.faces.push_back(face);
+      if (!normals_.empty()) {
+        const float len = normals_[v].norm();
+        out.normals.push_back(len > 0 ? Eigen::Vector3f(normals_[v] / len) : normals_[v]);
+      }
+      if (!alphas_.empty()) {
+        out.alphas.push_back(uint8_t(std::clamp(std::lround(alphas_[v]), 0l, 255l)));
+      }
     }
     return out;
   }
@@ -1487,6 +1484,18 @@ struct Collapsed {
   int64_t components_deleted = 0, triangles_deleted = 0;
 };
 
+// Edge collapses of `in` to `target` faces in one pass.
+Collapsed CollapseInOnePass(CollapseInput in, int64_t target, const DecimationOptions& options) {
+  EdgeCollapser collapser(std::move(in), options);
+  collapser.Run(target);
+  Collapsed result;
+  result.mesh = collapser.Result();
+  result.error_mm = collapser.max_error_mm();
+  result.components_deleted = collapser.components_deleted();
+  result.triangles_deleted = collapser.triangles_deleted();
+  return result;
+}
+
 // The most regions a decimation is split in (RegionCount).
 constexpr int kMaxRegions = 8;
 
@@ -1705,13 +1714,7 @@ Collapsed CollapseInRegions(CollapseInput in, int regions, int64_t target,
       joined.faces.emplace_back(index[size_t(t[0])], index[size_t(t[1])], index[size_t(t[2])]);
   }
   out.clear();
-  EdgeCollapser collapser(std::move(joined), options);
-  collapser.Run(target);
-  Collapsed result;
-  result.mesh = collapser.Result();
-  result.error_mm = collapser.max_error_mm();
-  result.components_deleted = collapser.components_deleted();
-  result.triangles_deleted = collapser.triangles_deleted();
+  Collapsed result = CollapseInOnePass(std::move(joined), target, options);
   for (const Collapsed& f : figures) {
     result.error_mm = std::max(result.error_mm, f.error_mm);
     result.components_deleted += f.components_deleted;
@@ -1725,14 +1728,7 @@ Collapsed CollapseInRegions(CollapseInput in, int regions, int64_t target,
 Collapsed Collapse(CollapseInput in, int64_t target, const DecimationOptions& options) {
   const int regions = RegionCount(in.faces.size(), options.faces_per_region);
   if (regions > 1) return CollapseInRegions(std::move(in), regions, target, options);
-  EdgeCollapser collapser(std::move(in), options);
-  collapser.Run(target);
-  Collapsed result;
-  result.mesh = collapser.Result();
-  result.error_mm = collapser.max_error_mm();
-  result.components_deleted = collapser.components_deleted();
-  result.triangles_deleted = collapser.triangles_deleted();
-  return result;
+  return CollapseInOnePass(std::move(in), target, options);
 }
 
 }  // namespace

@@ -88,18 +88,21 @@ double PointTriangleDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   return std::min({segment(a, b), segment(b, c), segment(c, a)});
 }
 
+// Distance from p to the mesh's surface, mm (brute force).
+double DistanceToMesh(const Eigen::Vector3d& p, const io::Mesh& m) {
+  double best = HUGE_VAL;
+  for (const auto& f : m.faces) {
+    best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
+                                                m.vertices[f[1]].cast<double>(),
+                                                m.vertices[f[2]].cast<double>()));
+  }
+  return best;
+}
+
 // Largest distance from the given surface points to the mesh, mm (brute force).
 double MaxDistanceToMesh(const std::vector<Eigen::Vector3d>& points, const io::Mesh& m) {
   double worst = 0;
-  for (const auto& p : points) {
-    double best = HUGE_VAL;
-    for (const auto& f : m.faces) {
-      best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
-                                                  m.vertices[f[1]].cast<double>(),
-                                                  m.vertices[f[2]].cast<double>()));
-    }
-    worst = std::max(worst, best);
-  }
+  for (const auto& p : points) worst = std::max(worst, DistanceToMesh(p, m));
   return worst;
 }
 
@@ -614,15 +617,7 @@ io::Mesh CurvedComb() {
 TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
   const io::Mesh m = CurvedComb();
   ASSERT_EQ(m.faces.size(), 1824u);
-  auto to_input = [&m](const Eigen::Vector3d& p) {
-    double best = HUGE_VAL;
-    for (const auto& f : m.faces) {
-      best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
-                                                  m.vertices[f[1]].cast<double>(),
-                                                  m.vertices[f[2]].cast<double>()));
-    }
-    return best;
-  };
+  auto to_input = [&m](const Eigen::Vector3d& p) { return DistanceToMesh(p, m); };
   DecimationOptions o;
   o.target_ratio = 0.05;
   const io::Mesh bounded = Decimate(m, o);
@@ -681,12 +676,7 @@ std::pair<double, double> DistanceTo(const io::Mesh& a, const io::Mesh& b) {
   }
   double sum = 0, worst = 0;
   for (const auto& p : points) {
-    double best = HUGE_VAL;
-    for (const auto& f : b.faces) {
-      best = std::min(best, PointTriangleDistance(p, b.vertices[f[0]].cast<double>(),
-                                                  b.vertices[f[1]].cast<double>(),
-                                                  b.vertices[f[2]].cast<double>()));
-    }
+    const double best = DistanceToMesh(p, b);
     sum += best;
     worst = std::max(worst, best);
   }
