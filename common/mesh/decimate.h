@@ -128,7 +128,8 @@ struct DecimationSummary {
 // The simplified mesh, vertices compacted (first-use order). Stops at the target, at the
 // error bound, or when no valid collapse is left.
 //
-// kEdgeCollapse on more than 2 x faces_per_region faces (after the component filters):
+// kEdgeCollapse on at least 2 x faces_per_region faces (after the component filters and
+// the prepass, if any):
 // the faces are cut into regions (slices of equal face counts along the longest axis of
 // their bounding box), each decimated on its own thread with the vertices it shares with
 // another region locked, to the target's share of its faces away from those seams; the
