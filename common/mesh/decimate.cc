@@ -5,13 +5,16 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/disjoint_sets.h"
 #include "core/error.h"
+#include "core/parallel_for.h"
 #include "core/timer.h"
 
 namespace dome::mesh {
@@ -119,42 +122,46 @@ std::vector<Eigen::Vector3f> RelocatedPositions(const io::Mesh& mesh,
   return pos;
 }
 
-// Distance from each query to the nearest of `points`, through a balanced kd-tree kept
-// implicitly in the point order (node = middle of its range, split axis by depth).
-std::vector<double> NearestDistances(std::vector<Eigen::Vector3d> points,
-                                     const std::vector<Eigen::Vector3d>& queries) {
-  auto build = [&](auto&& self, int lo, int hi, int axis) -> void {
+// Nearest-point distances through a balanced kd-tree kept implicitly in the point order
+// (node = middle of its range, split axis by depth). Queries are const: several threads
+// may ask one tree.
+class PointTree {
+ public:
+  explicit PointTree(std::vector<Eigen::Vector3d> points) : points_(std::move(points)) {
+    Build(0, int(points_.size()), 0);
+  }
+  // Distance from q to the nearest point (HUGE_VAL when there is none).
+  double Nearest(const Eigen::Vector3d& q) const {
+    double best2 = HUGE_VAL;
+    Search(q, 0, int(points_.size()), 0, &best2);
+    return std::sqrt(best2);
+  }
+
+ private:
+  void Build(int lo, int hi, int axis) {
     if (hi - lo <= 1) return;
     const int mid = (lo + hi) / 2;
-    std::nth_element(points.begin() + lo, points.begin() + mid, points.begin() + hi,
+    std::nth_element(points_.begin() + lo, points_.begin() + mid, points_.begin() + hi,
                      [axis](const auto& a, const auto& b) { return a[axis] < b[axis]; });
-    self(self, lo, mid, (axis + 1) % 3);
-    self(self, mid + 1, hi, (axis + 1) % 3);
-  };
-  build(build, 0, int(points.size()), 0);
-  std::vector<double> out(queries.size(), HUGE_VAL);
-  for (size_t i = 0; i < queries.size(); ++i) {
-    const Eigen::Vector3d& q = queries[i];
-    double best2 = HUGE_VAL;
-    auto search = [&](auto&& self, int lo, int hi, int axis) -> void {
-      if (lo >= hi) return;
-      const int mid = (lo + hi) / 2;
-      best2 = std::min(best2, (points[mid] - q).squaredNorm());
-      const double diff = q[axis] - points[mid][axis];
-      const int next = (axis + 1) % 3;
-      if (diff < 0) {
-        self(self, lo, mid, next);
-        if (diff * diff < best2) self(self, mid + 1, hi, next);
-      } else {
-        self(self, mid + 1, hi, next);
-        if (diff * diff < best2) self(self, lo, mid, next);
-      }
-    };
-    search(search, 0, int(points.size()), 0);
-    out[i] = std::sqrt(best2);
+    Build(lo, mid, (axis + 1) % 3);
+    Build(mid + 1, hi, (axis + 1) % 3);
   }
-  return out;
-}
+  void Search(const Eigen::Vector3d& q, int lo, int hi, int axis, double* best2) const {
+    if (lo >= hi) return;
+    const int mid = (lo + hi) / 2;
+    *best2 = std::min(*best2, (points_[mid] - q).squaredNorm());
+    const double diff = q[axis] - points_[mid][axis];
+    const int next = (axis + 1) % 3;
+    if (diff < 0) {
+      Search(q, lo, mid, next, best2);
+      if (diff * diff < *best2) Search(q, mid + 1, hi, next, best2);
+    } else {
+      Search(q, mid + 1, hi, next, best2);
+      if (diff * diff < *best2) Search(q, lo, mid, next, best2);
+    }
+  }
+  std::vector<Eigen::Vector3d> points_;
+};
 
 // For each query, whether some point is within `radius` of it: the points bucketed in
 // cubic cells of that edge (sorted by cell), each query checking the 27 cells around its
@@ -459,28 +466,54 @@ Eigen::Vector3d QuadricOrigin(const io::Mesh& mesh) {
   return origin;
 }
 
-// Per vertex of `mesh`, the planes of `faces` around it, each weighted by its area
-// (Garland & Heckbert), in QuadricOrigin's frame.
-std::vector<Quadric> PlaneQuadrics(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces) {
-  const Eigen::Vector3d origin = QuadricOrigin(mesh);
-  std::vector<Quadric> quad(mesh.vertices.size());
+// Per vertex, the planes of `faces` around it, each weighted by its area (Garland &
+// Heckbert); `pos` in the frame the quadrics are to be in.
+std::vector<Quadric> PlaneQuadrics(const std::vector<Eigen::Vector3d>& pos,
+                                   const std::vector<Eigen::Vector3i>& faces) {
+  std::vector<Quadric> quad(pos.size());
   for (const auto& f : faces) {
-    const Eigen::Vector3d p0 = mesh.vertices[f[0]].cast<double>() - origin;
-    const Eigen::Vector3d cr = (mesh.vertices[f[1]].cast<double>() - origin - p0)
-                                   .cross(mesh.vertices[f[2]].cast<double>() - origin - p0);
+    const Eigen::Vector3d& p0 = pos[size_t(f[0])];
+    const Eigen::Vector3d cr = (pos[size_t(f[1])] - p0).cross(pos[size_t(f[2])] - p0);
     const double len = cr.norm();
     if (!(len > 0)) continue;
     const Eigen::Vector3d n = cr / len;
-    for (int m = 0; m < 3; ++m) quad[f[m]].AddPlane(n, -n.dot(p0), 0.5 * len);
+    for (int m = 0; m < 3; ++m) quad[size_t(f[m])].AddPlane(n, -n.dot(p0), 0.5 * len);
   }
   return quad;
+}
+
+// The vertices of `mesh` in QuadricOrigin's frame.
+std::vector<Eigen::Vector3d> RelativePositions(const io::Mesh& mesh,
+                                               const Eigen::Vector3d& origin) {
+  std::vector<Eigen::Vector3d> pos(mesh.vertices.size());
+  for (size_t v = 0; v < pos.size(); ++v) pos[v] = mesh.vertices[v].cast<double>() - origin;
+  return pos;
+}
+
+// The penalty plane holding the open-border edge u-w of face t in place, added to the
+// quadrics `to` (both endpoints'): it contains the edge and is perpendicular to the face,
+// weighted `weight` times the edge length squared (DecimationOptions::border_weight).
+void AddBorderPlane(const std::vector<Eigen::Vector3d>& pos, const Eigen::Vector3i& t, int u, int w,
+                    double weight, std::initializer_list<Quadric*> to) {
+  const Eigen::Vector3d n = (pos[size_t(t[1])] - pos[size_t(t[0])])
+                                .cross(pos[size_t(t[2])] - pos[size_t(t[0])])
+                                .normalized();
+  const Eigen::Vector3d e = pos[size_t(w)] - pos[size_t(u)];
+  const Eigen::Vector3d p = e.cross(n);
+  if (p.squaredNorm() > 0 && n.allFinite()) {
+    const Eigen::Vector3d pn = p.normalized();
+    for (Quadric* q : to) {
+      if (q) q->AddPlane(pn, -pn.dot(pos[size_t(u)]), weight * e.squaredNorm());
+    }
+  }
 }
 
 // The quadrics of `faces` (PlaneQuadrics) summed per kept vertex over its cluster: the
 // input vertices nearest to it in edge hops (multi-source breadth-first search from the
 // kept vertices, ties to the first reached), as if the collapses that made the kept
 // mesh had merged them into it. Vertices no kept vertex reaches add nothing.
-std::vector<Quadric> ClusterQuadrics(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
+std::vector<Quadric> ClusterQuadrics(const io::Mesh& mesh,
+                                     const std::vector<Eigen::Vector3i>& faces,
                                      const std::vector<unsigned int>& kept_indices) {
   const size_t nv = mesh.vertices.size();
   std::vector<int> start(nv + 1, 0);
@@ -507,7 +540,8 @@ std::vector<Quadric> ClusterQuadrics(const io::Mesh& mesh, const std::vector<Eig
       if (owner[adj[a]] < 0) owner[adj[a]] = owner[v], queue.push_back(adj[a]);
     }
   }
-  const std::vector<Quadric> input = PlaneQuadrics(mesh, faces);
+  const std::vector<Quadric> input =
+      PlaneQuadrics(RelativePositions(mesh, QuadricOrigin(mesh)), faces);
   std::vector<Quadric> out(nv);
   for (size_t v = 0; v < nv; ++v) {
     if (owner[v] >= 0) out[size_t(owner[v])] += input[v];
@@ -591,32 +625,65 @@ class FaceLists {
   std::vector<std::vector<int>> spilled_;
 };
 
-// Greedy quadric edge collapse on a face list; positions are kept relative to the vertex
-// centroid (well conditioned far from the world origin).
+// What an EdgeCollapser starts from: a mesh in a frame near its vertices (positions
+// relative to `origin`, well conditioned far from the world origin), with the state a
+// region's collapses hand on to the pass over the joined regions.
+struct CollapseInput {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // world position of the frame, mm
+  std::vector<Eigen::Vector3d> pos;                  // per vertex, from origin, mm
+  std::vector<Eigen::Vector3f> colors;               // per vertex, 0-255, or none
+  std::vector<Eigen::Vector3f> normals;              // per vertex, or none
+  std::vector<float> alphas;                         // per vertex, 0-255, or none
+  std::vector<Eigen::Vector3i> faces;
+  // Per vertex, in the frame above; none: the planes of `faces` (PlaneQuadrics).
+  std::vector<Quadric> quadrics;
+  // Whether to add the border penalty planes (false: `quadrics` carry them already).
+  bool border_planes = true;
+  // Per vertex, or none: shared with another region (Seam). Such a vertex stays where
+  // it is, no component that holds one is deleted, and no collapse joins two of them by
+  // a new edge (the other region cannot see it).
+  std::vector<uint8_t> seam;
+  // The vertices of the input's largest component (frame above), for the distances of
+  // the component deletions; null: this mesh's largest component.
+  const PointTree* largest = nullptr;
+};
+
+CollapseInput InputFromMesh(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces) {
+  CollapseInput in;
+  in.origin = QuadricOrigin(mesh);
+  in.pos = RelativePositions(mesh, in.origin);
+  if (mesh.HasColors()) {
+    in.colors.resize(mesh.vertices.size());
+    for (size_t v = 0; v < in.colors.size(); ++v) in.colors[v] = mesh.colors[v].cast<float>();
+  }
+  if (mesh.HasNormals()) in.normals = mesh.normals;
+  if (mesh.HasAlphas()) in.alphas.assign(mesh.alphas.begin(), mesh.alphas.end());
+  in.faces = faces;
+  return in;
+}
+
+// Greedy quadric edge collapse on a face list.
 class EdgeCollapser {
  public:
-  // `input_quadrics` (optional, per vertex of `mesh`, in PlaneQuadrics' frame): the
-  // quadrics to start from instead of those of `faces`.
-  EdgeCollapser(const io::Mesh& mesh, const std::vector<Eigen::Vector3i>& faces,
-                const DecimationOptions& o, const std::vector<Quadric>* input_quadrics = nullptr)
-      : options_(o) {
-    const size_t nv = mesh.vertices.size();
-    origin_ = QuadricOrigin(mesh);
-    pos_.resize(nv);
-    for (size_t v = 0; v < nv; ++v) pos_[v] = mesh.vertices[v].cast<double>() - origin_;
+  EdgeCollapser(CollapseInput in, const DecimationOptions& o)
+      : options_(o),
+        origin_(in.origin),
+        pos_(std::move(in.pos)),
+        colors_(std::move(in.colors)),
+        normals_(std::move(in.normals)),
+        alphas_(std::move(in.alphas)),
+        seam_(std::move(in.seam)),
+        border_planes_(in.border_planes),
+        largest_tree_(in.largest) {
+    const size_t nv = pos_.size();
     alive_.assign(nv, 1);
     locked_.assign(nv, 0);
     border_.assign(nv, 0);
     vfaces_.Resize(nv);
     marks_.assign(nv, Marks{});
-    if (mesh.HasColors()) {
-      colors_.resize(nv);
-      for (size_t v = 0; v < nv; ++v) colors_[v] = mesh.colors[v].cast<float>();
-    }
-    if (mesh.HasNormals()) normals_ = mesh.normals;
-    if (mesh.HasAlphas()) alphas_.assign(mesh.alphas.begin(), mesh.alphas.end());
-    faces_.reserve(faces.size());
-    for (const auto& f : faces) {
+    if (!seam_.empty()) absorbed_.resize(nv);
+    faces_.reserve(in.faces.size());
+    for (const auto& f : in.faces) {
       if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
       const int id = int(faces_.size());
       faces_.push_back(f);
@@ -624,7 +691,7 @@ class EdgeCollapser {
     }
     face_alive_.assign(faces_.size(), 1);
     live_ = int64_t(faces_.size());
-    quad_ = input_quadrics ? *input_quadrics : PlaneQuadrics(mesh, faces_);
+    quad_ = in.quadrics.empty() ? PlaneQuadrics(pos_, faces_) : std::move(in.quadrics);
     ClassifyVertices();
     LabelComponents();
     LabelEdges();
@@ -711,32 +778,66 @@ class EdgeCollapser {
     }
   }
 
-  io::Mesh Result() const {
-    io::Mesh out;
+  // The live faces, their vertices renumbered in first-use order (*used: their ids
+  // here).
+  std::vector<Eigen::Vector3i> LiveFaces(std::vector<int>* used) const {
     std::vector<int> remap(pos_.size(), -1);
+    std::vector<Eigen::Vector3i> out;
+    used->clear();
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
       Eigen::Vector3i face;
       for (int m = 0; m < 3; ++m) {
         const int v = faces_[f][m];
         if (remap[v] < 0) {
-          remap[v] = int(out.vertices.size());
-          out.vertices.push_back((pos_[v] + origin_).cast<float>());
-          if (!colors_.empty()) {
-            out.colors.push_back(
-                colors_[v].array().round().max(0.0f).min(255.0f).cast<uint8_t>().matrix());
-          }
-          if (!normals_.empty()) {
-            const float len = normals_[v].norm();
-            out.normals.push_back(len > 0 ? Eigen::Vector3f(normals_[v] / len) : normals_[v]);
-          }
-          if (!alphas_.empty()) {
-            out.alphas.push_back(uint8_t(std::clamp(std::lround(alphas_[v]), 0l, 255l)));
-          }
+          remap[v] = int(used->size());
+          used->push_back(v);
         }
         face[m] = remap[v];
       }
-      out.faces.push_back(face);
+      out.push_back(face);
+    }
+    return out;
+  }
+
+  // The live mesh, for the pass over the joined regions: LiveFaces, and per vertex its
+  // position, attributes and quadric (a seam vertex's: only those of the vertices
+  // collapsed into it).
+  void Export(std::vector<int>* used, CollapseInput* out) const {
+    out->faces = LiveFaces(used);
+    out->origin = origin_;
+    out->pos.resize(used->size());
+    out->quadrics.resize(used->size());
+    out->colors.resize(colors_.empty() ? 0 : used->size());
+    out->normals.resize(normals_.empty() ? 0 : used->size());
+    out->alphas.resize(alphas_.empty() ? 0 : used->size());
+    for (size_t i = 0; i < used->size(); ++i) {
+      const size_t v = size_t((*used)[i]);
+      out->pos[i] = pos_[v];
+      out->quadrics[i] = Seam(int(v)) ? absorbed_[v] : quad_[v];
+      if (!colors_.empty()) out->colors[i] = colors_[v];
+      if (!normals_.empty()) out->normals[i] = normals_[v];
+      if (!alphas_.empty()) out->alphas[i] = alphas_[v];
+    }
+  }
+
+  io::Mesh Result() const {
+    io::Mesh out;
+    std::vector<int> used;
+    out.faces = LiveFaces(&used);
+    for (int v : used) {
+      out.vertices.push_back((pos_[v] + origin_).cast<float>());
+      if (!colors_.empty()) {
+        out.colors.push_back(
+            colors_[v].array().round().max(0.0f).min(255.0f).cast<uint8_t>().matrix());
+      }
+      if (!normals_.empty()) {
+        const float len = normals_[v].norm();
+        out.normals.push_back(len > 0 ? Eigen::Vector3f(normals_[v] / len) : normals_[v]);
+      }
+      if (!alphas_.empty()) {
+        out.alphas.push_back(uint8_t(std::clamp(std::lround(alphas_[v]), 0l, 255l)));
+      }
     }
     return out;
   }
@@ -842,17 +943,35 @@ class EdgeCollapser {
     for (int v = 0; v < nv; ++v) {
       if (comp_of_[v] >= 0) comp_vertices_[fill[comp_of_[v]]++] = v;
     }
-    largest_ =
+    // Never deleted: the largest component, and in a region every part of a component
+    // that goes on in another region (it holds a seam vertex). A region's other
+    // components are whole components of the input, so the input's largest one, when it
+    // lies in one region, is that region's largest.
+    const int largest =
         n > 0 ? int(std::max_element(comp_area_.begin(), comp_area_.end()) - comp_area_.begin())
               : -1;
-    // Distance of each component (its area centroid) to the largest one's vertices.
+    comp_keep_.assign(n, 0);
+    if (largest >= 0) comp_keep_[largest] = 1;
+    for (int v = 0; v < nv; ++v) {
+      if (Seam(v) && comp_of_[v] >= 0) comp_keep_[comp_of_[v]] = 1;
+    }
+    // Distance of each component (its area centroid) to the largest one's vertices (the
+    // input's, in a region).
     comp_distance_.assign(n, 0.0);
     if (n > 1 && options_.component_deletion_factor > 0) {
-      std::vector<Eigen::Vector3d> main;
-      for (int i = comp_start_[largest_]; i < comp_start_[largest_ + 1]; ++i) {
-        main.push_back(pos_[comp_vertices_[i]]);
+      std::unique_ptr<PointTree> own;
+      const PointTree* tree = largest_tree_;
+      if (!tree) {
+        std::vector<Eigen::Vector3d> main;
+        for (int i = comp_start_[largest]; i < comp_start_[largest + 1]; ++i) {
+          main.push_back(pos_[comp_vertices_[i]]);
+        }
+        own = std::make_unique<PointTree>(std::move(main));
+        tree = own.get();
       }
-      comp_distance_ = NearestDistances(std::move(main), centroid);
+      for (int c = 0; c < n; ++c) {
+        if (!comp_keep_[c]) comp_distance_[c] = tree->Nearest(centroid[c]);
+      }
     }
   }
 
@@ -871,7 +990,7 @@ class EdgeCollapser {
     if (!(options_.component_deletion_factor > 0)) return;
     const int n_edges = int(edge_.size());
     for (int c = 0; c < int(comp_live_.size()); ++c) {
-      if (c == largest_ || comp_live_[c] == 0) continue;
+      if (comp_keep_[c] || comp_live_[c] == 0) continue;
       const double e = DeletionError(c);
       const float cost = float(comp_area_[c] * e * e);
       if (heaped) {
@@ -904,7 +1023,7 @@ class EdgeCollapser {
   // Border vertices (on an edge used by one face) and locked ones: non-manifold edges or
   // fans, and with lock_border the border. Adds the border penalty planes.
   void ClassifyVertices() {
-    const bool penalty = !options_.lock_border && options_.border_weight > 0;
+    const bool penalty = border_planes_ && !options_.lock_border && options_.border_weight > 0;
     for (size_t u = 0; u < vfaces_.size(); ++u) {
       if (vfaces_[u].empty()) continue;
       const uint32_t epoch = ++epoch_;
@@ -930,19 +1049,13 @@ class EdgeCollapser {
           if (marks_[w].count_u > 2) non_manifold = true;
           if (marks_[w].count_u != 1) continue;
           ++border_edges;
-          if (penalty && int(u) < w) {
-            // The penalty plane contains the edge and is perpendicular to its face.
-            const auto& t = faces_[f];
-            const Eigen::Vector3d n =
-                (pos_[t[1]] - pos_[t[0]]).cross(pos_[t[2]] - pos_[t[0]]).normalized();
-            const Eigen::Vector3d e = pos_[w] - pos_[u];
-            const Eigen::Vector3d p = e.cross(n);
-            if (p.squaredNorm() > 0 && n.allFinite()) {
-              const Eigen::Vector3d pn = p.normalized();
-              const double weight = options_.border_weight * e.squaredNorm();
-              quad_[u].AddPlane(pn, -pn.dot(pos_[u]), weight);
-              quad_[w].AddPlane(pn, -pn.dot(pos_[u]), weight);
-            }
+          // A region's seam (two seam vertices) is no border of the input: the planes of
+          // the input borders between seam vertices were added before it was cut.
+          if (penalty && int(u) < w && !(Seam(int(u)) && Seam(w))) {
+            // A seam vertex's other border edges are in this region only.
+            AddBorderPlane(pos_, faces_[f], int(u), w, options_.border_weight,
+                           {&quad_[u], &quad_[size_t(w)], Seam(int(u)) ? &absorbed_[u] : nullptr,
+                            Seam(w) ? &absorbed_[size_t(w)] : nullptr});
           }
         }
       }
@@ -950,7 +1063,7 @@ class EdgeCollapser {
       const int nf = int(vfaces_[u].size());
       border_[u] = border_edges > 0;
       const bool fan_ok = border_edges == 0 ? edges == nf : (border_edges == 2 && edges == nf + 1);
-      locked_[u] = non_manifold || !fan_ok || (options_.lock_border && border_[u]);
+      locked_[u] = non_manifold || !fan_ok || (options_.lock_border && border_[u]) || Seam(int(u));
     }
   }
 
@@ -1024,9 +1137,9 @@ class EdgeCollapser {
         old_tris_.push_back(p);
         // A ball around the face (centred on its centroid) for the distance bound below.
         const Eigen::Vector3d centre = (p[0] + p[1] + p[2]) / 3.0;
-        old_balls_.push_back(
-            {centre, std::sqrt(std::max({(p[0] - centre).squaredNorm(), (p[1] - centre).squaredNorm(),
-                                         (p[2] - centre).squaredNorm()}))});
+        old_balls_.push_back({centre, std::sqrt(std::max({(p[0] - centre).squaredNorm(),
+                                                          (p[1] - centre).squaredNorm(),
+                                                          (p[2] - centre).squaredNorm()}))});
         if (has_u && has_v) continue;  // removed by the collapse
         // Rotated so that x comes first; with the face it was and its other corners.
         new_tris_.push_back({{x, p[(at + 1) % 3], p[(at + 2) % 3]}});
@@ -1112,6 +1225,9 @@ class EdgeCollapser {
         if (marks_[w].v_epoch != epoch) {
           marks_[w].v_epoch = epoch, marks_[w].count_v = 0;
           if (w != u && marks_[w].u_epoch == epoch) ++common;
+          // A new edge between two seam vertices: another region may make the same
+          // edge, and the joined mesh would have it four times.
+          if (w != u && marks_[w].u_epoch != epoch && Seam(u) && Seam(w)) return false;
         }
         ++marks_[w].count_v;
       }
@@ -1119,7 +1235,8 @@ class EdgeCollapser {
     if (common != n_opposite) return false;
     if (n_opposite == 1) {
       const int a = opposite[0];
-      if (marks_[a].count_u == 1 && marks_[a].count_v == 1) return false;  // a lone triangle or an ear
+      if (marks_[a].count_u == 1 && marks_[a].count_v == 1)
+        return false;  // a lone triangle or an ear
     } else {
       if (border_[u] && border_[v]) return false;  // would pinch the border
       // Both u-a-b and v-a-b present: a tetrahedron, which would fold flat.
@@ -1202,6 +1319,7 @@ class EdgeCollapser {
     vfaces_.Clear(v);
     pos_[u] = x;
     quad_[u] += quad_[v];
+    if (Seam(u)) absorbed_[size_t(u)] += quad_[v];
     border_[u] = border_[u] || border_[v];
     alive_[v] = 0;
     const uint32_t epoch = ++epoch_;
@@ -1225,6 +1343,8 @@ class EdgeCollapser {
     }
   }
 
+  bool Seam(int v) const { return !seam_.empty() && seam_[size_t(v)]; }
+
   void Kill(int id) {
     heap_.Remove(id);
     edge_state_[id] = kEdgeDead;
@@ -1243,13 +1363,19 @@ class EdgeCollapser {
   const DecimationOptions& options_;
   Eigen::Vector3d origin_;
   std::vector<Eigen::Vector3d> pos_;
+  std::vector<Eigen::Vector3f> colors_, normals_;
+  std::vector<float> alphas_;
+  std::vector<uint8_t> seam_;  // CollapseInput::seam
+  bool border_planes_;
+  const PointTree* largest_tree_;
   std::vector<Quadric> quad_;
+  // Per seam vertex, the quadrics of the vertices collapsed into it (the rest of its
+  // quadric is the input's, which every region that shares it holds).
+  std::vector<Quadric> absorbed_;
   std::vector<uint8_t> alive_, locked_, border_;
   FaceLists vfaces_;
   std::vector<Eigen::Vector3i> faces_;
   std::vector<uint8_t> face_alive_;
-  std::vector<Eigen::Vector3f> colors_, normals_;
-  std::vector<float> alphas_;
   // Per vertex, the link tests' marks (epochs) and counts of faces shared with u and v,
   // together: one cache line a neighbour instead of four.
   struct Marks {
@@ -1282,7 +1408,7 @@ class EdgeCollapser {
   // diagonal (mm), vertices (CSR); the one with the largest area.
   std::vector<int> comp_of_, comp_live_, comp_start_, comp_vertices_;
   std::vector<double> comp_area_, comp_diag_, comp_distance_;
-  int largest_ = -1;
+  std::vector<uint8_t> comp_keep_;  // never deleted (LabelComponents)
   int64_t components_deleted_ = 0, triangles_deleted_ = 0;
 };
 
@@ -1351,6 +1477,260 @@ io::Mesh MeshoptimizerDecimate(const io::Mesh& mesh, const std::vector<Eigen::Ve
   return result;
 }
 
+// What the edge collapses made: the mesh and the summary's figures.
+struct Collapsed {
+  io::Mesh mesh;
+  double error_mm = 0.0;
+  int64_t components_deleted = 0, triangles_deleted = 0;
+};
+
+// Edge collapses of `in` to `target` faces in one pass.
+Collapsed CollapseInOnePass(CollapseInput in, int64_t target, const DecimationOptions& options) {
+  EdgeCollapser collapser(std::move(in), options);
+  collapser.Run(target);
+  Collapsed result;
+  result.mesh = collapser.Result();
+  result.error_mm = collapser.max_error_mm();
+  result.components_deleted = collapser.components_deleted();
+  result.triangles_deleted = collapser.triangles_deleted();
+  return result;
+}
+
+// The most regions a decimation is split in (RegionCount).
+constexpr int kMaxRegions = 8;
+
+// How many regions to decimate `faces` in: the largest power of two (at most
+// kMaxRegions) that leaves each region at least faces_per_region faces. A count of the
+// faces only, never of the threads, so that the output is the same on every machine; a
+// power of two so that the regions, of equal face counts, share out evenly over 1, 2, 4
+// or 8 threads.
+int RegionCount(size_t faces, int64_t faces_per_region) {
+  if (faces_per_region <= 0) return 1;
+  int regions = 1;
+  while (regions < kMaxRegions && int64_t(faces) >= 2 * int64_t(regions) * faces_per_region) {
+    regions *= 2;
+  }
+  return regions;
+}
+
+// The vertices of the largest connected component (by area) of `faces`, in a kd-tree:
+// what the component deletions measure distances to (EdgeCollapser::LabelComponents).
+PointTree LargestComponentTree(const std::vector<Eigen::Vector3d>& pos,
+                               const std::vector<Eigen::Vector3i>& faces) {
+  core::DisjointSets sets(pos.size());
+  for (const auto& f : faces) {
+    for (int m = 1; m < 3; ++m) sets.Union(f[0], f[m]);
+  }
+  std::vector<double> area(pos.size(), 0.0);
+  for (const auto& f : faces) {
+    area[size_t(sets.Find(f[0]))] +=
+        0.5 *
+        (pos[size_t(f[1])] - pos[size_t(f[0])]).cross(pos[size_t(f[2])] - pos[size_t(f[0])]).norm();
+  }
+  const int largest = int(std::max_element(area.begin(), area.end()) - area.begin());
+  std::vector<uint8_t> used(pos.size(), 0);
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& f : faces) {
+    for (int m = 0; m < 3; ++m) {
+      const int v = f[m];
+      if (!used[size_t(v)] && sets.Find(v) == largest)
+        points.push_back(pos[size_t(v)]), used[size_t(v)] = 1;
+    }
+  }
+  return PointTree(std::move(points));
+}
+
+// Edge collapses of `in` to `target` faces in `regions` regions on num_threads threads,
+// then over the joined regions. The faces are cut in slices of equal face counts along
+// the longest axis of their bounding box (sorted by centroid, ties by index); a vertex
+// used by two slices is a seam vertex. Each region is decimated on its own to the
+// target's share of its faces away from the seam (its seam faces kept on top), its seam
+// vertices locked, its quadrics those of the input (each seam vertex's, in every region,
+// all its input faces'). The regions are joined by the seam vertices' indices (they did
+// not move), each vertex keeping its quadric (a seam vertex's input quadric plus what
+// each region collapsed into it), and one pass over the joined mesh, seams free, takes
+// it to the target: mostly the seams' extra faces. Every step is in a fixed order, so
+// the output does not depend on the thread count.
+Collapsed CollapseInRegions(CollapseInput in, int regions, int64_t target,
+                            const DecimationOptions& options) {
+  const size_t nv = in.pos.size(), nf = in.faces.size();
+  if (in.quadrics.empty()) in.quadrics = PlaneQuadrics(in.pos, in.faces);
+  // The slices.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(HUGE_VAL), hi = -lo;
+  for (const auto& f : in.faces) {
+    for (int m = 0; m < 3; ++m) {
+      lo = lo.cwiseMin(in.pos[size_t(f[m])]);
+      hi = hi.cwiseMax(in.pos[size_t(f[m])]);
+    }
+  }
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  std::vector<std::pair<double, int>> order(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const auto& t = in.faces[f];
+    order[f] = {
+        in.pos[size_t(t[0])][axis] + in.pos[size_t(t[1])][axis] + in.pos[size_t(t[2])][axis],
+        int(f)};
+  }
+  std::vector<size_t> bounds(size_t(regions) + 1);
+  for (int r = 0; r <= regions; ++r) bounds[size_t(r)] = nf * size_t(r) / size_t(regions);
+  for (int r = 1; r < regions; ++r) {
+    std::nth_element(order.begin() + ptrdiff_t(bounds[size_t(r) - 1]),
+                     order.begin() + ptrdiff_t(bounds[size_t(r)]), order.end());
+  }
+  std::vector<int> region_of(nf);
+  for (int r = 0; r < regions; ++r) {
+    for (size_t i = bounds[size_t(r)]; i < bounds[size_t(r) + 1]; ++i)
+      region_of[size_t(order[i].second)] = r;
+  }
+  std::vector<int> first_region(nv, -1);
+  std::vector<uint8_t> seam(nv, 0);
+  for (size_t f = 0; f < nf; ++f) {
+    for (int m = 0; m < 3; ++m) {
+      int& first = first_region[size_t(in.faces[f][m])];
+      if (first < 0) first = region_of[f];
+      if (first != region_of[f]) seam[size_t(in.faces[f][m])] = 1;
+    }
+  }
+  // The border planes of the input's border edges between two seam vertices (each
+  // region sees every seam edge as a border, and leaves those edges to this).
+  if (in.border_planes && !options.lock_border && options.border_weight > 0) {
+    std::vector<std::array<int, 3>> edges;  // smaller end, larger end, face
+    for (size_t f = 0; f < nf; ++f) {
+      for (int m = 0; m < 3; ++m) {
+        const int a = in.faces[f][m], b = in.faces[f][(m + 1) % 3];
+        if (a != b && seam[size_t(a)] && seam[size_t(b)]) {
+          edges.push_back({std::min(a, b), std::max(a, b), int(f)});
+        }
+      }
+    }
+    std::sort(edges.begin(), edges.end());
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j][0] == edges[i][0] && edges[j][1] == edges[i][1]) ++j;
+      if (j - i == 1) {
+        AddBorderPlane(in.pos, in.faces[size_t(edges[i][2])], edges[i][0], edges[i][1],
+                       options.border_weight,
+                       {&in.quadrics[size_t(edges[i][0])], &in.quadrics[size_t(edges[i][1])]});
+      }
+      i = j;
+    }
+  }
+  std::unique_ptr<PointTree> largest;
+  if (options.component_deletion_factor > 0) {
+    largest = std::make_unique<PointTree>(LargestComponentTree(in.pos, in.faces));
+  }
+  // The regions, each on the next free thread.
+  const double ratio = nf > 0 ? double(target) / double(nf) : 1.0;
+  const size_t n_regions = size_t(regions);
+  std::vector<CollapseInput> out(n_regions);
+  std::vector<std::vector<int>> global_of(n_regions);  // per exported vertex
+  std::vector<Collapsed> figures(n_regions);
+  std::atomic<int> next{0};
+  const int threads = options.num_threads > 0 ? options.num_threads : core::HardwareThreads();
+  core::ParallelFor(
+      0, std::min(threads, regions), std::min(threads, regions), [&](int64_t, int64_t) {
+        for (int r = next++; r < regions; r = next++) {
+          std::vector<int> faces;
+          for (size_t i = bounds[size_t(r)]; i < bounds[size_t(r) + 1]; ++i)
+            faces.push_back(order[i].second);
+          std::sort(faces.begin(), faces.end());  // the input's order: its locality
+          CollapseInput part;
+          part.origin = in.origin;
+          part.border_planes = in.border_planes;
+          part.largest = largest.get();
+          std::vector<int> local(nv, -1), global;
+          int64_t seam_faces = 0;
+          for (int f : faces) {
+            Eigen::Vector3i t;
+            bool on_seam = false;
+            for (int m = 0; m < 3; ++m) {
+              const int g = in.faces[size_t(f)][m];
+              if (local[size_t(g)] < 0) local[size_t(g)] = int(global.size()), global.push_back(g);
+              t[m] = local[size_t(g)];
+              on_seam = on_seam || seam[size_t(g)];
+            }
+            seam_faces += on_seam;
+            part.faces.push_back(t);
+          }
+          const size_t n = global.size();
+          part.pos.resize(n);
+          part.quadrics.resize(n);
+          part.seam.resize(n);
+          if (!in.colors.empty()) part.colors.resize(n);
+          if (!in.normals.empty()) part.normals.resize(n);
+          if (!in.alphas.empty()) part.alphas.resize(n);
+          for (size_t i = 0; i < n; ++i) {
+            const size_t g = size_t(global[i]);
+            part.pos[i] = in.pos[g];
+            part.quadrics[i] = in.quadrics[g];
+            part.seam[i] = seam[g];
+            if (!in.colors.empty()) part.colors[i] = in.colors[g];
+            if (!in.normals.empty()) part.normals[i] = in.normals[g];
+            if (!in.alphas.empty()) part.alphas[i] = in.alphas[g];
+          }
+          EdgeCollapser collapser(std::move(part), options);
+          collapser.Run(std::llround(ratio * double(int64_t(faces.size()) - seam_faces)) +
+                        seam_faces);
+          std::vector<int> used;
+          collapser.Export(&used, &out[size_t(r)]);
+          for (int& v : used) v = global[size_t(v)];
+          global_of[size_t(r)] = std::move(used);
+          figures[size_t(r)].error_mm = collapser.max_error_mm();
+          figures[size_t(r)].components_deleted = collapser.components_deleted();
+          figures[size_t(r)].triangles_deleted = collapser.triangles_deleted();
+        }
+      });
+  // Joined: each seam vertex once (where first met), with its input quadric and what
+  // every region collapsed into it.
+  CollapseInput joined;
+  joined.origin = in.origin;
+  joined.border_planes = false;  // the quadrics carry them
+  std::vector<int> joined_of(nv, -1);
+  for (int r = 0; r < regions; ++r) {
+    const CollapseInput& part = out[size_t(r)];
+    std::vector<int> index(part.pos.size());
+    for (size_t i = 0; i < part.pos.size(); ++i) {
+      const size_t g = size_t(global_of[size_t(r)][i]);
+      if (seam[g] && joined_of[g] >= 0) {
+        joined.quadrics[size_t(joined_of[g])] += part.quadrics[i];
+        index[i] = joined_of[g];
+        continue;
+      }
+      index[i] = int(joined.pos.size());
+      if (seam[g]) {
+        joined_of[g] = index[i];
+        joined.quadrics.push_back(in.quadrics[g]);
+        joined.quadrics.back() += part.quadrics[i];
+      } else {
+        joined.quadrics.push_back(part.quadrics[i]);
+      }
+      joined.pos.push_back(part.pos[i]);
+      if (!part.colors.empty()) joined.colors.push_back(part.colors[i]);
+      if (!part.normals.empty()) joined.normals.push_back(part.normals[i]);
+      if (!part.alphas.empty()) joined.alphas.push_back(part.alphas[i]);
+    }
+    for (const auto& t : part.faces)
+      joined.faces.emplace_back(index[size_t(t[0])], index[size_t(t[1])], index[size_t(t[2])]);
+  }
+  out.clear();
+  Collapsed result = CollapseInOnePass(std::move(joined), target, options);
+  for (const Collapsed& f : figures) {
+    result.error_mm = std::max(result.error_mm, f.error_mm);
+    result.components_deleted += f.components_deleted;
+    result.triangles_deleted += f.triangles_deleted;
+  }
+  return result;
+}
+
+// Edge collapses of `in` to `target` faces: in regions when it is large enough
+// (RegionCount), else in one pass.
+Collapsed Collapse(CollapseInput in, int64_t target, const DecimationOptions& options) {
+  const int regions = RegionCount(in.faces.size(), options.faces_per_region);
+  if (regions > 1) return CollapseInRegions(std::move(in), regions, target, options);
+  return CollapseInOnePass(std::move(in), target, options);
+}
+
 }  // namespace
 
 void DecimationOptions::Check() const {
@@ -1371,10 +1751,10 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(deviation_weight) && deviation_weight >= 0.0,
                 "decimation: deviation_weight",
                 "must be >= 0, got " + std::to_string(deviation_weight));
-  core::Require(std::isfinite(speck_area_fraction) && speck_area_fraction >= 0.0 &&
-                    speck_area_fraction < 1.0,
-                "decimation: speck_area_fraction",
-                "must be in [0, 1), got " + std::to_string(speck_area_fraction));
+  core::Require(
+      std::isfinite(speck_area_fraction) && speck_area_fraction >= 0.0 && speck_area_fraction < 1.0,
+      "decimation: speck_area_fraction",
+      "must be in [0, 1), got " + std::to_string(speck_area_fraction));
   core::Require(std::isfinite(speck_diagonal_mm) && speck_diagonal_mm >= 0.0,
                 "decimation: speck_diagonal_mm",
                 "must be >= 0 mm, got " + std::to_string(speck_diagonal_mm));
@@ -1383,6 +1763,8 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(prepass_factor) && (prepass_factor == 0.0 || prepass_factor > 1.0),
                 "decimation: prepass_factor",
                 "must be 0 (none) or > 1, got " + std::to_string(prepass_factor));
+  core::Require(faces_per_region >= 0, "decimation: faces_per_region",
+                "must be >= 0, got " + std::to_string(faces_per_region));
   core::Require(std::isfinite(component_deletion_factor) && component_deletion_factor >= 0.0,
                 "decimation: component_deletion_factor",
                 "must be >= 0, got " + std::to_string(component_deletion_factor));
@@ -1415,33 +1797,26 @@ io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
   int64_t components_deleted = 0, triangles_deleted = 0;
   if (options.method == DecimationMethod::kMeshoptimizer) {
     result = MeshoptimizerDecimate(mesh, faces, size_t(target_triangles), options, &error_mm);
-  } else if (options.prepass_factor > 0 &&
-             double(faces.size()) > options.prepass_factor * double(target_triangles)) {
-    // meshoptimizer's pass to prepass_factor x the target, its kept vertices carrying the
-    // input's quadrics, then the edge collapses to the target.
-    double prepass_error_mm = 0.0;
-    const std::vector<unsigned int> kept = MeshoptimizerSimplify(
-        mesh, faces,
-        size_t(std::llround(options.prepass_factor * double(target_triangles))), options,
-        &prepass_error_mm);
-    std::vector<Eigen::Vector3i> coarse(kept.size() / 3);
-    for (size_t f = 0; f < coarse.size(); ++f) {
-      coarse[f] = Eigen::Vector3i(int(kept[3 * f]), int(kept[3 * f + 1]), int(kept[3 * f + 2]));
-    }
-    const std::vector<Quadric> quadrics = ClusterQuadrics(mesh, faces, kept);
-    EdgeCollapser collapser(mesh, coarse, options, &quadrics);
-    collapser.Run(target_triangles);
-    result = collapser.Result();
-    error_mm = std::max(prepass_error_mm, collapser.max_error_mm());
-    components_deleted = collapser.components_deleted();
-    triangles_deleted = collapser.triangles_deleted();
   } else {
-    EdgeCollapser collapser(mesh, faces, options);
-    collapser.Run(target_triangles);
-    result = collapser.Result();
-    error_mm = collapser.max_error_mm();
-    components_deleted = collapser.components_deleted();
-    triangles_deleted = collapser.triangles_deleted();
+    CollapseInput in = InputFromMesh(mesh, faces);
+    if (options.prepass_factor > 0 &&
+        double(faces.size()) > options.prepass_factor * double(target_triangles)) {
+      // meshoptimizer's pass to prepass_factor x the target, its kept vertices carrying
+      // the input's quadrics, then the edge collapses to the target.
+      const std::vector<unsigned int> kept = MeshoptimizerSimplify(
+          mesh, faces, size_t(std::llround(options.prepass_factor * double(target_triangles))),
+          options, &error_mm);
+      in.faces.resize(kept.size() / 3);
+      for (size_t f = 0; f < in.faces.size(); ++f) {
+        in.faces[f] = Eigen::Vector3i(int(kept[3 * f]), int(kept[3 * f + 1]), int(kept[3 * f + 2]));
+      }
+      in.quadrics = ClusterQuadrics(mesh, faces, kept);
+    }
+    Collapsed collapsed = Collapse(std::move(in), target_triangles, options);
+    result = std::move(collapsed.mesh);
+    error_mm = std::max(error_mm, collapsed.error_mm);
+    components_deleted = collapsed.components_deleted;
+    triangles_deleted = collapsed.triangles_deleted;
   }
   if (summary) {
     summary->triangles_in = int64_t(triangles);

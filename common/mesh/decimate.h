@@ -94,6 +94,16 @@ struct DecimationOptions {
   // input vertices nearest to it, so the collapses that follow still measure against
   // the input surface; 0 = edge collapse from the input. Dimensionless, 0 or > 1.
   double prepass_factor = 0.0;
+  // kEdgeCollapse: decimate a large mesh in regions, one per faces_per_region faces
+  // (the largest power of two, at most 8, that leaves each region this many), in
+  // parallel, then the joined regions in one pass (see Decimate); 0 = one region. The
+  // count comes from the face count only, so the output is the same for any num_threads.
+  // 50000: below about that many faces the pass over the joined regions, which
+  // re-labels the whole mesh, is no longer small beside a region's own collapses.
+  // Faces, >= 0.
+  int64_t faces_per_region = 50000;
+  // Threads the regions run on; <= 0: the hardware's. Does not change the output.
+  int num_threads = 0;
   DecimationMethod method = DecimationMethod::kEdgeCollapse;
   // kMeshoptimizer only: place surviving interior vertices at their quadric optimum.
   bool relocate_vertices = true;
@@ -117,6 +127,14 @@ struct DecimationSummary {
 
 // The simplified mesh, vertices compacted (first-use order). Stops at the target, at the
 // error bound, or when no valid collapse is left.
+//
+// kEdgeCollapse on at least 2 x faces_per_region faces (after the component filters and
+// the prepass, if any):
+// the faces are cut into regions (slices of equal face counts along the longest axis of
+// their bounding box), each decimated on its own thread with the vertices it shares with
+// another region locked, to the target's share of its faces away from those seams; the
+// regions are then joined at the seam vertices and one pass over the whole mesh, seams
+// free, brings it to the target. Quadrics stay those of the input surface throughout.
 io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
                   DecimationSummary* summary = nullptr);
 

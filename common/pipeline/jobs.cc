@@ -405,6 +405,7 @@ StageDescriptor DecimateStage() {
     options.speck_area_fraction = dj.speck_area_fraction();
     options.speck_diagonal_mm = dj.speck_diagonal_mm();
     options.speck_gap_mm = dj.speck_gap_mm();
+    options.num_threads = job.threads();  // the regions of a large surface
     mesh::DecimationSummary summary;
     std::vector<runtime::Output> outputs(2);
     outputs[0].set_name(kDecimatedPly);

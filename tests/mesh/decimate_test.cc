@@ -5,7 +5,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <random>
 #include <set>
 #include <tuple>
 #include <utility>
@@ -86,18 +88,21 @@ double PointTriangleDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   return std::min({segment(a, b), segment(b, c), segment(c, a)});
 }
 
+// Distance from p to the mesh's surface, mm (brute force).
+double DistanceToMesh(const Eigen::Vector3d& p, const io::Mesh& m) {
+  double best = HUGE_VAL;
+  for (const auto& f : m.faces) {
+    best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
+                                                m.vertices[f[1]].cast<double>(),
+                                                m.vertices[f[2]].cast<double>()));
+  }
+  return best;
+}
+
 // Largest distance from the given surface points to the mesh, mm (brute force).
 double MaxDistanceToMesh(const std::vector<Eigen::Vector3d>& points, const io::Mesh& m) {
   double worst = 0;
-  for (const auto& p : points) {
-    double best = HUGE_VAL;
-    for (const auto& f : m.faces) {
-      best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
-                                                  m.vertices[f[1]].cast<double>(),
-                                                  m.vertices[f[2]].cast<double>()));
-    }
-    worst = std::max(worst, best);
-  }
+  for (const auto& p : points) worst = std::max(worst, DistanceToMesh(p, m));
   return worst;
 }
 
@@ -612,15 +617,7 @@ io::Mesh CurvedComb() {
 TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
   const io::Mesh m = CurvedComb();
   ASSERT_EQ(m.faces.size(), 1824u);
-  auto to_input = [&m](const Eigen::Vector3d& p) {
-    double best = HUGE_VAL;
-    for (const auto& f : m.faces) {
-      best = std::min(best, PointTriangleDistance(p, m.vertices[f[0]].cast<double>(),
-                                                  m.vertices[f[1]].cast<double>(),
-                                                  m.vertices[f[2]].cast<double>()));
-    }
-    return best;
-  };
+  auto to_input = [&m](const Eigen::Vector3d& p) { return DistanceToMesh(p, m); };
   DecimationOptions o;
   o.target_ratio = 0.05;
   const io::Mesh bounded = Decimate(m, o);
@@ -631,6 +628,140 @@ TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
   EXPECT_GT(MaxDistanceToSurface(quadric_only, to_input), 1.0);
   EXPECT_LT(MaxDistanceToSurface(bounded, to_input), 0.5);
   EXPECT_EQ(AnalyzeTopology(bounded).non_manifold_edges, 0);
+}
+
+// A sphere of radius 30 mm (about 8.6 k faces) with each vertex moved along its radius by
+// up to +-0.3 mm (a fixed pseudo-random sequence), colours varying over it; with
+// `floaters`, 24 octahedra of 1.5 mm radius 6 to 12 mm outside it.
+io::Mesh NoisySphere(bool floaters) {
+  const auto v = testing::SphereVolume(40, 15.0);
+  io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+  std::mt19937 rng(7);
+  for (auto& p : m.vertices) {
+    const Eigen::Vector3d d = p.cast<double>() - kSphereCentre;
+    const double noise = 0.3 * (2.0 * double(rng()) / double(rng.max()) - 1.0);
+    p = (kSphereCentre + d * (1.0 + noise / d.norm())).cast<float>();
+    m.colors.push_back(
+        Eigen::Vector3f(128 + d.x() * 3, 128 + d.y() * 3, 128 + d.z() * 3).cast<uint8_t>());
+  }
+  for (int i = 0; floaters && i < 24; ++i) {
+    const double z = 1 - (i + 0.5) / 12.0, phi = i * 2.399963229728653, r = std::sqrt(1 - z * z);
+    const Eigen::Vector3d c =
+        kSphereCentre + (36.0 + i % 7) * Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+    const int base = int(m.vertices.size());
+    for (int k = 0; k < 6; ++k) {
+      Eigen::Vector3d e = Eigen::Vector3d::Zero();
+      e[k / 2] = k % 2 ? -1.5 : 1.5;
+      m.vertices.push_back((c + e).cast<float>());
+      m.colors.push_back(Eigen::Vector3f(200, 30, 30).cast<uint8_t>());
+    }
+    for (int sx : {0, 1})
+      for (int sy : {2, 3})
+        for (int sz : {4, 5}) {
+          const bool flip = (sx + sy + sz) % 2 == 0;  // outward winding
+          m.faces.push_back(flip ? Eigen::Vector3i(base + sx, base + sz, base + sy)
+                                 : Eigen::Vector3i(base + sx, base + sy, base + sz));
+        }
+  }
+  return m;
+}
+
+// Mean and largest distance of the points of `a` (vertices and face centroids) to `b`'s
+// surface, mm (brute force).
+std::pair<double, double> DistanceTo(const io::Mesh& a, const io::Mesh& b) {
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& p : a.vertices) points.push_back(p.cast<double>());
+  for (const auto& f : a.faces) {
+    points.push_back((a.vertices[f[0]] + a.vertices[f[1]] + a.vertices[f[2]]).cast<double>() / 3);
+  }
+  double sum = 0, worst = 0;
+  for (const auto& p : points) {
+    const double best = DistanceToMesh(p, b);
+    sum += best;
+    worst = std::max(worst, best);
+  }
+  return {sum / double(points.size()), worst};
+}
+
+// The regions (their count from the face count only) give the same mesh, byte for byte,
+// whatever the thread count; and they are used (the result is not the one pass's).
+TEST(Decimate, RegionsGiveTheSameMeshOnAnyThreadCount) {
+  const io::Mesh m = NoisySphere(/*floaters=*/true);
+  ASSERT_GT(m.faces.size(), 8000u);
+  DecimationOptions o;
+  o.target_ratio = 0.1;
+  o.faces_per_region = int64_t(m.faces.size()) / 9;  // 8 regions
+  std::vector<io::Mesh> out;
+  for (int threads : {1, 2, 4}) {
+    o.num_threads = threads;
+    out.push_back(Decimate(m, o));
+  }
+  for (size_t i = 1; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].vertices, out[0].vertices) << i;
+    EXPECT_EQ(out[i].colors, out[0].colors) << i;
+    EXPECT_EQ(out[i].faces, out[0].faces) << i;
+  }
+  o.faces_per_region = 0;
+  const io::Mesh one_pass = Decimate(m, o);
+  EXPECT_EQ(one_pass.faces.size(), out[0].faces.size());
+  EXPECT_NE(one_pass.vertices, out[0].vertices);
+}
+
+// Cut in 4 regions, a closed sphere stays closed: the seams are joined with no border,
+// non-manifold or inconsistently wound edge, the Euler characteristic stays 2, and the
+// pass over the joined regions reaches the exact count.
+TEST(Decimate, RegionSeamsStayWatertightAndTheCountIsExact) {
+  const io::Mesh m = NoisySphere(/*floaters=*/false);
+  ASSERT_EQ(AnalyzeTopology(m).boundary_edges, 0);
+  ASSERT_EQ(EulerCharacteristic(m), 2);
+  for (int64_t target : {2000, 600}) {
+    DecimationOptions o;
+    o.target_triangles = target;
+    o.faces_per_region = int64_t(m.faces.size()) / 5;  // 4 regions
+    DecimationSummary s;
+    const io::Mesh d = Decimate(m, o, &s);
+    EXPECT_EQ(int64_t(d.faces.size()), target);
+    EXPECT_EQ(s.triangles_out, target);
+    EXPECT_EQ(d.Inconsistency(), "");
+    const MeshTopology t = AnalyzeTopology(d);
+    EXPECT_EQ(t.boundary_edges, 0) << target;
+    EXPECT_EQ(t.non_manifold_edges, 0) << target;
+    EXPECT_EQ(t.inconsistent_edges, 0) << target;
+    EXPECT_EQ(EulerCharacteristic(d), 2) << target;
+  }
+}
+
+// At 10% of the noisy sphere with floaters, 8 regions stay as close to the input as one
+// pass (mean and largest distance both ways, the sphere's, within 10%), delete the
+// floaters too, and keep to an error bound.
+TEST(Decimate, RegionsStayAsCloseToTheInputAsOnePass) {
+  const io::Mesh m = NoisySphere(/*floaters=*/true), sphere = NoisySphere(/*floaters=*/false);
+  DecimationOptions o;
+  o.target_ratio = 0.1;
+  DecimationSummary one_s, regions_s;
+  o.faces_per_region = 0;
+  const io::Mesh one = Decimate(m, o, &one_s);
+  o.faces_per_region = int64_t(m.faces.size()) / 9;
+  const io::Mesh regions = Decimate(m, o, &regions_s);
+  const auto one_to = DistanceTo(one, sphere), one_from = DistanceTo(sphere, one);
+  const auto reg_to = DistanceTo(regions, sphere), reg_from = DistanceTo(sphere, regions);
+  EXPECT_LT(reg_to.first, 1.1 * one_to.first);
+  EXPECT_LT(reg_to.second, 1.1 * one_to.second);
+  EXPECT_LT(reg_from.first, 1.1 * one_from.first);
+  EXPECT_LT(reg_from.second, 1.1 * one_from.second);
+  EXPECT_EQ(one_s.components_deleted, 24);
+  EXPECT_EQ(regions_s.components_deleted, 24);
+  // The error bound holds in the regions and in the pass over them: it stops early.
+  o.max_error_mm = 0.25;
+  DecimationSummary bounded;
+  Decimate(m, o, &bounded);
+  EXPECT_GT(bounded.error_mm, 0.0);
+  EXPECT_LE(bounded.error_mm, 0.25);
+  EXPECT_GT(bounded.triangles_out, regions_s.triangles_out);
+  std::printf("one pass: to %.4f / %.4f mm, from %.4f / %.4f mm, error %.4f\n", one_to.first,
+              one_to.second, one_from.first, one_from.second, one_s.error_mm);
+  std::printf("regions:  to %.4f / %.4f mm, from %.4f / %.4f mm, error %.4f\n", reg_to.first,
+              reg_to.second, reg_from.first, reg_from.second, regions_s.error_mm);
 }
 
 TEST(Decimate, BadOptionsAreRejected) {
@@ -671,6 +802,9 @@ TEST(Decimate, BadOptionsAreRejected) {
   o = {};
   o.speck_gap_mm = -1;
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: speck_gap_mm"});
+  o = {};
+  o.faces_per_region = -1;
+  testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: faces_per_region", "-1"});
   o = {};
   m.vertices.push_back(Eigen::Vector3f::Zero());
   m.faces.push_back(Eigen::Vector3i(0, 1, 2));
