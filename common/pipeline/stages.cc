@@ -16,6 +16,54 @@ namespace dome::pipeline {
 
 namespace {
 
+// Coarse-to-fine stereo with a clip box: every view cut to where the box (grown by its
+// pad) projects in it, with half a window and a coarse tile's worth of margin, as
+// `dome import --crop-box` cuts frames. No depth outside the box is kept, and no point
+// of the box projects outside a cut, so only pixels that cannot count are dropped; the
+// greys are decoded, undistorted and stretched, and the coarse pass searched, over the
+// cut alone (Robovision: the object and its holder, about half of each frame). A view
+// that does not see the box keeps its whole image. The depths go back to their place in
+// the whole image.
+stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
+                                       const stereo::StereoOptions& o,
+                                       const stereo::CoarseToFineOptions& c2f) {
+  take::CropBox box;
+  box.min_mm = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
+  box.max_mm = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
+  const int half = *std::max_element(o.window_sizes_px.begin(), o.window_sizes_px.end()) / 2;
+  box.margin_px = std::max(box.margin_px, half + c2f.coarse_factor);
+  auto cut = [&](const stereo::StereoView& v, cv::Rect* rect) {
+    *rect = cv::Rect(0, 0, v.camera.width_px, v.camera.height_px);
+    // An image of another size than its camera's is refused, named, by the stereo.
+    if (v.image.cols != v.camera.width_px || v.image.rows != v.camera.height_px) return v;
+    const cv::Rect seen = take::BoxImageRect(v.camera, box);
+    if (seen.empty()) return v;
+    *rect = seen;
+    return stereo::StereoView{take::CropCamera(v.camera, seen), v.image(seen)};
+  };
+  stereo::StereoInput in;
+  cv::Rect ref_rect, unused;
+  in.reference = cut(input.reference, &ref_rect);
+  for (const auto& v : input.neighbours) in.neighbours.push_back(cut(v, &unused));
+  const int f = c2f.coarse_factor;
+  const bool whole = ref_rect.width == input.reference.camera.width_px &&
+                     ref_rect.height == input.reference.camera.height_px;
+  if (whole || ref_rect.width < 4 * f || ref_rect.height < 4 * f)
+    return stereo::ComputeDepthCoarseToFine(input, o, c2f);
+  stereo::StereoResult cropped = stereo::ComputeDepthCoarseToFine(in, o, c2f);
+  const int width = input.reference.camera.width_px, height = input.reference.camera.height_px;
+  for (auto& ri : cropped.range_images) {
+    cv::Mat depth(height, width, CV_32FC1, cv::Scalar(0));
+    cv::Mat reliability(height, width, CV_32FC1, cv::Scalar(0));
+    ri.depth_mm.copyTo(depth(ref_rect));
+    ri.reliability.copyTo(reliability(ref_rect));
+    ri.depth_mm = depth;
+    ri.reliability = reliability;
+    ri.density = double(cv::countNonZero(depth)) / (double(width) * height);
+  }
+  return cropped;
+}
+
 // Stereo with the options as given (the camera's own range applied).
 stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
                                    const stereo::TakeStereoOptions& options,
@@ -24,7 +72,9 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
   if (options.coarse_to_fine) {
     stereo::StereoOptions o = options.stereo;
     stereo::ClipDepthRange(*options.coarse_to_fine, input.reference.camera, where, &o);
-    result = stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine);
+    result = options.coarse_to_fine->clip
+                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine)
+                 : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine);
   } else if (options.clip) {
     stereo::StereoOptions o = options.stereo;
     stereo::ClipDepthRangeToVisibleBox(options.clip_min_mm, options.clip_max_mm,

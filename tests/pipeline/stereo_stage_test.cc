@@ -17,6 +17,7 @@
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
 #include "stereo/take_stereo.h"
+#include "take/crop.h"
 #include "take/take.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
@@ -132,6 +133,69 @@ TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
   // The default path is untouched by the block's absence: same depths again.
   const cv::Mat again = RunStereoJob("c00", full);
   EXPECT_EQ(cv::norm(a, again, cv::NORM_INF), 0.0);
+}
+
+// With a clip box each view is cut to where the box projects: no depth outside the
+// box's image rectangle in the reference, and inside it the depths of points in the box
+// are those of the full-range search (found again, agreeing to well under 1 %).
+TEST_F(StereoStage, AClipBoxCutsEachViewToWhereTheBoxProjects) {
+  const take::Take take = take::OpenTake(TakeDir());
+  ASSERT_GE(take.rig.Find("c00"), 0);
+  const geometry::TsaiCamera cam = take.rig.cameras[size_t(take.rig.Find("c00"))].model;
+  const runtime::StereoSettings full = DefaultSettings();
+  const cv::Mat a = RunStereoJob("c00", full);
+  // A box around the middle half of the surface the full search sees.
+  std::vector<Eigen::Vector3d> points;
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x)
+      if (a.at<float>(y, x) > 0)
+        points.push_back(cam.BackProjectAtDepth(Eigen::Vector2d(x, y), a.at<float>(y, x)));
+  ASSERT_GT(points.size(), size_t(1000));
+  Eigen::Vector3d lo, hi;
+  for (int i = 0; i < 3; ++i) {
+    std::vector<double> v;
+    for (const auto& p : points) v.push_back(p[i]);
+    std::sort(v.begin(), v.end());
+    lo[i] = v[v.size() / 4];
+    hi[i] = v[v.size() * 3 / 4];
+  }
+  runtime::StereoSettings c2f = full;
+  auto* block = c2f.mutable_coarse_to_fine();
+  block->set_coarse_factor(2);
+  block->set_coarse_window_px(5);
+  block->set_tile_px(32);
+  block->set_clip_pad_mm(1);
+  for (int i = 0; i < 3; ++i) {
+    block->add_clip_min_mm(lo[i]);
+    block->add_clip_max_mm(hi[i]);
+  }
+  const cv::Mat b = RunStereoJob("c00", c2f);
+  ASSERT_EQ(b.size(), a.size());
+  take::CropBox box;
+  box.min_mm = lo.array() - 1.0;
+  box.max_mm = hi.array() + 1.0;
+  box.margin_px = 16;  // the cut's margin: the default, more than half a window + a tile
+  const cv::Rect rect = take::BoxImageRect(cam, box);
+  ASSERT_FALSE(rect.empty());
+  ASSERT_LT(rect.area(), a.rows * a.cols * 4 / 5);  // a cut, not the whole image
+  std::vector<double> diffs;
+  int in_box = 0, outside = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      const float da = a.at<float>(y, x), db = b.at<float>(y, x);
+      if (db > 0 && !rect.contains(cv::Point(x, y))) ++outside;
+      if (!(da > 0)) continue;
+      const Eigen::Vector3d p = cam.BackProjectAtDepth(Eigen::Vector2d(x, y), da);
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+      ++in_box;
+      if (db > 0) diffs.push_back(std::abs(db - da) / da);
+    }
+  }
+  EXPECT_EQ(outside, 0);
+  ASSERT_GT(in_box, 100);
+  EXPECT_GT(diffs.size(), 0.7 * in_box);
+  std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+  EXPECT_LT(diffs[diffs.size() / 2], 0.005);
 }
 
 TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
