@@ -10,16 +10,16 @@
 #   3. ../shared/tools/eval_cloud.py --recon-unit 1 of OUT/SCENE/run/<instant>/mesh.ply
 #      against reference.ply — the reference is used for nothing else but the table's
 #      box column (its bounding box beside the derived volume).
-# WORKERS (default 2) embedded workers of THREADS (default 1) threads: dome run's own
-# defaults. Prints one JSON line per scene (OUT/SCENE/result.json) and a table of every
+# WORKERS embedded workers of THREADS threads (default 0 and 0: dome run's own choice,
+# one worker of every thread for these one-instant takes). Prints one JSON line per scene (OUT/SCENE/result.json) and a table of every
 # scene under OUT.
 set -euo pipefail
 DOME=$(realpath "$1"); OUT=$2; shift 2
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 DATA=${DATA:-$ROOT/../shared/data/robovision}
 EVAL=$ROOT/../shared/tools/eval_cloud.py
-WORKERS=${WORKERS:-2}
-THREADS=${THREADS:-1}
+WORKERS=${WORKERS:-0}
+THREADS=${THREADS:-0}
 SCENES=("$@")
 if [ ${#SCENES[@]} -eq 0 ]; then SCENES=($(ls "$DATA")); fi
 mkdir -p "$OUT"
