@@ -218,6 +218,8 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
                   "the master's status endpoint (default: control port + 1)");
   AddKeyFlags(cmd, m.get());
   cmd->callback([=] {
+    // Before the take is read: a bad count fails at once.
+    core::Require(e->workers >= 0, "--workers", "must be 0 (from the session) or more");
     const runtime::Session session = MakeSession(*a);
     if (master->count() == 0) {
       *exit_code = EndOfRun(client::RunEmbedded(session, *e, stdout), session.out());

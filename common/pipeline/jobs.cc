@@ -55,8 +55,6 @@ cv::Mat DecodeFloatImage(const runtime::FloatImage& f, const std::string& where)
 // The smallest rectangle holding every non-zero value of two maps of one size (0x0 at
 // 0, 0 when there is none).
 cv::Rect NonZeroRect(const cv::Mat& a, const cv::Mat& b) {
-  DOME_CHECK(a.size() == b.size() && a.type() == CV_32FC1 && b.type() == CV_32FC1,
-             "two float maps of one size");
   int x0 = a.cols, y0 = a.rows, x1 = -1, y1 = -1;
   for (int y = 0; y < a.rows; ++y) {
     const float* pa = a.ptr<float>(y);
@@ -527,13 +525,20 @@ std::string EncodeStereoOutput(const stereo::StereoResult& result) {
     // Only the rectangle of the depths travels: outside it both maps are 0, and a
     // clipped camera's depths cover a part of its frame (Robovision: the object on
     // the table), so the fusion jobs and the store get a fraction of the bytes.
-    const cv::Rect rect = NonZeroRect(r.depth_mm, r.reliability);
-    ri->set_full_rows(r.depth_mm.rows);
-    ri->set_full_cols(r.depth_mm.cols);
-    ri->set_x0(rect.x);
-    ri->set_y0(rect.y);
-    *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm(rect));
-    *ri->mutable_reliability() = EncodeFloatImage(r.reliability(rect));
+    // (Maps of other sizes or types, an empty reliability, travel whole as before.)
+    if (r.depth_mm.type() == CV_32FC1 && r.reliability.type() == CV_32FC1 &&
+        r.depth_mm.size() == r.reliability.size() && !r.depth_mm.empty()) {
+      const cv::Rect rect = NonZeroRect(r.depth_mm, r.reliability);
+      ri->set_full_rows(r.depth_mm.rows);
+      ri->set_full_cols(r.depth_mm.cols);
+      ri->set_x0(rect.x);
+      ri->set_y0(rect.y);
+      *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm(rect));
+      *ri->mutable_reliability() = EncodeFloatImage(r.reliability(rect));
+    } else {
+      *ri->mutable_depth_mm() = EncodeFloatImage(r.depth_mm);
+      *ri->mutable_reliability() = EncodeFloatImage(r.reliability);
+    }
     ri->set_density(r.density);
   }
   std::string bytes;

@@ -146,7 +146,7 @@ std::vector<runtime::Output> RunJob(const StageSet& stages, const runtime::Job& 
 
 // What a worker keeps from one job for the next, so that work shared by jobs is done
 // once: the decoded range images and tables of the instant whose slabs it fuses, the
-// decoded frames of its stereo jobs. One entry of each kind (type), keyed by what it
+// decoded frames of its stereo and texture jobs. One entry of each kind (type), keyed by what it
 // was built from, so that a job's outputs are the same bytes with or without a memo;
 // kinds apart, so that stereo jobs of the next instant between an instant's slab jobs
 // do not drop the slabs' tables. Not thread-safe: one job at a time.

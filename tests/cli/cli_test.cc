@@ -108,6 +108,15 @@ TEST(Cli, SynthBadOptionsNameTheFlag) {
   EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
 }
 
+// A negative worker count is refused before the take is read (0 lets dome run choose).
+TEST(Cli, RunRefusesANegativeWorkerCount) {
+  const Result r = RunDomeBinary("run /nonexistent/take --out /tmp/dome_never_written --workers -1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("--workers: must be 0 (from the session) or more"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists("/tmp/dome_never_written"));
+}
+
 // Smoothing and speckle flags are checked before any take is opened or any work runs.
 TEST(Cli, SmoothingAndSpeckleFlagsNameTheField) {
   const struct {

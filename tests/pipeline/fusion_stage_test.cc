@@ -212,6 +212,13 @@ TEST(StereoOutput, CarriesTheRectangleOfItsDepthsAndDecodesToTheWholeImages) {
     EXPECT_EQ(cv::norm(a.depth_mm, b.depth_mm, cv::NORM_INF), 0.0) << k;
     EXPECT_EQ(cv::norm(a.reliability, b.reliability, cv::NORM_INF), 0.0) << k;
   }
+  // A result without a reliability map travels whole, as before.
+  stereo::StereoResult bare = r;
+  bare.range_images.resize(1);
+  bare.range_images[0].reliability = cv::Mat();
+  const stereo::StereoResult bare_back = DecodeStereoOutput(EncodeStereoOutput(bare), "test");
+  EXPECT_EQ(cv::norm(bare_back.range_images.at(0).depth_mm, ri.depth_mm, cv::NORM_INF), 0.0);
+  EXPECT_TRUE(bare_back.range_images.at(0).reliability.empty());
   runtime::StereoOutput bad;
   ASSERT_TRUE(bad.ParseFromString(bytes));
   bad.mutable_range_images(0)->set_x0(120);
