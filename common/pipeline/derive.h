@@ -17,8 +17,8 @@
 //               unused, shot noise dominant): normalize_contrast and sqrt_greys;
 //   large images (>= kLargeImagePx pixels per camera): coarse to fine, window 11,
 //               uniqueness 0.02, the two nearest cameras as the cluster, speckle pieces
-//               below 1.5 % of the image (step two voxels) dropped, 10 Taubin smoothing
-//               iterations of mesh.ply;
+//               below 1.5 % of the image (step five pixel footprints) dropped, 10
+//               Taubin smoothing iterations of mesh.ply;
 //   fusion      truncation and free-space clamp three voxels (the seed's), one voxel for
 //               large images (the budget makes their voxel coarser than their matches'
 //               depth error).

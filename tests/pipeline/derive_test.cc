@@ -12,8 +12,11 @@
 #include "io/ply.h"
 #include "pipeline/session.h"
 #include "pipeline/small_take_suite.h"
+#include "stereo/scene_extent.h"
+#include "take/import.h"
 #include "take/take.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::pipeline {
 namespace {
@@ -99,6 +102,38 @@ TEST_F(Derive, BadBoxIsNamed) {
   DeriveRequest r;
   r.box = {{0, 0, 0}, {100, -5, 100}};
   dome::testing::ExpectInputError([&] { DeriveSession(r, &s); }, {"--box", "YMIN < YMAX"});
+}
+
+// Megapixel frames of a real rig (Robovision 17_43_02, when ../shared is there): the
+// speckle filter's depth step follows the pixel footprint at the scene (five of them),
+// not the voxel, which the voxel budget sets on these scenes.
+TEST(DeriveLarge, SpeckleStepIsFivePixelFootprintsAtTheScene) {
+  const std::filesystem::path scene =
+      std::filesystem::path(DOME_SHARED_DIR) / "data/robovision/2016_10_24__17_43_02";
+  if (!std::filesystem::exists(scene)) GTEST_SKIP() << "no shared data at " << scene;
+  const dome::testing::TempDir tmp;
+  const take::Take take = take::ImportHalconScene(scene, tmp.path() / "take");
+  runtime::Session s;
+  s.set_take((tmp.path() / "take").string());
+  s.set_out((tmp.path() / "out").string());
+  const Derivation d = DeriveSession({}, &s);
+  const fusion::VolumeGrid g = ResolveSessionOptions(s, "derived").grid;
+  const Eigen::Vector3d centre =
+      g.origin_mm + 0.5 * g.voxel_size_mm * Eigen::Vector3d(g.nx, g.ny, g.nz);
+  const double footprint = stereo::PixelFootprintMm(take.rig, centre);
+  EXPECT_NEAR(footprint, 0.060, 0.005);  // 1280 px frames about 200 mm from the object
+  EXPECT_GT(s.stereo().speckle_area_px(), 0);
+  EXPECT_NEAR(s.stereo().speckle_step_mm(), 5 * footprint, 1e-3 * footprint);
+  bool note = false;
+  for (const auto& n : d.notes) note |= n.find("five pixel footprints at the scene") != n.npos;
+  EXPECT_TRUE(note);
+  // A given step wins.
+  runtime::Session given;
+  given.set_take(s.take());
+  given.set_out(s.out());
+  given.mutable_stereo()->set_speckle_step_mm(0.7);
+  DeriveSession({}, &given);
+  EXPECT_EQ(given.stereo().speckle_step_mm(), 0.7);
 }
 
 }  // namespace
