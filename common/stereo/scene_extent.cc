@@ -28,9 +28,11 @@ double FocalPx(const geometry::TsaiCamera& c) {
   return 0.5 * (c.focal_mm * c.sx / c.sensor.dpx_mm() + c.focal_mm / c.sensor.dpy_mm());
 }
 
-// The camera without lens distortion: range images of multi_baseline.h are in it.
+// The camera without lens distortion (Tsai's kappa1 and OpenCV's coefficients): range
+// images of multi_baseline.h are in it.
 geometry::TsaiCamera Ideal(geometry::TsaiCamera c) {
   c.kappa1_per_mm2 = 0.0;
+  c.lens = {};
   return c;
 }
 
@@ -309,9 +311,11 @@ SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::s
         for (const auto& p : scene)
           if (Inside(reduced[c], p)) z.push_back(reduced[c].WorldToCamera(p).z());
         if (z.size() < 10) continue;
-        std::sort(z.begin(), z.end());
         const size_t q = z.size() / 500;
-        const double z0 = z[q], z1 = z[z.size() - 1 - q];
+        std::nth_element(z.begin(), z.begin() + q, z.end());
+        const double z0 = z[q];
+        std::nth_element(z.begin() + q, z.end() - 1 - q, z.end());
+        const double z1 = z[z.size() - 1 - q];
         const double widen = options.margin_fraction * (z1 - z0) + 2.0 * z0 / FocalPx(reduced[c]);
         e.camera_depth_mm[c] = {std::max(0.5 * z0, z0 - widen), z1 + widen};
       }
