@@ -76,7 +76,9 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
 }
 
 // A Session from a take folder and flags, or from SESSION.json with flags overriding.
-runtime::Session MakeSession(const SessionArgs& a) {
+// `embedded`: the session runs on this process's workers (frames derived from are
+// handed to their jobs).
+runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
   namespace fs = std::filesystem;
   runtime::Session s;
   if (fs::is_regular_file(a.source)) {
@@ -119,6 +121,7 @@ runtime::Session MakeSession(const SessionArgs& a) {
         s.take());
   } else if (!s.has_noop_jobs()) {
     pipeline::DeriveRequest r;
+    r.offer_frames = embedded;
     if (!a.box.empty()) r.box = {{a.box[0], a.box[1], a.box[2]}, {a.box[3], a.box[4], a.box[5]}};
     const pipeline::Derivation d = pipeline::DeriveSession(r, &s);
     for (const auto& n : d.notes) s.add_derived(n);
@@ -220,7 +223,7 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
   cmd->callback([=] {
     // Before the take is read: a bad count fails at once.
     core::Require(e->workers >= 0, "--workers", "must be 0 (from the session) or more");
-    const runtime::Session session = MakeSession(*a);
+    const runtime::Session session = MakeSession(*a, master->count() == 0);
     if (master->count() == 0) {
       *exit_code = EndOfRun(client::RunEmbedded(session, *e, stdout), session.out());
       return;

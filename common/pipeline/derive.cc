@@ -10,6 +10,9 @@
 
 #include "core/error.h"
 #include "core/parallel_for.h"
+#include "io/file_util.h"
+#include "net/content_hash.h"
+#include "pipeline/frame_handoff.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
 #include "stereo/scene_extent.h"
@@ -30,14 +33,19 @@ struct GreyStats {
 
 // Median and 99th percentile of the valid greys (alpha 255 where there is alpha) of
 // every camera's frame at `instant`, sampled on a grid of at most ~64k pixels each. The
-// frames are read in parallel and kept: the scene's extent looks at them again.
-GreyStats FrameGreys(const take::Take& take, const std::string& instant, int num_threads) {
+// frames are read in parallel and kept: the scene's extent looks at them again. With
+// `offer`, each is also offered to the in-process workers' jobs (frame_handoff.h).
+GreyStats FrameGreys(const take::Take& take, const std::string& instant, int num_threads,
+                     bool offer) {
   const auto& cams = take.rig.cameras;
   std::vector<cv::Mat> images(cams.size());
   std::vector<std::vector<int64_t>> histograms(cams.size(), std::vector<int64_t>(256, 0));
   core::ParallelFor(0, int64_t(cams.size()), num_threads, [&](int64_t c0, int64_t c1) {
     for (int64_t c = c0; c < c1; ++c) {
-      const cv::Mat image = stereo::ReadFrame(take.FramePath(instant, cams[c].model.id));
+      const std::filesystem::path path = take.FramePath(instant, cams[c].model.id);
+      const std::string bytes = io::ReadFileBytes(path);
+      const cv::Mat image = stereo::DecodeFrame(bytes, path.string());
+      if (offer) OfferDecodedFrame(net::Sha256Hex(bytes), image);
       images[c] = image;
       cv::Mat grey;
       if (image.channels() == 1) grey = image;
@@ -108,7 +116,8 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
   const bool large = pixels >= kLargeImagePx;
 
   // Greys: from the images' statistics.
-  GreyStats greys = FrameGreys(take, instants[instants.size() / 2], request.num_threads);
+  GreyStats greys =
+      FrameGreys(take, instants[instants.size() / 2], request.num_threads, request.offer_frames);
   if (!st->has_normalize_contrast()) {
     // Most of the grey range unused: stretch the 1st..99th percentile to 0..255.
     st->set_normalize_contrast(greys.p99 < 128);

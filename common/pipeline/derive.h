@@ -43,6 +43,9 @@ struct DeriveRequest {
   // The volume to use instead of the scene's box (dome run --box), world mm.
   std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> box;
   int num_threads = 0;  // the coarse pass's threads; 0: all
+  // Offer the frames read to this process's workers (frame_handoff.h): true only where
+  // in-process workers will run the session (dome run without --master).
+  bool offer_frames = false;
 };
 
 struct Derivation {

@@ -13,6 +13,7 @@
 #include "io/file_util.h"
 #include "io/image_io.h"
 #include "io/ply.h"
+#include "pipeline/frame_handoff.h"
 #include "pipeline/settings.h"
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
@@ -82,8 +83,8 @@ cv::Mat PlaceRect(const runtime::StereoRangeImage& ri, const cv::Mat& crop,
   const int64_t rows = ri.full_rows(), cols = ri.full_cols(), x0 = ri.x0(), y0 = ri.y0();
   core::Require(ri.has_full_rows() && ri.has_full_cols() && ri.has_x0() && ri.has_y0(), where,
                 "needs all of full_rows, full_cols, x0 and y0, or none");
-  core::Require(rows >= 1 && cols >= 1 && rows * cols <= (int64_t(1) << 31) && x0 >= 0 &&
-                    y0 >= 0 && x0 + crop.cols <= cols && y0 + crop.rows <= rows,
+  core::Require(rows >= 1 && cols >= 1 && rows * cols <= (int64_t(1) << 31) && x0 >= 0 && y0 >= 0 &&
+                    x0 + crop.cols <= cols && y0 + crop.rows <= rows,
                 where,
                 "a " + std::to_string(crop.cols) + "x" + std::to_string(crop.rows) +
                     " rectangle at " + std::to_string(x0) + ", " + std::to_string(y0) +
@@ -202,8 +203,10 @@ class DecodedFrames {
   size_t bytes_ = 0;
 };
 
-// Blobs `first`.. of `job` decoded in `mode`: those `memo` keeps as they are, the rest
-// decoded on the job's threads and kept.
+// Blobs `first`.. of `job` decoded in `mode`: those `memo` keeps as they are, then
+// those this process decoded before the session ran (frame_handoff.h: `dome run`'s
+// derivation; a worker with a memo only, as the memo keeps what it takes), the rest
+// decoded on the job's threads; all kept.
 std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t first,
                                 io::ImageMode mode, JobMemo* memo) {
   DecodedFrames* kept =
@@ -212,7 +215,15 @@ std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, 
   std::vector<cv::Mat> images(blobs.size() - first);
   std::vector<size_t> missing;
   for (size_t i = first; i < blobs.size(); ++i) {
-    const cv::Mat found = kept ? kept->Find(job.blobs(int(i)).sha256(), mode) : cv::Mat();
+    const std::string& sha256 = job.blobs(int(i)).sha256();
+    cv::Mat found = kept ? kept->Find(sha256, mode) : cv::Mat();
+    if (found.empty() && kept) {
+      const cv::Mat handed = TakeDecodedFrame(sha256);
+      if (!handed.empty()) {
+        kept->Add(sha256, io::ImageMode::kUnchanged, handed);
+        found = kept->Find(sha256, mode);
+      }
+    }
     if (!found.empty()) {
       images[i - first] = found;
     } else {
@@ -254,8 +265,7 @@ StageDescriptor StereoStage() {
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
-    const std::vector<cv::Mat> frames =
-        FrameBlobs(job, blobs, 1, io::ImageMode::kUnchanged, memo);
+    const std::vector<cv::Mat> frames = FrameBlobs(job, blobs, 1, io::ImageMode::kUnchanged, memo);
     stereo::StereoInput input;
     input.reference.camera = RigCameraOf(rig, sj.camera(), job);
     input.reference.image = frames[0];

@@ -29,14 +29,18 @@ void TakeStereoOptions::Check() const {
   }
 }
 
-cv::Mat ReadFrame(const fs::path& path) {
+cv::Mat DecodeFrame(std::string_view bytes, const std::string& where) {
   // Keep alpha when present: it marks valid pixels.
-  cv::Mat image = io::ReadImage(path, io::ImageMode::kUnchanged);
+  cv::Mat image = io::DecodeImage(bytes, io::ImageMode::kUnchanged, where);
   if (image.depth() != CV_8U ||
       (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
-    throw core::InputError(path.string(), "must be an 8-bit gray, BGR or BGRA image");
+    throw core::InputError(where, "must be an 8-bit gray, BGR or BGRA image");
   }
   return image;
+}
+
+cv::Mat ReadFrame(const fs::path& path) {
+  return DecodeFrame(io::ReadFileBytes(path), path.string());
 }
 
 namespace {

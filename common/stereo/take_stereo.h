@@ -19,6 +19,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "stereo/cluster.h"
@@ -53,6 +54,8 @@ struct TakeStereoOptions {
 // A frame as stereo takes it: 8-bit gray, BGR or BGRA (alpha kept: it marks valid
 // pixels). Throws core::InputError naming the file otherwise.
 cv::Mat ReadFrame(const std::filesystem::path& path);
+// The same from the file's bytes; `where` names them in errors.
+cv::Mat DecodeFrame(std::string_view bytes, const std::string& where);
 
 // The stereo input of one job: the reference camera's frame at `instant` and its
 // cluster's frames, read from the take (errors name the files).

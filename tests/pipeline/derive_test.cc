@@ -9,10 +9,14 @@
 #include <Eigen/Core>
 #include <cmath>
 
+#include "io/file_util.h"
 #include "io/ply.h"
+#include "net/content_hash.h"
+#include "pipeline/frame_handoff.h"
 #include "pipeline/session.h"
 #include "pipeline/small_take_suite.h"
 #include "stereo/scene_extent.h"
+#include "stereo/take_stereo.h"
 #include "take/import.h"
 #include "take/take.h"
 #include "testing/expect_error.h"
@@ -64,6 +68,31 @@ TEST_F(Derive, VolumeHoldsTheSceneAndLittleElse) {
   EXPECT_TRUE(volume_note);
   EXPECT_TRUE(s.stereo().has_z_min_mm() && s.stereo().has_z_max_mm());
   EXPECT_LT(s.stereo().z_min_mm(), s.stereo().z_max_mm());
+}
+
+// dome run's derivation hands the frames it decoded to the in-process workers' jobs
+// (frame_handoff.h), under the addresses of the files' bytes; without the request it
+// holds none.
+TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
+  runtime::Session s = Fresh();
+  ASSERT_EQ(HeldDecodedFrames(), 0u);
+  DeriveSession({}, &s);
+  EXPECT_EQ(HeldDecodedFrames(), 0u);
+  runtime::Session t = Fresh();
+  DeriveRequest r;
+  r.offer_frames = true;
+  DeriveSession(r, &t);
+  const take::Take take = take::OpenTake(TakeDir());
+  const std::string instant = take.instants[take.instants.size() / 2];
+  EXPECT_EQ(HeldDecodedFrames(), take.rig.cameras.size());
+  for (const auto& c : take.rig.cameras) {
+    const std::string bytes = io::ReadFileBytes(take.FramePath(instant, c.model.id));
+    const cv::Mat held = TakeDecodedFrame(net::Sha256Hex(bytes));
+    ASSERT_FALSE(held.empty()) << c.model.id;
+    const cv::Mat decoded = stereo::DecodeFrame(bytes, c.model.id);
+    EXPECT_EQ(cv::norm(held, decoded, cv::NORM_INF), 0.0) << c.model.id;
+  }
+  EXPECT_EQ(HeldDecodedFrames(), 0u);
 }
 
 TEST_F(Derive, GivenValuesAndTheBoxWin) {

@@ -10,6 +10,7 @@
 
 #include "io/file_util.h"
 #include "net/content_hash.h"
+#include "pipeline/frame_handoff.h"
 #include "pipeline/jobs.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
@@ -81,6 +82,35 @@ class StereoStage : public SmallTakeSuite {
     return ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
 };
+
+// Frames decoded before the session (dome run's derivation, frame_handoff.h) are taken
+// by the first job with a memo that needs them, once: the real frame gives the bytes of
+// a job that decodes it, a different image under its address is what the job uses (so
+// the handoff is not bypassed), and a job without a memo leaves the frame held.
+TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
+  const runtime::StereoSettings settings = DefaultSettings();
+  const take::Take take = take::OpenTake(TakeDir());
+  const std::string bytes = io::ReadFileBytes(take.FramePath(take.instants.front(), "c00"));
+  const std::string sha256 = net::Sha256Hex(bytes);
+  const cv::Mat frame = stereo::DecodeFrame(bytes, "c00");
+  ASSERT_EQ(HeldDecodedFrames(), 0u);
+  std::string plain, handed, poisoned;
+  RunStereoJob("c00", settings, nullptr, &plain);
+
+  OfferDecodedFrame(sha256, frame);
+  RunStereoJob("c00", settings, nullptr, &handed);  // no memo: not taken
+  EXPECT_EQ(HeldDecodedFrames(), 1u);
+  JobMemo memo;
+  RunStereoJob("c00", settings, &memo, &handed);
+  EXPECT_EQ(HeldDecodedFrames(), 0u);
+  EXPECT_EQ(handed, plain);
+
+  OfferDecodedFrame(sha256, cv::Mat(frame.size(), frame.type(), cv::Scalar::all(255)));
+  JobMemo fresh;
+  RunStereoJob("c00", settings, &fresh, &poisoned);
+  EXPECT_EQ(HeldDecodedFrames(), 0u);
+  EXPECT_NE(poisoned, plain);
+}
 
 // A worker keeps the decoded frames of an instant for its next stereo jobs (a frame is
 // the reference of one and a neighbour of others): the outputs are the bytes of jobs
@@ -318,8 +348,7 @@ TEST(SessionOptions, SpeckFieldsReadScaleByTheVoxelAndAreChecked) {
                    {"s.json: speck_diagonal_voxels", ">= 0"});
   session.set_speck_diagonal_voxels(3);
   session.set_speck_gap_voxels(std::nan(""));
-  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); },
-                   {"s.json: speck_gap_voxels"});
+  ExpectInputError([&] { ResolveSessionOptions(session, "s.json"); }, {"s.json: speck_gap_voxels"});
 }
 
 // The files a worker returns with a stereo result are checked against the result before

@@ -1,0 +1,32 @@
+// Frames decoded before a session's jobs run, handed to the in-process workers' jobs.
+//
+// `dome run` derives the session from one instant's frames (pipeline/derive.h), then its
+// embedded workers' stereo jobs decode the same files again. The derivation offers each
+// frame it decoded here, under the SHA-256 of the file's bytes (the address a job's
+// blob carries, net/content_hash.h), and a job that needs that blob takes the decoded
+// image instead of decoding it (jobs.cc: FrameBlobs). Images are as
+// stereo::DecodeFrame gives them (io::ImageMode::kUnchanged).
+//
+// Process-wide and thread-safe. At most kBudgetBytes of pixels are held, the oldest
+// dropped first; a frame is handed over once (the taking worker's memo keeps it from
+// there), so nothing stays after the jobs have run. Offer only where in-process workers
+// will run: a frame nobody takes is held until the process ends.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace dome::pipeline {
+
+constexpr size_t kFrameHandoffBudgetBytes = size_t(256) << 20;
+
+// Holds `image` (decoded unchanged) for the job whose blob has address `sha256`.
+void OfferDecodedFrame(const std::string& sha256, const cv::Mat& image);
+
+// The image offered under `sha256`, removed from the handoff; empty when none is held.
+cv::Mat TakeDecodedFrame(const std::string& sha256);
+
+// Frames held now (for tests).
+size_t HeldDecodedFrames();
+
+}  // namespace dome::pipeline
