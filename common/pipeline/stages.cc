@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -217,11 +218,54 @@ io::Mesh Decimate(const io::Mesh& surface, const mesh::DecimationOptions& option
   return mesh::Decimate(surface, options, summary);
 }
 
+namespace {
+
+// Pixels kept around the mesh's projection: bilinear samples need the next pixel, and
+// an edge between two vertices bends a little under lens distortion.
+constexpr int kTextureCutMarginPx = 16;
+
+// The rectangle of `camera`'s image the mesh's vertices project into, grown by
+// kTextureCutMarginPx and clipped to the image; the whole image when a vertex is not in
+// front of the camera (the projection of its triangles is then unbounded) or the mesh
+// projects nowhere inside it.
+cv::Rect MeshImageRect(const geometry::TsaiCamera& camera, const io::Mesh& mesh) {
+  const cv::Rect whole(0, 0, camera.width_px, camera.height_px);
+  double lo_u = INFINITY, lo_v = INFINITY, hi_u = -INFINITY, hi_v = -INFINITY;
+  for (const auto& v : mesh.vertices) {
+    Eigen::Vector2d px;
+    if (!camera.Project(v.cast<double>(), &px) || !std::isfinite(px.x()) || !std::isfinite(px.y()))
+      return whole;
+    lo_u = std::min(lo_u, px.x()), hi_u = std::max(hi_u, px.x());
+    lo_v = std::min(lo_v, px.y()), hi_v = std::max(hi_v, px.y());
+  }
+  if (!(lo_u <= hi_u)) return whole;
+  const double m = kTextureCutMarginPx;
+  const int x0 = int(std::max(0.0, std::floor(lo_u - m)));
+  const int y0 = int(std::max(0.0, std::floor(lo_v - m)));
+  const int x1 = int(std::min(double(camera.width_px), std::ceil(hi_u + m) + 1));
+  const int y1 = int(std::min(double(camera.height_px), std::ceil(hi_v + m) + 1));
+  if (x1 <= x0 || y1 <= y0) return whole;
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
+}  // namespace
+
 TextureResult Texture(io::Mesh decimated, const std::vector<mesh::TextureView>& views,
                       const mesh::TextureOptions& options, bool atlas) {
+  // Each view cut to where the mesh projects, as the stereo of a clipped volume cuts its
+  // views: the z-buffers, colour conversions and lens resampling then cover only pixels
+  // that can colour the mesh (Robovision: about a third of each frame).
+  std::vector<mesh::TextureView> cut = views;
+  for (auto& v : cut) {
+    if (v.image.cols != v.camera.width_px || v.image.rows != v.camera.height_px) continue;
+    const cv::Rect rect = MeshImageRect(v.camera, decimated);
+    if (rect.width == v.camera.width_px && rect.height == v.camera.height_px) continue;
+    v.image = v.image(rect);
+    v.camera = take::CropCamera(v.camera, rect);
+  }
   TextureResult result;
   result.coloured = std::move(decimated);
-  result.atlas = mesh::ColourAndAtlas(&result.coloured, views, options, atlas);
+  result.atlas = mesh::ColourAndAtlas(&result.coloured, cut, options, atlas);
   return result;
 }
 
