@@ -273,6 +273,9 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   std::vector<std::unique_ptr<zmq::socket_t>> dealers;
   for (const std::string who : {"stranger", ""}) {
     dealers.push_back(std::make_unique<zmq::socket_t>(context_, zmq::socket_type::dealer));
+    // At once, not at the end: a failed expectation must not leave the context's end
+    // waiting forever on a Hello no master takes.
+    dealers.back()->set(zmq::sockopt::linger, 0);
     net::ConfigureSocket(dealers.back().get(), Keys(who));
     dealers.back()->connect(workers_);
     dealers.back()->send(zmq::buffer(hello_bytes), zmq::send_flags::dontwait);
@@ -282,6 +285,7 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   std::vector<std::unique_ptr<net::EventSubscription>> subs;
   for (const std::string who : {"client", "stranger", ""}) {
     subs.push_back(std::make_unique<net::EventSubscription>(&context_, events_, Keys(who)));
+    subs.back()->socket().set(zmq::sockopt::linger, 0);
   }
   for (int i = 0; i < 10; ++i) {  // subscriptions travel
     for (auto& s : subs) s->Drain(50, [](const runtime::StatusEvent&) {});
@@ -327,8 +331,6 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   req.mutable_status()->set_session_id(id);
   EXPECT_EQ(client::Request(&context_, control_, req, 10000, Keys("client")).sessions(0).state(),
             "done");
-  for (auto& s : subs) s->socket().set(zmq::sockopt::linger, 0);
-  for (auto& d : dealers) d->set(zmq::sockopt::linger, 0);
 }
 
 // A key acts only in the roles its allow-list line gives it: a worker's key cannot
