@@ -230,9 +230,9 @@ inline int RoundNonNegative(double x) {
 }
 
 // Shade's depth test and bilinear sample at pixel (x, y), inside the image, of a point
-// at camera depth z_mm: adds the colour weighted by cos_angle^2 to sum[0..2] and the
-// weight to *wsum; nothing when the z-buffer hides the point.
-inline void AddSample(const FastView& v, double x, double y, double z_mm, double cos_angle,
+// at camera depth z_mm: adds the colour weighted by `weight` (cos_angle^2) to sum[0..2]
+// and the weight to *wsum; nothing when the z-buffer hides the point.
+__attribute__((always_inline)) inline void AddSample(const FastView& v, double x, double y, double z_mm, double weight,
                       const TextureOptions& options, double* s0, double* s1, double* s2,
                       double* wsum) {
   const int w = v.width;
@@ -243,7 +243,7 @@ inline void AddSample(const FastView& v, double x, double y, double z_mm, double
   const uint8_t* top = v.bgr + size_t(y0) * v.bgr_step + 3 * size_t(x0);
   const uint8_t* bottom = top + v.bgr_step;
   const double w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
-  const double wt = cos_angle * cos_angle;
+  const double wt = weight;
   *s0 += wt * (w00 * top[0] + w01 * top[3] + w10 * bottom[0] + w11 * bottom[3]);
   *s1 += wt * (w00 * top[1] + w01 * top[4] + w10 * bottom[1] + w11 * bottom[4]);
   *s2 += wt * (w00 * top[2] + w01 * top[5] + w10 * bottom[2] + w11 * bottom[5]);
@@ -272,7 +272,7 @@ bool ShadeFast(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
     double x, y;
     if (!v.Project(cx, cy, cz, &x, &y)) continue;
     if (!(x >= 0 && y >= 0 && x <= v.width - 1 && y <= v.height - 1)) continue;
-    AddSample(v, x, y, cz, cos_angle, options, &sum0, &sum1, &sum2, &wsum);
+    AddSample(v, x, y, cz, cos_angle * cos_angle, options, &sum0, &sum1, &sum2, &wsum);
   }
   if (wsum <= 0.0) return false;
   *bgr = Eigen::Vector3d(sum0, sum1, sum2) / wsum;
@@ -292,11 +292,11 @@ constexpr size_t kLanes = 8;
 // Per-thread scratch for ShadeFace: per texel, structure of arrays padded to kLanes.
 struct FaceScratch {
   std::vector<double> x, y, z;           // texel centre, world mm
-  std::vector<double> cos, cz, px, py;   // one view: cosine, camera z, distorted pixel
+  std::vector<double> weight, cz, px, py;  // one view: cos^2 (-1: fails), camera z, pixel
   std::vector<double> distortion;        // one view: kappa1 Ru^2
   std::vector<double> s0, s1, s2, wsum;  // weighted BGR sums and weight sums
   void Resize(size_t n) {
-    for (auto* v : {&x, &y, &z, &cos, &cz, &px, &py, &distortion, &s0, &s1, &s2, &wsum}) {
+    for (auto* v : {&x, &y, &z, &weight, &cz, &px, &py, &distortion, &s0, &s1, &s2, &wsum}) {
       v->resize(n);
     }
   }
@@ -329,7 +329,8 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
   std::fill(scratch->s1.begin(), scratch->s1.end(), 0.0);
   std::fill(scratch->s2.begin(), scratch->s2.end(), 0.0);
   std::fill(scratch->wsum.begin(), scratch->wsum.end(), 0.0);
-  double* __restrict__ cosv = scratch->cos.data();
+  double* __restrict__ weightv = scratch->weight.data();
+  const double min_cos2 = options.min_cos_angle * options.min_cos_angle;
   double* __restrict__ czv = scratch->cz.data();
   double* __restrict__ pxv = scratch->px.data();
   double* __restrict__ pyv = scratch->py.data();
@@ -349,9 +350,13 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
     using Lanes = Eigen::Array<double, kLanes, 1>;
     for (size_t block = 0; block < padded; block += kLanes) {
       const Eigen::Map<const Lanes> xs(X + block), ys(Y + block), zs(Z + block);
+      // The weight cos^2 = (n.d)^2 / |d|^2 with the cosine test n.d >= min_cos |d| as
+      // n.d >= 0 and (n.d)^2 >= min_cos^2 |d|^2: one division, no square root; -1 where
+      // the test fails.
       const Lanes dx = ox - xs, dy = oy - ys, dz = oz - zs;
-      Eigen::Map<Lanes>(cosv + block) =
-          (nx * dx + ny * dy + nz * dz) / (dx * dx + dy * dy + dz * dz).sqrt();
+      const Lanes dot = nx * dx + ny * dy + nz * dz, d2 = dx * dx + dy * dy + dz * dz;
+      Eigen::Map<Lanes>(weightv + block) =
+          (dot >= 0.0 && dot * dot >= min_cos2 * d2).select(dot * dot / d2, Lanes::Constant(-1.0));
       const Lanes xc = r0 * xs + r1 * ys + r2 * zs + t0;
       const Lanes yc = r3 * xs + r4 * ys + r5 * zs + t1;
       const Lanes zc = r6 * xs + r7 * ys + r8 * zs + t2;
@@ -362,18 +367,19 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
       const Lanes xu = xc * scale, yu = yc * scale;
       const Lanes x = kappa1 * (xu * xu + yu * yu);
       Eigen::Map<Lanes>(dv + block) = x;
+      // One Newton step after the series (FastView::DistortionFactor takes two): its
+      // relative error is below 3|x| (4e-5)^2 < 3e-10 for |x| <= 0.05, 1e-7 px at the
+      // paper rig's image corners.
       Lanes lambda = 1.0 + x * (-1.0 + x * (3.0 + x * (-12.0 + x * (55.0 - 273.0 * x))));
-      Lanes xl2 = x * lambda * lambda;
-      lambda -= (xl2 * lambda + lambda - 1.0) / (3.0 * xl2 + 1.0);
-      xl2 = x * lambda * lambda;
+      const Lanes xl2 = x * lambda * lambda;
       lambda -= (xl2 * lambda + lambda - 1.0) / (3.0 * xl2 + 1.0);
       Eigen::Map<Lanes>(pxv + block) = xu * lambda * fx + cx;
       Eigen::Map<Lanes>(pyv + block) = yu * lambda * fy + cy;
     }
     const int w = v.width, h = v.height;
     for (size_t k = 0; k < count; ++k) {
-      const double cos_angle = cosv[k];
-      if (!(cos_angle >= options.min_cos_angle)) continue;
+      const double weight = weightv[k];
+      if (!(weight >= 0.0)) continue;
       const double zc = czv[k];
       if (!(zc > 0.0)) continue;
       double x = pxv[k], y = pyv[k];
@@ -383,7 +389,7 @@ void ShadeFace(const io::Mesh& mesh, const Eigen::Vector3i& face, const Eigen::V
         v.Project(xc, yc, zc, &x, &y);
       }
       if (!(x >= 0 && y >= 0 && x <= w - 1 && y <= h - 1)) continue;
-      AddSample(v, x, y, zc, cos_angle, options, &scratch->s0[k], &scratch->s1[k], &scratch->s2[k],
+      AddSample(v, x, y, zc, weight, options, &scratch->s0[k], &scratch->s1[k], &scratch->s2[k],
                 &scratch->wsum[k]);
     }
   }
