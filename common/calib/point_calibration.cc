@@ -57,9 +57,7 @@ std::vector<Correspondence> ReadPointFile(const std::filesystem::path& path) {
 
 void EvaluatePoints(const geometry::TsaiCamera& camera, const std::vector<Correspondence>& points,
                     PointCalibration* out) {
-  geometry::TsaiCamera ideal = camera;
-  ideal.kappa1_per_mm2 = 0;
-  ideal.lens = {};
+  const geometry::TsaiCamera ideal = camera.Ideal();
   std::vector<double> dist, undist, object, normalized;
   const double f = camera.focal_mm;
   const double quant = (std::pow(camera.sensor.dpx_mm() / camera.sx / f, 2) +

@@ -132,6 +132,14 @@ struct TsaiCamera {
 
   // Any lens distortion (kappa1 or the OpenCV lens).
   bool HasDistortion() const { return kappa1_per_mm2 != 0.0 || lens.Any(); }
+  // The same camera without lens distortion (neither kappa1 nor the OpenCV lens): the
+  // camera of an undistorted (ideal) image, as geometry/undistort.h makes them.
+  TsaiCamera Ideal() const {
+    TsaiCamera c = *this;
+    c.kappa1_per_mm2 = 0.0;
+    c.lens = {};
+    return c;
+  }
 
   // World point -> distorted pixel (what the real camera sees). Returns false, and
   // leaves *pixel untouched, when the point is not in front of the camera (Zc <= 0).

@@ -209,9 +209,7 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
     greys.push_back(
         GreyImage(*views[i], options, /*undistort=*/true,
                   (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
-    cameras.push_back(views[i]->camera);
-    cameras.back().kappa1_per_mm2 = 0.0;
-    cameras.back().lens = {};
+    cameras.push_back(views[i]->camera.Ideal());
   }
   const geometry::TsaiCamera& ideal_ref = cameras[0];
 

@@ -28,14 +28,6 @@ double FocalPx(const geometry::TsaiCamera& c) {
   return 0.5 * (c.focal_mm * c.sx / c.sensor.dpx_mm() + c.focal_mm / c.sensor.dpy_mm());
 }
 
-// The camera without lens distortion (Tsai's kappa1 and OpenCV's coefficients): range
-// images of multi_baseline.h are in it.
-geometry::TsaiCamera Ideal(geometry::TsaiCamera c) {
-  c.kappa1_per_mm2 = 0.0;
-  c.lens = {};
-  return c;
-}
-
 bool Inside(const geometry::TsaiCamera& c, const Eigen::Vector3d& x) {
   Eigen::Vector2d p;
   return c.Project(x, &p) && p.x() >= -0.5 && p.y() >= -0.5 && p.x() < c.width_px - 0.5 &&
@@ -156,7 +148,8 @@ SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::s
   std::vector<geometry::TsaiCamera> reduced(cams.size());
   for (size_t c = 0; c < cams.size(); ++c) {
     clusters[c] = SelectCluster(take.rig, cams[c].model.id, cluster);
-    reduced[c] = Ideal(ReducedCamera(cams[c].model, f));
+    // Range images of multi_baseline.h are in the ideal camera.
+    reduced[c] = ReducedCamera(cams[c].model, f).Ideal();
   }
   // Every camera's reduced grey image, made once: each is the reference of its own job
   // and a neighbour in others' (decoding and undistorting a frame is most of the cost).

@@ -319,6 +319,25 @@ TsaiCamera LensCamera() {
   return c;
 }
 
+// The ideal camera of a lens camera projects where the lens camera's pixels land once
+// undistorted (UndistortPixel), for OpenCV's lens as for kappa1: no distortion is left.
+TEST(TsaiCamera, IdealDropsEitherLensAndProjectsToTheUndistortedPixel) {
+  TsaiCamera kappa = LensCamera();
+  kappa.lens = {};
+  kappa.kappa1_per_mm2 = -2e-4;
+  for (const TsaiCamera& c : {LensCamera(), kappa}) {
+    const TsaiCamera ideal = c.Ideal();
+    EXPECT_FALSE(ideal.HasDistortion()) << c.kappa1_per_mm2;
+    EXPECT_EQ(ideal.K(), c.K());
+    const Eigen::Vector3d p(1800, 900, 0);  // near the image corner
+    Eigen::Vector2d distorted, undistorted;
+    ASSERT_TRUE(c.Project(p, &distorted));
+    ASSERT_TRUE(ideal.Project(p, &undistorted));
+    EXPECT_GT((distorted - undistorted).norm(), 1.0) << "the lens moves this point";
+    EXPECT_LT((c.UndistortPixel(distorted) - undistorted).norm(), 1e-6);
+  }
+}
+
 TEST(OpenCvLens, ProjectAndBackProjectInvertEachOtherOverTheImage) {
   const TsaiCamera c = LensCamera();
   c.Check("test");
