@@ -239,13 +239,8 @@ cv::Rect MeshImageRect(const geometry::TsaiCamera& camera, const io::Mesh& mesh)
     lo_v = std::min(lo_v, px.y()), hi_v = std::max(hi_v, px.y());
   }
   if (!(lo_u <= hi_u)) return whole;
-  const double m = kTextureCutMarginPx;
-  const int x0 = int(std::max(0.0, std::floor(lo_u - m)));
-  const int y0 = int(std::max(0.0, std::floor(lo_v - m)));
-  const int x1 = int(std::min(double(camera.width_px), std::ceil(hi_u + m) + 1));
-  const int y1 = int(std::min(double(camera.height_px), std::ceil(hi_v + m) + 1));
-  if (x1 <= x0 || y1 <= y0) return whole;
-  return {x0, y0, x1 - x0, y1 - y0};
+  const cv::Rect rect = take::GrownPixelRect(camera, lo_u, lo_v, hi_u, hi_v, kTextureCutMarginPx);
+  return rect.empty() ? whole : rect;
 }
 
 }  // namespace

@@ -45,7 +45,12 @@ cv::Rect BoxImageRect(const geometry::TsaiCamera& camera, const CropBox& box) {
     }
   }
   if (!(lo_u <= hi_u && lo_v <= hi_v)) return {};
-  const double m = box.margin_px;
+  return GrownPixelRect(camera, lo_u, lo_v, hi_u, hi_v, box.margin_px);
+}
+
+cv::Rect GrownPixelRect(const geometry::TsaiCamera& camera, double lo_u, double lo_v, double hi_u,
+                        double hi_v, double margin_px) {
+  const double m = margin_px;
   const int x0 = int(std::max(0.0, std::floor(lo_u - m)));
   const int y0 = int(std::max(0.0, std::floor(lo_v - m)));
   const int x1 = int(std::min(double(camera.width_px), std::ceil(hi_u + m) + 1));

@@ -34,6 +34,12 @@ struct CropBox {
 // the box projects inside the image.
 cv::Rect BoxImageRect(const geometry::TsaiCamera& camera, const CropBox& box);
 
+// The pixels [lo_u, hi_u] x [lo_v, hi_v] of `camera`'s image (pixel centres, may reach
+// outside it) grown by `margin_px` on every side and clipped to the image: whole pixels
+// from floor(lo - margin) to ceil(hi + margin); empty when nothing is left inside.
+cv::Rect GrownPixelRect(const geometry::TsaiCamera& camera, double lo_u, double lo_v, double hi_u,
+                        double hi_v, double margin_px);
+
 // The camera of the sub-image `rect` (inside the image, not empty).
 geometry::TsaiCamera CropCamera(const geometry::TsaiCamera& camera, const cv::Rect& rect);
 
