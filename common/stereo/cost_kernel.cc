@@ -600,14 +600,70 @@ inline __attribute__((always_inline)) void CubicWeights(T t, T w[4]) {
   w[3] = kA * t * t * u;
 }
 
+// The bicubic taps of FillPrewarp, kPrewarpLanes J pixels per block: lane l of block b
+// reads the 4x4 floats from first[b kPrewarpLanes + l] (rows `stride` apart) into
+// out[((b 16) + 4 k + c) kPrewarpLanes + l] (row k, column c). Data movement only, so
+// the paths give the same J.
+constexpr int kPrewarpLanes = 16;
+
+void GatherTapsScalar(const float* const* first, int stride, int blocks, float* __restrict out) {
+  for (int l = 0; l < blocks * kPrewarpLanes; ++l) {
+    float* t = out + size_t(l / kPrewarpLanes) * 16 * kPrewarpLanes + l % kPrewarpLanes;
+    for (int k = 0; k < 4; ++k) {
+      for (int c = 0; c < 4; ++c) t[(4 * k + c) * kPrewarpLanes] = first[l][size_t(k) * stride + c];
+    }
+  }
+}
+
+// With AVX-512: per tap row, each lane's four taps are one 128-bit load; four lanes
+// fill a register, and two-source permutes and a blend turn the four registers
+// (lanes x columns) into one per column (columns x lanes).
+__attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(const float* const* first,
+                                                                      int stride, int blocks,
+                                                                      float* __restrict out) {
+  static_assert(kPrewarpLanes == 16);
+  // Register g holds lanes 4 g..4 g + 3, four columns each; column c of lane 4 g + j
+  // sits at 4 j + c. lo: lanes 0..7 from registers 0 and 1; hi: lanes 8..15 from 2, 3.
+  __m512i lo_index[4], hi_index[4];
+  for (int c = 0; c < 4; ++c) {
+    alignas(64) int32_t lo[16], hi[16];
+    for (int lane = 0; lane < 16; ++lane) {
+      const int j = lane % 8;  // lane within the pair of registers
+      lo[lane] = (j / 4) * 16 + 4 * (j % 4) + c;
+      hi[lane] = lo[lane];
+    }
+    lo_index[c] = _mm512_load_si512(lo);
+    hi_index[c] = _mm512_load_si512(hi);
+  }
+  for (int b = 0; b < blocks; ++b) {
+    const float* const* f = first + size_t(b) * 16;
+    float* o = out + size_t(b) * 16 * 16;
+    for (int k = 0; k < 4; ++k) {
+      const size_t row = size_t(k) * stride;
+      __m512 reg[4];
+      for (int g = 0; g < 4; ++g) {
+        __m512 r = _mm512_castps128_ps512(_mm_loadu_ps(f[4 * g] + row));
+        r = _mm512_insertf32x4(r, _mm_loadu_ps(f[4 * g + 1] + row), 1);
+        r = _mm512_insertf32x4(r, _mm_loadu_ps(f[4 * g + 2] + row), 2);
+        reg[g] = _mm512_insertf32x4(r, _mm_loadu_ps(f[4 * g + 3] + row), 3);
+      }
+      for (int c = 0; c < 4; ++c) {
+        const __m512 lo = _mm512_permutex2var_ps(reg[0], lo_index[c], reg[1]);
+        const __m512 hi = _mm512_permutex2var_ps(reg[2], hi_index[c], reg[3]);
+        _mm512_storeu_ps(o + (4 * k + c) * 16, _mm512_mask_blend_ps(0xff00, lo, hi));
+      }
+    }
+  }
+}
+
 // Fills J: the neighbour sampled at A (m, 1), NaN where the bilinear quad leaves the
 // image or holds a pixel without data (as the exact warp counts it); and its fixed
 // point copy. J is interpolated bicubically where the 4x4 taps have data (else
 // bilinearly): with bilinear J each level's sample would be blurred twice, and the
 // finest windows lost accuracy (5x5 median error 13.5 mm against 12.6 mm for the exact
 // warp on the synthetic dome).
-void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
-  constexpr int kLanes = 16;
+void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
+  constexpr int kLanes = kPrewarpLanes;
   typedef float F16 __attribute__((vector_size(4 * kLanes)));
   const float nan = std::numeric_limits<float>::quiet_NaN();
   // J in float, NaN = no data (always on the margin); only its fixed point copy is kept.
@@ -617,13 +673,23 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
   const double umax = nb.width - 1, vmax = nb.height - 1;
   const int i0 = kPrewarpMargin, i1 = pw->cols - kPrewarpMargin;
   std::vector<double> us(std::max(0, i1 - i0)), vs(us.size());
+  // Per row, in blocks of kLanes J pixels: the 4x4 bicubic taps ([row][column][lane]),
+  // the fractions, 0 / 1 / 2 = outside the image / bilinear only / bicubic taps, the
+  // top left bilinear tap and the bicubic value.
+  const size_t padded = (us.size() + kLanes - 1) / kLanes * kLanes;
+  std::vector<float> tap(16 * padded), ax(padded), ay(padded), cubic(padded);
+  std::vector<uint8_t> kind(padded);
+  std::vector<const float*> corner(padded), first_tap(padded);
+  // What the lanes without bicubic taps read: four rows of zeros, nb.width apart.
+  const std::vector<float> zero_rows(3 * size_t(nb.width) + 4, 0.0f);
+  const float* zeros = zero_rows.data();
   for (int j = kPrewarpMargin; j < pw->rows - kPrewarpMargin; ++j) {
     float* row = value.data() + size_t(j) * stride;
     const double my = pw->oy + j;
     // The row's homography in one vectorizable pass (one reciprocal per pixel); u = -1
     // marks a point behind the neighbour.
     // (Everything in locals and restrict pointers, so that the stores cannot alias
-    // the homography and the loop vectorizes: about 4x faster, the same arithmetic.)
+    // the homography and the loop vectorizes; the same arithmetic.)
     const double bx = nb.a[0][1] * my + nb.a[0][2], by = nb.a[1][1] * my + nb.a[1][2];
     const double bz = nb.a[2][1] * my + nb.a[2][2];
     const double a00 = nb.a[0][0], a10 = nb.a[1][0], a20 = nb.a[2][0], ox = pw->ox;
@@ -637,36 +703,35 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
       ur[i - i0] = front ? (a00 * mx + bx) * iz : -1.0;
       vr[i - i0] = front ? (a10 * mx + by) * iz : -1.0;
     }
-    // Sixteen J pixels at a time: their taps are loaded lane by lane, the weights and
-    // the sums run on whole vectors (a generic vector type: one AVX-512 register, two
-    // AVX2 ones). The expressions are those of the one-pixel code they replaced, term
-    // for term, so J has the same bits; the bilinear fallback stays per pixel.
-    for (int i = i0; i < i1; i += kLanes) {
-      const int m = std::min(kLanes, i1 - i);
-      // Per lane: 0 outside the image, 1 bilinear only, 2 bicubic (taps loaded).
-      uint8_t kind[kLanes] = {};
-      float ax[kLanes] = {}, ay[kLanes] = {};
-      const float* corner[kLanes] = {};
-      float tap[4][4][kLanes] = {};  // [row][column][lane], rows and columns -1..2
-      for (int l = 0; l < m; ++l) {
-        const double u = us[i + l - i0], v = vs[i + l - i0];
-        if (!(u >= 0.0 && v >= 0.0 && u < umax && v < vmax)) continue;
-        const int xi = int(u), yi = int(v);
-        ax[l] = float(u - xi), ay[l] = float(v - yi);
-        const float* p = nb.image + size_t(yi) * nb.width + xi;
-        corner[l] = p;
-        kind[l] = 1;
-        if (xi >= 1 && yi >= 1 && xi + 2 < nb.width && yi + 2 < nb.height) {
-          kind[l] = 2;
-          for (int k = 0; k < 4; ++k) {
-            const float* t = p + (k - 1) * nb.width - 1;
-            for (int c = 0; c < 4; ++c) tap[k][c][l] = t[c];
-          }
-        }
-      }
+    // Sixteen J pixels at a time: their taps are first gathered lane by lane for the
+    // whole row, then the weights and sums run on whole vectors (a generic vector type:
+    // one AVX-512 register, two AVX2 ones); gathering the row first keeps the vector
+    // loads from waiting on the scalar stores just before them. The expressions are
+    // those of the one-pixel code they replaced, term for term, so J has the same bits;
+    // the bilinear fallback stays per pixel.
+    const int blocks = (i1 - i0 + kLanes - 1) / kLanes;
+    for (int l = 0; l < blocks * kLanes; ++l) {
+      const double u = l < i1 - i0 ? us[l] : -1.0, v = l < i1 - i0 ? vs[l] : -1.0;
+      const bool in = u >= 0.0 && v >= 0.0 && u < umax && v < vmax;
+      const int xi = in ? int(u) : 0, yi = in ? int(v) : 0;
+      ax[l] = in ? float(u - xi) : 0.0f, ay[l] = in ? float(v - yi) : 0.0f;
+      const float* p = nb.image + size_t(yi) * nb.width + xi;
+      corner[l] = p;
+      kind[l] = !in ? 0 : xi >= 1 && yi >= 1 && xi + 2 < nb.width && yi + 2 < nb.height ? 2 : 1;
+      // Bicubic lanes read their 4x4 taps from the row above and the column left of
+      // the bilinear corner; the others read zeros.
+      first_tap[l] = kind[l] == 2 ? p - nb.width - 1 : zeros;
+    }
+    if (simd == SimdLevel::kAvx512) {
+      GatherTapsAvx512(first_tap.data(), nb.width, blocks, tap.data());
+    } else {
+      GatherTapsScalar(first_tap.data(), nb.width, blocks, tap.data());
+    }
+    for (int b = 0; b < blocks; ++b) {
+      const float* t = tap.data() + size_t(b) * 16 * kLanes;
       F16 vax, vay;
-      std::memcpy(&vax, ax, sizeof(vax));
-      std::memcpy(&vay, ay, sizeof(vay));
+      std::memcpy(&vax, ax.data() + b * kLanes, sizeof(vax));
+      std::memcpy(&vay, ay.data() + b * kLanes, sizeof(vay));
       F16 wx[4], wy[4];
       CubicWeights(vax, wx);
       CubicWeights(vay, wy);
@@ -674,23 +739,24 @@ void FillPrewarp(const KernelNeighbour& nb, Prewarped* pw) {
       F16 value = {};
       for (int k = 0; k < 4; ++k) {
         F16 t0, t1, t2, t3;
-        std::memcpy(&t0, tap[k][0], sizeof(t0));
-        std::memcpy(&t1, tap[k][1], sizeof(t1));
-        std::memcpy(&t2, tap[k][2], sizeof(t2));
-        std::memcpy(&t3, tap[k][3], sizeof(t3));
+        std::memcpy(&t0, t + (4 * k + 0) * kLanes, sizeof(t0));
+        std::memcpy(&t1, t + (4 * k + 1) * kLanes, sizeof(t1));
+        std::memcpy(&t2, t + (4 * k + 2) * kLanes, sizeof(t2));
+        std::memcpy(&t3, t + (4 * k + 3) * kLanes, sizeof(t3));
         value += wy[k] * (wx[0] * t0 + wx[1] * t1 + wx[2] * t2 + wx[3] * t3);
       }
-      for (int l = 0; l < m; ++l) {
-        if (kind[l] == 0) continue;
-        if (kind[l] == 2 && value[l] == value[l]) {
-          row[i + l] = value[l];
-          continue;
-        }
-        const float* p = corner[l];
-        const float top = p[0] + ax[l] * (p[1] - p[0]);
-        const float bot = p[nb.width] + ax[l] * (p[nb.width + 1] - p[nb.width]);
-        row[i + l] = top + ay[l] * (bot - top);
+      std::memcpy(cubic.data() + b * kLanes, &value, sizeof(value));
+    }
+    for (int l = 0; l < i1 - i0; ++l) {
+      if (kind[l] == 0) continue;
+      if (kind[l] == 2 && cubic[l] == cubic[l]) {
+        row[i0 + l] = cubic[l];
+        continue;
       }
+      const float* p = corner[l];
+      const float top = p[0] + ax[l] * (p[1] - p[0]);
+      const float bot = p[nb.width] + ax[l] * (p[nb.width + 1] - p[nb.width]);
+      row[i0 + l] = top + ay[l] * (bot - top);
     }
   }
   // The fixed point copy, pair_ok and the row's facts, in passes that vectorize.
@@ -1392,7 +1458,7 @@ __attribute__((target("avx512f,avx512bw,fma"))) void RunBandsPrewarpAvx512(
 
 // Pre-warps every neighbour; false (and nothing set) when
 // a neighbour's geometry does not suit it.
-bool PreparePrewarp(const KernelInput& in, int num_threads, Prepared* prep) {
+bool PreparePrewarp(const KernelInput& in, SimdLevel simd, int num_threads, Prepared* prep) {
   const size_t nn = in.neighbours.size();
   std::vector<Prewarped> pws(nn);
   const double w0 = in.w_far, w1 = double(in.w_far) + double(in.num_levels - 1) * in.w_step;
@@ -1403,7 +1469,7 @@ bool PreparePrewarp(const KernelInput& in, int num_threads, Prepared* prep) {
     }
   }
   core::ParallelFor(0, int64_t(nn), num_threads, [&](int64_t b, int64_t e) {
-    for (int64_t n = b; n < e; ++n) FillPrewarp(in.neighbours[n], &pws[n]);
+    for (int64_t n = b; n < e; ++n) FillPrewarp(in.neighbours[n], simd, &pws[n]);
   });
   prep->prewarped = std::move(pws);
   return true;
@@ -1430,7 +1496,7 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
   // and differences up to 255 grey levels; its pixel columns are 16-bit.
   const bool fits_fixed = input.neighbours.size() <= size_t(kMaxQNeighbours) &&
                           input.outside_cost <= 255.0f * 255.0f && input.width < (1 << 15) - 32;
-  const bool prewarp = input.prewarp && fits_fixed && PreparePrewarp(input, num_threads, &prep);
+  const bool prewarp = input.prewarp && fits_fixed && PreparePrewarp(input, simd, num_threads, &prep);
   if (prewarp) {
     prep.stride = (input.width + 31) / 32 * 32;
     // The fixed point reference, in the pattern's stored order.
