@@ -186,8 +186,7 @@ double NearTruth(const std::vector<KernelOutput>& out, size_t k, int width, doub
 // exact per-pixel warp, at the same levels for almost every pixel (it interpolates the
 // neighbours twice, so not bit for bit). Its paths give the same bits (next test), so
 // the scalar one stands for all.
-TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
-  const Scene scene = MakeScene();
+void PrewarpMatchesExactWarp(const Scene& scene) {
   const int width = scene.input.width;
   const double true_level = (1.0 / 1800 - 1.0 / 5000) / scene.input.w_step;
   const auto exact = RunKernel(scene.input, SimdLevel::kNone);
@@ -217,6 +216,15 @@ TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
   }
 }
 
+// Scenes with and without a hole: without one, every J row is a run of columns with
+// data (Prewarped::ok_lo, ok_hi), which the kernel reads instead of pair_ok.
+TEST(CostKernelTest, PrewarpedNeighboursMatchTheExactWarp) {
+  for (const bool hole : {true, false}) {
+    SCOPED_TRACE(hole ? "hole" : "no hole");
+    PrewarpMatchesExactWarp(MakeScene(hole));
+  }
+}
+
 // Elements of a and b whose bits differ.
 size_t BitDifferences(const std::vector<float>& a, const std::vector<float>& b) {
   if (a.size() != b.size()) return std::max(a.size(), b.size());
@@ -233,7 +241,9 @@ size_t BitDifferences(const std::vector<float>& a, const std::vector<float>& b) 
 // with holes take the masked branch); no holes and a width that is not a multiple of
 // 32 (every row a run, a partial last block); a neighbour 450 mm nearer the scene,
 // which magnifies up to 2.5x at the near levels, so that blocks too wide for the SIMD
-// loads take the per-position fallback.
+// loads take the per-position fallback. The pre-warp itself (FillPrewarp) gathers its
+// bicubic taps with AVX-512 or lane by lane by the same max_simd, so this compares
+// those too.
 TEST(CostKernelTest, PrewarpedPathsGiveTheSameBits) {
   struct Case {
     const char* name;
