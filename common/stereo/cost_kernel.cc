@@ -601,16 +601,24 @@ inline __attribute__((always_inline)) void CubicWeights(T t, T w[4]) {
 }
 
 // The bicubic taps of FillPrewarp, kPrewarpLanes J pixels per block: lane l of block b
-// reads the 4x4 floats from first[b kPrewarpLanes + l] (rows `stride` apart) into
-// out[((b 16) + 4 k + c) kPrewarpLanes + l] (row k, column c). Data movement only, so
-// the paths give the same J.
+// reads the 4x4 floats around image[corner[l]] (rows -1..2, columns -1..2; the image
+// is `stride` floats wide) when bicubic[l], else zeros (four rows, `stride` apart),
+// into out[((b 16) + 4 k + c) kPrewarpLanes + l] (row k, column c). Data movement only,
+// so the paths give the same J.
 constexpr int kPrewarpLanes = 16;
 
-void GatherTapsScalar(const float* const* first, int stride, int blocks, float* __restrict out) {
+inline const float* FirstTap(const float* image, const int64_t* corner, const int32_t* bicubic,
+                             const float* zeros, int stride, int l) {
+  return bicubic[l] ? image + corner[l] - stride - 1 : zeros;
+}
+
+void GatherTapsScalar(const float* image, const int64_t* corner, const int32_t* bicubic,
+                      const float* zeros, int stride, int blocks, float* __restrict out) {
   for (int l = 0; l < blocks * kPrewarpLanes; ++l) {
+    const float* first = FirstTap(image, corner, bicubic, zeros, stride, l);
     float* t = out + size_t(l / kPrewarpLanes) * 16 * kPrewarpLanes + l % kPrewarpLanes;
     for (int k = 0; k < 4; ++k) {
-      for (int c = 0; c < 4; ++c) t[(4 * k + c) * kPrewarpLanes] = first[l][size_t(k) * stride + c];
+      for (int c = 0; c < 4; ++c) t[(4 * k + c) * kPrewarpLanes] = first[size_t(k) * stride + c];
     }
   }
 }
@@ -618,9 +626,9 @@ void GatherTapsScalar(const float* const* first, int stride, int blocks, float* 
 // With AVX-512: per tap row, each lane's four taps are one 128-bit load; four lanes
 // fill a register, and two-source permutes and a blend turn the four registers
 // (lanes x columns) into one per column (columns x lanes).
-__attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(const float* const* first,
-                                                                      int stride, int blocks,
-                                                                      float* __restrict out) {
+__attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(
+    const float* image, const int64_t* corner, const int32_t* bicubic, const float* zeros,
+    int stride, int blocks, float* __restrict out) {
   static_assert(kPrewarpLanes == 16);
   // Register g holds lanes 4 g..4 g + 3, four columns each; column c of lane 4 g + j
   // sits at 4 j + c. lo: lanes 0..7 from registers 0 and 1; hi: lanes 8..15 from 2, 3.
@@ -636,7 +644,8 @@ __attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(const floa
     hi_index[c] = _mm512_load_si512(hi);
   }
   for (int b = 0; b < blocks; ++b) {
-    const float* const* f = first + size_t(b) * 16;
+    const float* f[16];
+    for (int l = 0; l < 16; ++l) f[l] = FirstTap(image, corner, bicubic, zeros, stride, 16 * b + l);
     float* o = out + size_t(b) * 16 * 16;
     for (int k = 0; k < 4; ++k) {
       const size_t row = size_t(k) * stride;
@@ -672,14 +681,15 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
   std::fill(value.v.begin(), value.v.end(), nan);
   const double umax = nb.width - 1, vmax = nb.height - 1;
   const int i0 = kPrewarpMargin, i1 = pw->cols - kPrewarpMargin;
-  std::vector<double> us(std::max(0, i1 - i0)), vs(us.size());
-  // Per row, in blocks of kLanes J pixels: the 4x4 bicubic taps ([row][column][lane]),
-  // the fractions, 0 / 1 / 2 = outside the image / bilinear only / bicubic taps, the
-  // top left bilinear tap and the bicubic value.
-  const size_t padded = (us.size() + kLanes - 1) / kLanes * kLanes;
+  // Per row, in blocks of kLanes J pixels: the neighbour pixel (u = -1 past the row's
+  // end: outside), the 4x4 bicubic taps ([row][column][lane]), the fractions, whether
+  // the pixel is in the image and has bicubic taps, the top left bilinear tap's index
+  // and the bicubic value.
+  const size_t padded = (size_t(std::max(0, i1 - i0)) + kLanes - 1) / kLanes * kLanes;
+  std::vector<double> us(padded, -1.0), vs(padded, -1.0);
   std::vector<float> tap(16 * padded), ax(padded), ay(padded), cubic(padded);
-  std::vector<uint8_t> kind(padded);
-  std::vector<const float*> corner(padded), first_tap(padded);
+  std::vector<int32_t> inside(padded), bicubic(padded);
+  std::vector<int64_t> corner(padded);
   // What the lanes without bicubic taps read: four rows of zeros, nb.width apart.
   const std::vector<float> zero_rows(3 * size_t(nb.width) + 4, 0.0f);
   const float* zeros = zero_rows.data();
@@ -703,29 +713,42 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
       ur[i - i0] = front ? (a00 * mx + bx) * iz : -1.0;
       vr[i - i0] = front ? (a10 * mx + by) * iz : -1.0;
     }
-    // Sixteen J pixels at a time: their taps are first gathered lane by lane for the
-    // whole row, then the weights and sums run on whole vectors (a generic vector type:
-    // one AVX-512 register, two AVX2 ones); gathering the row first keeps the vector
-    // loads from waiting on the scalar stores just before them. The expressions are
-    // those of the one-pixel code they replaced, term for term, so J has the same bits;
-    // the bilinear fallback stays per pixel.
-    const int blocks = (i1 - i0 + kLanes - 1) / kLanes;
-    for (int l = 0; l < blocks * kLanes; ++l) {
-      const double u = l < i1 - i0 ? us[l] : -1.0, v = l < i1 - i0 ? vs[l] : -1.0;
-      const bool in = u >= 0.0 && v >= 0.0 && u < umax && v < vmax;
-      const int xi = in ? int(u) : 0, yi = in ? int(v) : 0;
-      ax[l] = in ? float(u - xi) : 0.0f, ay[l] = in ? float(v - yi) : 0.0f;
-      const float* p = nb.image + size_t(yi) * nb.width + xi;
-      corner[l] = p;
-      kind[l] = !in ? 0 : xi >= 1 && yi >= 1 && xi + 2 < nb.width && yi + 2 < nb.height ? 2 : 1;
-      // Bicubic lanes read their 4x4 taps from the row above and the column left of
-      // the bilinear corner; the others read zeros.
-      first_tap[l] = kind[l] == 2 ? p - nb.width - 1 : zeros;
+    // Sixteen J pixels at a time: the row's pixels are classified in one vectorized
+    // pass, their taps gathered for the whole row (GatherTaps*), then the weights and
+    // sums run on whole vectors (a generic vector type: one AVX-512 register, two AVX2
+    // ones); gathering the row first keeps the vector loads from waiting on the stores
+    // just before them. The expressions are those of the one-pixel code they replaced,
+    // term for term, so J has the same bits; the bilinear fallback stays per pixel.
+    const int blocks = int(padded) / kLanes;
+    {
+      // Branch-free and 32/64-bit types only, so that it vectorizes; outside lanes take
+      // u = v = 0.
+      const double* __restrict u_in = us.data();
+      const double* __restrict v_in = vs.data();
+      float* __restrict axr = ax.data();
+      float* __restrict ayr = ay.data();
+      int32_t* __restrict in_r = inside.data();
+      int32_t* __restrict cubic_r = bicubic.data();
+      int64_t* __restrict corner_r = corner.data();
+      const int w = nb.width, h = nb.height;
+      for (size_t l = 0; l < padded; ++l) {
+        const double u0 = u_in[l], v0 = v_in[l];
+        const bool in = (u0 >= 0.0) & (v0 >= 0.0) & (u0 < umax) & (v0 < vmax);
+        const double u = in ? u0 : 0.0, v = in ? v0 : 0.0;
+        const int xi = int(u), yi = int(v);
+        axr[l] = float(u - xi);
+        ayr[l] = float(v - yi);
+        corner_r[l] = int64_t(yi) * w + xi;
+        in_r[l] = in;
+        cubic_r[l] = in & (xi >= 1) & (yi >= 1) & (xi + 2 < w) & (yi + 2 < h);
+      }
     }
     if (simd == SimdLevel::kAvx512) {
-      GatherTapsAvx512(first_tap.data(), nb.width, blocks, tap.data());
+      GatherTapsAvx512(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks,
+                       tap.data());
     } else {
-      GatherTapsScalar(first_tap.data(), nb.width, blocks, tap.data());
+      GatherTapsScalar(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks,
+                       tap.data());
     }
     for (int b = 0; b < blocks; ++b) {
       const float* t = tap.data() + size_t(b) * 16 * kLanes;
@@ -748,12 +771,12 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
       std::memcpy(cubic.data() + b * kLanes, &value, sizeof(value));
     }
     for (int l = 0; l < i1 - i0; ++l) {
-      if (kind[l] == 0) continue;
-      if (kind[l] == 2 && cubic[l] == cubic[l]) {
+      if (!inside[l]) continue;
+      if (bicubic[l] && cubic[l] == cubic[l]) {
         row[i0 + l] = cubic[l];
         continue;
       }
-      const float* p = corner[l];
+      const float* p = nb.image + corner[l];
       const float top = p[0] + ax[l] * (p[1] - p[0]);
       const float bot = p[nb.width] + ax[l] * (p[nb.width + 1] - p[nb.width]);
       row[i0 + l] = top + ay[l] * (bot - top);
