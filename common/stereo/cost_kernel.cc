@@ -954,7 +954,7 @@ __attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
 template <bool kOk>
 __attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQAvx512(
     const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
-    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out) {
+    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out, int next_row) {
   const __m512i one = _mm512_set1_epi16(1);
   for (int x = x_begin, k = x_begin / 32; x < x_end; x += 32, ++k) {
     const int b = pat.base[k];
@@ -963,6 +963,9 @@ __attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQAvx
       continue;
     }
     const __m512i rel = _mm512_loadu_si512(pat.rel.data() + x);
+    // The next reference row reads the next J row at about these columns.
+    _mm_prefetch(reinterpret_cast<const char*>(jrow + next_row + b), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(jrow + next_row + b + 32), _MM_HINT_T0);
     const __m512i lo = _mm512_loadu_si512(jrow + b), hi = _mm512_loadu_si512(jrow + b + 32);
     const __m512i a = _mm512_permutex2var_epi16(lo, rel, hi);
     const __m512i c = _mm512_permutex2var_epi16(lo, _mm512_add_epi16(rel, one), hi);
@@ -1301,7 +1304,7 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                 if constexpr (kPath == Path::kPrewarpAvx512) {
                   (run ? HorizontalRowQAvx512<false>
                        : HorizontalRowQAvx512<true>)(jrow, ok_row, pat, x_begin, x_end, out,
-                                                     ok_out);
+                                                     ok_out, j + 1 < pw.rows ? pw.qstride : 0);
                 } else if constexpr (kPath == Path::kPrewarpAvx2) {
                   (run ? HorizontalRowQAvx2<false>
                        : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out);
