@@ -631,17 +631,16 @@ __attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(
     int stride, int blocks, float* __restrict out) {
   static_assert(kPrewarpLanes == 16);
   // Register g holds lanes 4 g..4 g + 3, four columns each; column c of lane 4 g + j
-  // sits at 4 j + c. lo: lanes 0..7 from registers 0 and 1; hi: lanes 8..15 from 2, 3.
-  __m512i lo_index[4], hi_index[4];
+  // sits at 4 j + c. Lanes 0..7 come from registers 0 and 1, lanes 8..15 from 2 and 3,
+  // by the same index (the lane within its pair of registers).
+  __m512i index[4];
   for (int c = 0; c < 4; ++c) {
-    alignas(64) int32_t lo[16], hi[16];
+    alignas(64) int32_t lanes[16];
     for (int lane = 0; lane < 16; ++lane) {
-      const int j = lane % 8;  // lane within the pair of registers
-      lo[lane] = (j / 4) * 16 + 4 * (j % 4) + c;
-      hi[lane] = lo[lane];
+      const int j = lane % 8;
+      lanes[lane] = (j / 4) * 16 + 4 * (j % 4) + c;
     }
-    lo_index[c] = _mm512_load_si512(lo);
-    hi_index[c] = _mm512_load_si512(hi);
+    index[c] = _mm512_load_si512(lanes);
   }
   for (int b = 0; b < blocks; ++b) {
     const float* f[16];
@@ -657,8 +656,8 @@ __attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(
         reg[g] = _mm512_insertf32x4(r, _mm_loadu_ps(f[4 * g + 3] + row), 3);
       }
       for (int c = 0; c < 4; ++c) {
-        const __m512 lo = _mm512_permutex2var_ps(reg[0], lo_index[c], reg[1]);
-        const __m512 hi = _mm512_permutex2var_ps(reg[2], hi_index[c], reg[3]);
+        const __m512 lo = _mm512_permutex2var_ps(reg[0], index[c], reg[1]);
+        const __m512 hi = _mm512_permutex2var_ps(reg[2], index[c], reg[3]);
         _mm512_storeu_ps(o + (4 * k + c) * 16, _mm512_mask_blend_ps(0xff00, lo, hi));
       }
     }
@@ -950,7 +949,8 @@ __attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
 }
 
 // The same with AVX-512, 32 positions per register: one pair of loads and two
-// permutes serve both taps of all 32 positions.
+// permutes serve both taps of all 32 positions. `next_row`: the offset of the next J
+// row (0 for the last), whose columns are prefetched for the next reference row.
 template <bool kOk>
 __attribute__((target("avx512f,avx512bw,fma"), noinline)) void HorizontalRowQAvx512(
     const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
@@ -1303,8 +1303,8 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                 int16_t* ok_out = qoks.data() + size_t(slot) * n32;
                 if constexpr (kPath == Path::kPrewarpAvx512) {
                   (run ? HorizontalRowQAvx512<false>
-                       : HorizontalRowQAvx512<true>)(jrow, ok_row, pat, x_begin, x_end, out,
-                                                     ok_out, j + 1 < pw.rows ? pw.qstride : 0);
+                       : HorizontalRowQAvx512<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out,
+                                                     j + 1 < pw.rows ? pw.qstride : 0);
                 } else if constexpr (kPath == Path::kPrewarpAvx2) {
                   (run ? HorizontalRowQAvx2<false>
                        : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out);
@@ -1413,8 +1413,9 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
           WindowSum(vsum.data(), n, h, cost.data());
           group[g] = cost.data();
           kUpdateRow[g](group, n, float(l - g), st.best.data() + o, st.level.data() + o,
-                     st.cm.data() + o, st.cp.data() + o, st.before.data() + o, st.after.data() + o,
-                     st.run.data() + o, st.run_prev.data() + o, st.prev.data() + o);
+                        st.cm.data() + o, st.cp.data() + o, st.before.data() + o,
+                        st.after.data() + o, st.run.data() + o, st.run_prev.data() + o,
+                        st.prev.data() + o);
         }
       }
     }
@@ -1522,7 +1523,8 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
   // and differences up to 255 grey levels; its pixel columns are 16-bit.
   const bool fits_fixed = input.neighbours.size() <= size_t(kMaxQNeighbours) &&
                           input.outside_cost <= 255.0f * 255.0f && input.width < (1 << 15) - 32;
-  const bool prewarp = input.prewarp && fits_fixed && PreparePrewarp(input, simd, num_threads, &prep);
+  const bool prewarp =
+      input.prewarp && fits_fixed && PreparePrewarp(input, simd, num_threads, &prep);
   if (prewarp) {
     prep.stride = (input.width + 31) / 32 * 32;
     // The fixed point reference, in the pattern's stored order.
