@@ -904,11 +904,12 @@ void HorizontalRowQScalar(const int16_t* __restrict jrow, const int16_t* __restr
 
 // The same with AVX2, 16 positions per register. Per 128-bit lane, its two groups' 8
 // columns each come from one unaligned load, and byte shuffles pick both taps of every
-// position (the right tap two bytes after the left one).
+// position (the right tap two bytes after the left one). `next_row`: as for the
+// AVX-512 path below.
 template <bool kOk>
 __attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
     const int16_t* __restrict jrow, const int16_t* __restrict ok_row, const LevelPattern16& pat,
-    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out) {
+    int x_begin, int x_end, int16_t* __restrict out, int16_t* __restrict ok_out, int next_row) {
   const __m256i two = _mm256_set1_epi8(2);
   // Lane 0 from group offset r0, lane 1 from r1.
   const auto load2 = [](const int16_t* p, int r0, int r1) {
@@ -922,6 +923,9 @@ __attribute__((target("avx2,fma"), noinline)) void HorizontalRowQAvx2(
       continue;
     }
     const int b = pat.base[k];
+    // The next reference row reads the next J row at about these columns.
+    _mm_prefetch(reinterpret_cast<const char*>(jrow + next_row + b), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(jrow + next_row + b + 32), _MM_HINT_T0);
     for (int h = x; h < x + 32; h += 16) {
       const int16_t* rel = pat.rel.data() + h;
       // First groups of the lanes (bytes 0..7) and second groups (bytes 8..15).
@@ -1307,7 +1311,8 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                                                      j + 1 < pw.rows ? pw.qstride : 0);
                 } else if constexpr (kPath == Path::kPrewarpAvx2) {
                   (run ? HorizontalRowQAvx2<false>
-                       : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out);
+                       : HorizontalRowQAvx2<true>)(jrow, ok_row, pat, x_begin, x_end, out, ok_out,
+                                                   j + 1 < pw.rows ? pw.qstride : 0);
                 } else {
                   (run ? HorizontalRowQScalar<false>
                        : HorizontalRowQScalar<true>)(jrow, ok_row, pat, x_begin, x_end, out,
