@@ -42,10 +42,11 @@ struct SessionArgs {
   std::vector<double> box;  // --box: x0 y0 z0 x1 y1 z1, world mm
   double voxel_mm = 0, decimate_ratio = 0;
   int slab_planes = 0, smooth_iterations = 0;
-  bool no_texture = false, no_preview = false;
+  bool no_texture = false, no_preview = false, no_masks = false;
   CLI::Option *voxel = nullptr, *slabs = nullptr, *ratio = nullptr, *smooth = nullptr;
   std::unique_ptr<SettingFlags<stereo::TakeStereoOptions>> stereo;
   std::unique_ptr<SettingFlags<fusion::FusionOptions>> fusion;
+  std::unique_ptr<SettingFlags<pipeline::SilhouetteUse>> silhouettes;
 };
 
 void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
@@ -68,6 +69,10 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
       ->expected(6);
   cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
   cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
+  cmd->add_flag("--no-masks", a->no_masks,
+                "no silhouettes: --no-volume-masks --no-stereo-masks --no-fusion-masks");
+  a->silhouettes = std::make_unique<SettingFlags<pipeline::SilhouetteUse>>(
+      cmd, pipeline::SilhouetteSettingFields());
   a->stereo = std::make_unique<SettingFlags<stereo::TakeStereoOptions>>(
       cmd, pipeline::StereoSettingFields());
   a->fusion = std::make_unique<SettingFlags<fusion::FusionOptions>>(
@@ -104,6 +109,8 @@ runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
   if (a.no_preview) s.set_write_previews(false);
   a.stereo->Apply(s.mutable_stereo());
   a.fusion->Apply(s.mutable_fusion());
+  a.silhouettes->Apply(s.mutable_silhouettes());
+  if (a.no_masks) *s.mutable_silhouettes() = pipeline::ToSilhouetteSettings({});
   // Bad options fail here, not remotely, with the messages of the same values in a
   // session file (one place: pipeline::ResolveSessionOptions). A take derived here has
   // them checked by DeriveSession first, against the volume derived for it rather than

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
@@ -15,6 +16,8 @@
 #include "pipeline/frame_handoff.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
+#include "silhouette/hull.h"
+#include "silhouette/take_masks.h"
 #include "stereo/scene_extent.h"
 #include "stereo/take_stereo.h"
 
@@ -96,6 +99,39 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
   return ResolveSessionOptions(probe, "session");
 }
 
+// The box [lo, hi] shrunk to the bounding box of the masks' visual hull at every
+// instant (silhouette/hull.h; cells of 1/96 of the box's longest side, each tested as
+// its enclosing ball, so the box holds every point of the hull), when the hull is not
+// empty.
+void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
+                int num_threads, Eigen::Vector3d* lo, Eigen::Vector3d* hi, Derivation* d) {
+  const take::Take& take = masks.take();
+  std::vector<geometry::TsaiCamera> cameras;
+  for (const auto& rc : take.rig.cameras) cameras.push_back(rc.model);
+  silhouette::HullOptions ho;
+  ho.num_threads = num_threads;
+  Eigen::Vector3d a = Eigen::Vector3d::Constant(INFINITY), b = -a;
+  for (const auto& instant : instants) {
+    std::vector<cv::Mat> m;
+    for (const auto& c : cameras) m.push_back(masks.Mask(instant, c.id));
+    const silhouette::VisualHull hull(cameras, m, ho);
+    Eigen::Vector3d h_lo, h_hi;
+    if (!hull.BoundingBox(*lo, *hi, kHullCells, &h_lo, &h_hi)) continue;
+    a = a.cwiseMin(h_lo);
+    b = b.cwiseMax(h_hi);
+  }
+  if (!((b - a).minCoeff() > 0)) {
+    d->notes.push_back("volume: the masks' visual hull is empty in the scene's box: kept the box");
+    return;
+  }
+  *lo = a;
+  *hi = b;
+  d->notes.push_back(fmt::format(
+      "volume: {} (shrunk to the bounding box of the masks' visual hull over {} instant(s), "
+      "cells of 1/{} of the scene's box)",
+      Box(a, b), instants.size(), kHullCells));
+}
+
 }  // namespace
 
 Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
@@ -146,6 +182,49 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
         kLargeImagePx, st->window_sizes_px(0), st->min_uniqueness(), st->max_neighbours()));
   }
 
+  // Silhouettes: each use on when masks can be made for the take (given masks, a
+  // background plate, or a median over >= 3 instants: silhouette/take_masks.h) and at
+  // least two cameras find a foreground in them (a hull needs two views; a static scene
+  // has none against its median), off otherwise. Every use only narrows the search and
+  // the surface to where the cameras saw the people.
+  runtime::SilhouetteSettings* si = s->mutable_silhouettes();
+  std::optional<silhouette::TakeMasks> masks;
+  if (!si->has_volume() || !si->has_stereo() || !si->has_fusion() || si->volume()) {
+    std::string why;
+    try {
+      masks.emplace(take, silhouette::MaskOptions{});
+      const std::string& middle = instants[instants.size() / 2];
+      int with_foreground = 0;
+      for (const auto& rc : take.rig.cameras) {
+        silhouette::MaskInfo info;
+        masks->Mask(middle, rc.model.id, &info);
+        with_foreground += info.fraction >= kMinForegroundFraction;
+      }
+      if (with_foreground < 2) {
+        why = fmt::format("{} camera(s) with a foreground of >= {} of the image at {}",
+                          with_foreground, kMinForegroundFraction, middle);
+        masks.reset();
+      }
+    } catch (const core::InputError& e) {
+      why = e.what();
+      masks.reset();
+    }
+    const bool on = masks.has_value();
+    if (!si->has_volume()) si->set_volume(on);
+    if (!si->has_stereo()) si->set_stereo(on);
+    if (!si->has_fusion()) si->set_fusion(on);
+    std::string sources;
+    if (on) {
+      std::map<std::string, int> count;
+      for (const auto& rc : take.rig.cameras)
+        ++count[silhouette::MaskSourceName(masks->Source(rc.model.id))];
+      for (const auto& [name, n] : count) sources += fmt::format(" {} {}", n, name);
+    }
+    d.notes.push_back(fmt::format(
+        "silhouettes: volume {}, stereo {}, fusion {} ({})", si->volume(), si->stereo(),
+        si->fusion(), on ? "masks:" + sources : "no masks: " + why));
+  }
+
   Eigen::Vector3d lo, hi;
   std::vector<std::pair<double, double>> camera_depth;  // from the scene's points, rig order
   if (has_box && !request.box) {
@@ -174,6 +253,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
         e.view_radius_mm,
         e.from_stereo ? "coarse stereo" : "too few coarse points: the view sphere",
         e.instants.size(), e.reduction, e.points, 100 * eo.margin_fraction));
+    if (si->volume() && masks) HullVolume(*masks, instants, request.num_threads, &lo, &hi, &d);
   }
   greys.frames.clear();  // read once for both; not held through the rest
   const Eigen::Vector3d centre = 0.5 * (lo + hi);

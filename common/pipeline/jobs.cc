@@ -19,6 +19,7 @@
 #include "pipeline/stages.h"
 #include "pipeline/surface_stream.h"
 #include "schema/rig_json.h"
+#include "silhouette/hull.h"
 #include "stereo/cluster.h"
 
 namespace dome::pipeline {
@@ -130,6 +131,30 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
   const int k = rig.Find(id);
   core::Require(k >= 0, JobWhere(job), "camera '" + id + "' is not in the rig");
   return rig.cameras[k].model;
+}
+
+// The visual hull of the rig's cameras from the masks at blobs[first..], rig order.
+std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
+                                                  size_t first, const geometry::Rig& rig,
+                                                  bool distances) {
+  core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
+                "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
+                    ") after blob " + std::to_string(first) + ", got " +
+                    std::to_string(blobs.size() - std::min(blobs.size(), first)));
+  std::vector<geometry::TsaiCamera> cameras;
+  std::vector<cv::Mat> masks;
+  for (size_t c = 0; c < rig.cameras.size(); ++c) {
+    cameras.push_back(rig.cameras[c].model);
+    masks.push_back(FrameBlob(job, blobs, first + c, io::ImageMode::kGray8));
+  }
+  silhouette::HullOptions options;
+  options.num_threads = job.threads();
+  options.distances = distances;
+  return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
+}
+
+void AddMaskBlobs(const JobContext& ctx, std::vector<runtime::BlobRef>* blobs) {
+  for (const auto& m : ctx.plan.masks.at(size_t(ctx.instant))) blobs->push_back(m);
 }
 
 // A job's settings message (serialized) and its blobs, in the order its run reads them.
@@ -257,11 +282,16 @@ StageDescriptor StereoStage() {
       sj.add_neighbours(plan.cameras[j]);
       blobs.push_back(frames[j]);
     }
+    if (plan.options.silhouettes.stereo) {
+      sj.set_hull_bounds(true);
+      AddMaskBlobs(ctx, &blobs);
+    }
     SetJob(sj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto sj = JobSettings<runtime::StereoJob>(job);
-    RequireBlobs(job, blobs, 2 + sj.neighbours_size());
+    const size_t num_frames = 2 + size_t(sj.neighbours_size());
+    RequireBlobs(job, blobs, num_frames);
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
@@ -272,7 +302,25 @@ StageDescriptor StereoStage() {
     for (int n = 0; n < sj.neighbours_size(); ++n) {
       input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
     }
-    const stereo::StereoResult result = Stereo(input, options, JobWhere(job));
+    MakeSearchBounds bounds;
+    std::unique_ptr<silhouette::VisualHull> hull;
+    if (sj.hull_bounds()) {
+      hull = HullBlobs(job, blobs, num_frames, rig, /*distances=*/false);
+      const int index = rig.Find(sj.camera());
+      // The ray sampled at the search's own levels (the widest-baseline neighbour's
+      // parallax step): exact where the search looks.
+      bounds = [&, index](double z_min, double z_max) {
+        std::vector<geometry::TsaiCamera> nb;
+        for (const auto& v : input.neighbours) nb.push_back(v.camera);
+        const int levels =
+            options.stereo.num_levels > 0
+                ? options.stereo.num_levels
+                : stereo::CountDepthLevels(input.reference.camera, nb, z_min, z_max,
+                                           options.stereo.level_step_px);
+        return stereo::SearchBounds{hull->RayBounds(index, z_min, z_max, levels)};
+      };
+    }
+    const stereo::StereoResult result = Stereo(input, options, JobWhere(job), bounds);
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kStereoOutput);
     outputs[0].set_data(EncodeStereoOutput(result));
@@ -323,6 +371,10 @@ StageDescriptor FusionStage() {
     for (int c = 0; c < int(ctx.plan.cameras.size()); ++c) {
       blobs.push_back(ctx.outputs("stereo", c).at(0));
     }
+    if (o.silhouettes.fusion) {
+      fj.set_hull(true);
+      AddMaskBlobs(ctx, &blobs);
+    }
     SetJob(fj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
@@ -337,10 +389,12 @@ StageDescriptor FusionStage() {
       const geometry::Rig rig = RigBlob(job, blobs);
       fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
       options.num_threads = job.threads();
-      core::Require(blobs.size() == rig.cameras.size() + 1, where,
+      const size_t num_masks = fj.hull() ? rig.cameras.size() : 0;
+      core::Require(blobs.size() == rig.cameras.size() + 1 + num_masks, where,
                     "expected one stereo output per rig camera (" +
-                        std::to_string(rig.cameras.size()) + "), got " +
-                        std::to_string(blobs.size() - 1));
+                        std::to_string(rig.cameras.size()) + ")" +
+                        (num_masks ? " and one mask each" : "") + ", got " +
+                        std::to_string(blobs.size() - 1) + " blobs after the rig");
       // Cameras in rig order, windows in the options' order.
       std::vector<fusion::RangeImage> images;
       for (size_t c = 0; c < rig.cameras.size(); ++c) {
@@ -352,7 +406,9 @@ StageDescriptor FusionStage() {
           images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
         }
       }
-      return PrepareFusion(grid, std::move(images), options);
+      return PrepareFusion(grid, std::move(images), options,
+                           fj.hull() ? HullBlobs(job, blobs, rig.cameras.size() + 1, rig, true)
+                                     : nullptr);
     };
     runtime::FusionJob shared = fj;
     shared.clear_k0();

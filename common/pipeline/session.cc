@@ -10,11 +10,14 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
+#include "io/image_io.h"
 #include "io/file_util.h"
 #include "net/content_hash.h"
 #include "pipeline/settings.h"
 #include "pipeline/stages.h"
 #include "schema/json.h"
+#include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
 
 namespace dome::pipeline {
@@ -70,6 +73,7 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   if (s.has_speck_area_fraction()) o.speck_area_fraction = s.speck_area_fraction();
   if (s.has_speck_diagonal_voxels()) o.speck_diagonal_voxels = s.speck_diagonal_voxels();
   if (s.has_speck_gap_voxels()) o.speck_gap_voxels = s.speck_gap_voxels();
+  o.silhouettes = FromSilhouetteSettings(s.silhouettes());
   try {
     o.Check();
   } catch (const core::InputError& e) {
@@ -92,6 +96,32 @@ std::vector<std::string> SessionInstants(const runtime::Session& session, const 
 }
 
 namespace {
+
+// Every instant's masks (silhouette/take_masks.h), written to OUT/<instant>/mask/ and
+// made blobs; cameras in parallel (TakeMasks is thread-safe for distinct cameras). A
+// take where no mask can be made fails here, naming the take and what would help.
+std::vector<std::vector<runtime::BlobRef>> SessionMasks(
+    const SessionPlan& plan,
+    const std::function<runtime::BlobRef(const fs::path&, const std::string&)>& add_file) {
+  silhouette::TakeMasks masks(plan.take, silhouette::MaskOptions{});
+  std::vector<std::vector<runtime::BlobRef>> out;
+  for (const auto& in : plan.instants) {
+    const fs::path dir = fs::path(plan.spec.out()) / in / "mask";
+    fs::create_directories(dir);
+    core::ParallelFor(0, int64_t(plan.cameras.size()), 0, [&](int64_t c0, int64_t c1) {
+      for (int64_t c = c0; c < c1; ++c) {
+        const std::string& cam = plan.cameras[size_t(c)];
+        io::WriteFileAtomically(dir / (cam + ".png"), io::EncodePng(masks.Mask(in, cam)));
+      }
+    });
+    std::vector<runtime::BlobRef> row;
+    for (const auto& cam : plan.cameras)
+      row.push_back(add_file(dir / (cam + ".png"), in + "/mask/" + cam + ".png"));
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
 bool HasPngSignature(const fs::path& path) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   std::ifstream in(path, std::ios::binary);
@@ -146,6 +176,9 @@ SessionPlan PlanSession(
     }
     plan.frames.push_back(std::move(row));
   }
+  if (plan.options.silhouettes.stereo || plan.options.silhouettes.fusion) {
+    plan.masks = SessionMasks(plan, add_file);
+  }
   return plan;
 }
 
@@ -170,6 +203,8 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_speck_gap_voxels(o.speck_gap_voxels);
   canon.set_write_previews(o.stereo.write_previews);
   canon.set_noop_jobs(plan.spec.noop_jobs());
+  // Only when on, so that a session without masks keeps the digest it had before.
+  if (o.silhouettes.Any()) *canon.mutable_silhouettes() = ToSilhouetteSettings(o.silhouettes);
   std::string bytes;
   google::protobuf::io::StringOutputStream stream(&bytes);
   google::protobuf::io::CodedOutputStream coded(&stream);
@@ -185,6 +220,9 @@ std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
     for (size_t c = 0; c < plan.frames[instant].size(); ++c) {
       addresses += plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
     }
+  }
+  if (instant < plan.masks.size()) {
+    for (const auto& m : plan.masks[instant]) addresses += m.name() + " " + m.sha256() + "\n";
   }
   return net::Sha256Hex(addresses);
 }

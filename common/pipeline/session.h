@@ -17,6 +17,7 @@
 #include "fusion/volume.h"
 #include "mesh/decimate.h"
 #include "mesh/smooth.h"
+#include "pipeline/settings.h"
 #include "runtime.pb.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
@@ -46,6 +47,7 @@ struct SessionOptions {
   double speck_area_fraction = 0.01;
   double speck_diagonal_voxels = 20.0;
   double speck_gap_voxels = 2.0;
+  SilhouetteUse silhouettes;  // the masks' uses; off unless the session says (derive.h)
 
   // Throws core::InputError naming the first bad option ("slab_planes").
   void Check() const;
@@ -77,6 +79,10 @@ struct SessionPlan {
   int num_slabs = 0;                                  // fusion jobs per instant
   runtime::BlobRef rig;                               // TAKE/rig.json
   std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera], rig order
+  // With silhouettes in stereo or fusion: each camera's foreground mask (PNG, 255 =
+  // foreground, silhouette/take_masks.h), written to OUT/<instant>/mask/<camera>.png;
+  // [instant][camera], rig order. Empty otherwise.
+  std::vector<std::vector<runtime::BlobRef>> masks;
 };
 
 // Resolves and checks the session, opens its take and checks every camera's stereo

@@ -60,6 +60,22 @@ const std::vector<SettingField<TakeStereoOptions>>& StereoSettingFields() {
   return fields;
 }
 
+const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
+  using O = SilhouetteUse;
+  static const std::vector<SettingField<O>> fields = {
+      {"volume", "!--no-volume-masks",
+       "do not shrink the derived volume to the masks' visual hull",
+       +[](O& o) -> bool& { return o.volume; }},
+      {"stereo", "!--no-stereo-masks",
+       "search every pixel over its whole range, not the foreground within the hull",
+       +[](O& o) -> bool& { return o.stereo; }},
+      {"fusion", "!--no-fusion-masks",
+       "no free space outside the hull, no hull surface where stereo saw nothing",
+       +[](O& o) -> bool& { return o.fusion; }},
+  };
+  return fields;
+}
+
 const std::vector<SettingField<CoarseToFineOptions>>& CoarseToFineSettingFields() {
   using O = CoarseToFineOptions;
   static const std::vector<SettingField<O>> fields = {
@@ -217,6 +233,18 @@ TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& path,
 
 std::string StereoOptionsToJson(const TakeStereoOptions& o) {
   return schema::PrintJson(ToStereoSettings(o));
+}
+
+runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use) {
+  runtime::SilhouetteSettings s;
+  SetAll(SilhouetteSettingFields(), use, &s);
+  return s;
+}
+
+SilhouetteUse FromSilhouetteSettings(const runtime::SilhouetteSettings& s) {
+  SilhouetteUse use;
+  GetSet(SilhouetteSettingFields(), s, &use);
+  return use;
 }
 
 runtime::CoarseToFineSettings ToCoarseToFineSettings(const CoarseToFineOptions& o) {
