@@ -99,21 +99,33 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
   return ResolveSessionOptions(probe, "session");
 }
 
-// The box [lo, hi] shrunk to the bounding box of the masks' visual hull at every
-// instant (silhouette/hull.h; cells of 1/96 of the box's longest side, each tested as
-// its enclosing ball, so the box holds every point of the hull), when the hull is not
-// empty.
+// The box [lo, hi] shrunk to the bounding box of the masks' visual hull at `instants`
+// (silhouette/hull.h; cells of 1/96 of the box's longest side, each tested as its
+// enclosing ball, so the box holds every point of the hull), grown by `margin` of its
+// size on every side and kept within [lo, hi], when the hull is not empty. `instants`
+// are at most MaskOptions::median_max_instants of the session's, evenly spread (those a
+// median background uses): a bounded derivation whatever the take's length (a mask per
+// camera and instant looked at), and every instant of a take that short. Fewer cut the
+// scene at the instants not looked at: the paper take's bat at 6 of its 11 instants with
+// the scene extent's 3 (bat barrel completeness within 20 mm 0). The margin (the scene
+// extent's) covers some motion between the instants looked at, not all: a longer take
+// whose scene moves far between them needs --no-volume-masks or --box.
 void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
-                int num_threads, Eigen::Vector3d* lo, Eigen::Vector3d* hi, Derivation* d) {
+                double margin, int num_threads, Eigen::Vector3d* lo, Eigen::Vector3d* hi,
+                Derivation* d) {
   const take::Take& take = masks.take();
   std::vector<geometry::TsaiCamera> cameras;
   for (const auto& rc : take.rig.cameras) cameras.push_back(rc.model);
   silhouette::HullOptions ho;
   ho.num_threads = num_threads;
   Eigen::Vector3d a = Eigen::Vector3d::Constant(INFINITY), b = -a;
-  for (const auto& instant : instants) {
-    std::vector<cv::Mat> m;
-    for (const auto& c : cameras) m.push_back(masks.Mask(instant, c.id));
+  for (size_t i = 0; i < instants.size(); ++i) {
+    spdlog::info("derive: the masks' visual hull at {} ({}/{})", instants[i], i + 1,
+                 instants.size());
+    std::vector<cv::Mat> m(cameras.size());
+    core::ParallelFor(0, int64_t(cameras.size()), num_threads, [&](int64_t c0, int64_t c1) {
+      for (int64_t c = c0; c < c1; ++c) m[size_t(c)] = masks.Mask(instants[i], cameras[size_t(c)].id);
+    });
     const silhouette::VisualHull hull(cameras, m, ho);
     Eigen::Vector3d h_lo, h_hi;
     if (!hull.BoundingBox(*lo, *hi, kHullCells, &h_lo, &h_hi)) continue;
@@ -124,12 +136,15 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
     d->notes.push_back("volume: the masks' visual hull is empty in the scene's box: kept the box");
     return;
   }
+  const Eigen::Vector3d grow = margin * (b - a);
+  a = (a - grow).cwiseMax(*lo);
+  b = (b + grow).cwiseMin(*hi);
   *lo = a;
   *hi = b;
   d->notes.push_back(fmt::format(
-      "volume: {} (shrunk to the bounding box of the masks' visual hull over {} instant(s), "
-      "cells of 1/{} of the scene's box)",
-      Box(a, b), instants.size(), kHullCells));
+      "volume: {} (shrunk to the bounding box of the masks' visual hull at {} instant(s), "
+      "cells of 1/{} of the scene's box, +{:.0f} % a side)",
+      Box(a, b), instants.size(), kHullCells, 100 * margin));
 }
 
 }  // namespace
@@ -253,7 +268,10 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
         e.view_radius_mm,
         e.from_stereo ? "coarse stereo" : "too few coarse points: the view sphere",
         e.instants.size(), e.reduction, e.points, 100 * eo.margin_fraction));
-    if (si->volume() && masks) HullVolume(*masks, instants, request.num_threads, &lo, &hi, &d);
+    if (si->volume() && masks)
+      HullVolume(*masks,
+                 silhouette::MedianInstants(instants, silhouette::MaskOptions{}.median_max_instants),
+                 eo.margin_fraction, request.num_threads, &lo, &hi, &d);
   }
   greys.frames.clear();  // read once for both; not held through the rest
   const Eigen::Vector3d centre = 0.5 * (lo + hi);

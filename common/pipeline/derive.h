@@ -22,7 +22,9 @@
 //   silhouettes each use of the foreground masks (volume, stereo, fusion) on when masks
 //               can be made for the take and two cameras find a foreground, else off;
 //               with the volume on, the scene's box shrinks to the bounding box of the
-//               masks' visual hull at every instant (silhouette/hull.h);
+//               masks' visual hull (silhouette/hull.h) at 15 of the session's instants
+//               at most (evenly spread, as a median background's), grown by the scene
+//               extent's margin;
 //   fusion      truncation and free-space clamp three voxels (the seed's), one voxel for
 //               large images (the budget makes their voxel coarser than their matches'
 //               depth error).

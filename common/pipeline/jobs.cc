@@ -20,6 +20,7 @@
 #include "pipeline/surface_stream.h"
 #include "schema/rig_json.h"
 #include "silhouette/hull.h"
+#include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
 
 namespace dome::pipeline {
@@ -153,8 +154,10 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
 }
 
+// The masks stage's outputs of the instant, rig order.
 void AddMaskBlobs(const JobContext& ctx, std::vector<runtime::BlobRef>* blobs) {
-  for (const auto& m : ctx.plan.masks.at(size_t(ctx.instant))) blobs->push_back(m);
+  for (int c = 0; c < int(ctx.plan.cameras.size()); ++c)
+    blobs->push_back(ctx.outputs("masks", c).at(0));
 }
 
 // A job's settings message (serialized) and its blobs, in the order its run reads them.
@@ -265,8 +268,98 @@ std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, 
   return images;
 }
 
+// ---- masks ----------------------------------------------------------------------------
+
+// One camera's foreground mask at one instant (silhouette/take_masks.h), made where the
+// jobs run rather than at submit: a long take's submit would otherwise decode and
+// classify every frame before its first job. Parts: the cameras, when stereo or fusion
+// use the masks; none otherwise.
+StageDescriptor MaskStage() {
+  StageDescriptor d = Descriptor("masks", {}, [](const SessionPlan& plan) {
+    return Reconstructs(plan) && !plan.mask_inputs.empty() ? plan.cameras
+                                                           : std::vector<std::string>{};
+  });
+  d.send_ahead = true;
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    runtime::MaskJob mj;
+    mj.set_camera(ctx.plan.cameras[ctx.part]);
+    mj.set_source(ctx.plan.mask_sources.at(ctx.part));
+    std::vector<runtime::BlobRef> blobs = {ctx.plan.rig};
+    for (const auto& b : ctx.plan.mask_inputs.at(ctx.instant).at(ctx.part)) blobs.push_back(b);
+    SetJob(mj, std::move(blobs), job);
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+    const auto mj = JobSettings<runtime::MaskJob>(job);
+    RequireBlobs(job, blobs, 2);
+    const geometry::Rig rig = RigBlob(job, blobs);
+    const geometry::TsaiCamera& camera = RigCameraOf(rig, mj.camera(), job);
+    const cv::Size size(camera.width_px, camera.height_px);
+    auto unchanged = [&](size_t i) { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); };
+    cv::Mat mask;
+    if (mj.source() == "given") {
+      mask = silhouette::MaskImage(unchanged(1), size, mj.camera(), BlobName(job, 1));
+    } else if (mj.source() == "plate" || mj.source() == "median") {
+      const bool median = mj.source() == "median";
+      const size_t needed = median ? 1 + silhouette::MaskOptions::kMinMedianInstants : 2;
+      core::Require(median ? blobs.size() >= 1 + needed : blobs.size() == 1 + needed,
+                    JobWhere(job),
+                    median ? "a median mask needs the frame and at least " +
+                                 std::to_string(needed - 1) + " frames for the median, got " +
+                                 std::to_string(blobs.size() - 1) + " blobs after the rig"
+                           : "a plate's mask needs the frame and the plate, got " +
+                                 std::to_string(blobs.size() - 1) + " blobs after the rig");
+      const silhouette::Frame frame =
+          silhouette::SplitFrame(unchanged(1), size, mj.camera(), BlobName(job, 1));
+      cv::Mat background;
+      if (median) {
+        std::vector<cv::Mat> colours(blobs.size() - 2);
+        core::ParallelFor(0, int64_t(colours.size()), job.threads(), [&](int64_t b, int64_t e) {
+          for (int64_t i = b; i < e; ++i) {
+            colours[size_t(i)] = silhouette::SplitFrame(unchanged(size_t(i) + 2), size,
+                                                        mj.camera(), BlobName(job, size_t(i) + 2))
+                                     .colour;
+          }
+        });
+        background = silhouette::MedianBackground(colours, frame.colour.channels());
+      } else {
+        background = silhouette::SplitFrame(unchanged(2), size, mj.camera(), BlobName(job, 2)).colour;
+      }
+      mask = silhouette::MaskAgainst(
+          frame, background,
+          median ? silhouette::MaskSource::kMedian : silhouette::MaskSource::kPlate,
+          silhouette::MaskOptions{});
+    } else {
+      throw core::InputError(JobWhere(job), "unknown mask source '" + mj.source() +
+                                                "' (expected given, plate or median)");
+    }
+    std::vector<runtime::Output> outputs(1);
+    outputs[0].set_name(kMaskOutput);
+    outputs[0].set_data(io::EncodePng(mask));
+    return outputs;
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    const std::string& bytes = OutputBytes(r, kMaskOutput, ctx.where);
+    const std::string& cam = ctx.plan.cameras[ctx.part];
+    const geometry::TsaiCamera& camera = ctx.plan.take.rig.cameras[ctx.part].model;
+    const cv::Mat mask = io::DecodeImage(bytes, io::ImageMode::kUnchanged, ctx.where);
+    core::Require(mask.type() == CV_8UC1 && mask.cols == camera.width_px &&
+                      mask.rows == camera.height_px,
+                  ctx.where,
+                  "expected the mask of camera '" + cam + "' as an 8-bit gray " +
+                      std::to_string(camera.width_px) + "x" + std::to_string(camera.height_px) +
+                      " PNG, got " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
+                      " of type " + std::to_string(mask.type()));
+    fs::create_directories(ctx.dir / "mask");
+    io::WriteFileAtomically(ctx.dir / "mask" / (cam + ".png"), bytes);
+    return StoredResult{{ctx.blobs->Keep(bytes, kMaskOutput)}, nullptr};
+  };
+  return d;
+}
+
+// ---- stereo -----------------------------------------------------------------------------
+
 StageDescriptor StereoStage() {
-  StageDescriptor d = Descriptor("stereo", {}, [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("stereo", {"masks"}, [](const SessionPlan& plan) {
     return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
   });
   d.send_ahead = true;
@@ -352,7 +445,7 @@ StageDescriptor StereoStage() {
 // ---- fusion ---------------------------------------------------------------------------
 
 StageDescriptor FusionStage() {
-  StageDescriptor d = Descriptor("fusion", {"stereo"}, [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("fusion", {"masks", "stereo"}, [](const SessionPlan& plan) {
     std::vector<std::string> parts;
     for (int s = 0; Reconstructs(plan) && s < plan.num_slabs; ++s)
       parts.push_back(std::to_string(s));
@@ -636,7 +729,7 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
 
 std::shared_ptr<const StageSet> DefaultStages() {
   static const auto stages =
-      std::make_shared<const StageSet>(StageSet{{StereoStage(), FusionStage(), SurfaceStage(),
+      std::make_shared<const StageSet>(StageSet{{MaskStage(), StereoStage(), FusionStage(), SurfaceStage(),
                                                  DecimateStage(), TextureStage(), NoopStage()}});
   return stages;
 }

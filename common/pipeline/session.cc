@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <set>
 
 #include "core/error.h"
@@ -97,29 +98,48 @@ std::vector<std::string> SessionInstants(const runtime::Session& session, const 
 
 namespace {
 
-// Every instant's masks (silhouette/take_masks.h), written to OUT/<instant>/mask/ and
-// made blobs; cameras in parallel (TakeMasks is thread-safe for distinct cameras). A
-// take where no mask can be made fails here, naming the take and what would help.
-std::vector<std::vector<runtime::BlobRef>> SessionMasks(
-    const SessionPlan& plan,
-    const std::function<runtime::BlobRef(const fs::path&, const std::string&)>& add_file) {
-  silhouette::TakeMasks masks(plan.take, silhouette::MaskOptions{});
-  std::vector<std::vector<runtime::BlobRef>> out;
-  for (const auto& in : plan.instants) {
-    const fs::path dir = fs::path(plan.spec.out()) / in / "mask";
-    fs::create_directories(dir);
-    core::ParallelFor(0, int64_t(plan.cameras.size()), 0, [&](int64_t c0, int64_t c1) {
-      for (int64_t c = c0; c < c1; ++c) {
-        const std::string& cam = plan.cameras[size_t(c)];
-        io::WriteFileAtomically(dir / (cam + ".png"), io::EncodePng(masks.Mask(in, cam)));
+// What the masks stage makes each camera's mask from (SessionPlan::mask_inputs). The
+// sources are decided, and the given masks' and plates' kinds and sizes checked, here
+// (silhouette::TakeMasks), so a bad file fails the submit; no mask is made here: each
+// is a job, so a long take's submit reads no more than its files' bytes.
+void PlanMasks(const std::function<runtime::BlobRef(const fs::path&, const std::string&)>& add_file,
+               SessionPlan* plan) {
+  const silhouette::TakeMasks masks(plan->take, silhouette::MaskOptions{});
+  std::map<fs::path, runtime::BlobRef> added;  // each file once
+  auto add = [&](const fs::path& path, const std::string& name) {
+    auto it = added.find(path);
+    if (it == added.end()) it = added.emplace(path, add_file(path, name)).first;
+    return it->second;
+  };
+  const std::vector<std::string> median =
+      silhouette::MedianInstants(plan->take.instants, silhouette::MaskOptions{}.median_max_instants);
+  for (const auto& cam : plan->cameras)
+    plan->mask_sources.push_back(silhouette::MaskSourceName(masks.Source(cam)));
+  for (size_t t = 0; t < plan->instants.size(); ++t) {
+    const std::string& in = plan->instants[t];
+    std::vector<std::vector<runtime::BlobRef>> row;
+    for (size_t c = 0; c < plan->cameras.size(); ++c) {
+      const std::string& cam = plan->cameras[c];
+      std::vector<runtime::BlobRef> inputs;
+      switch (masks.Source(cam)) {
+        case silhouette::MaskSource::kGiven:
+          inputs.push_back(add(masks.GivenMaskPath(in, cam), "masks/" + in + "/" + cam + ".png"));
+          break;
+        case silhouette::MaskSource::kPlate:
+          inputs.push_back(plan->frames[t][c]);
+          inputs.push_back(add(masks.PlatePath(cam), "background/" + cam + ".png"));
+          break;
+        case silhouette::MaskSource::kMedian:
+          inputs.push_back(plan->frames[t][c]);
+          for (const auto& m : median)
+            inputs.push_back(
+                add(plan->take.FramePath(m, cam), "frames/" + m + "/" + cam + ".png"));
+          break;
       }
-    });
-    std::vector<runtime::BlobRef> row;
-    for (const auto& cam : plan.cameras)
-      row.push_back(add_file(dir / (cam + ".png"), in + "/mask/" + cam + ".png"));
-    out.push_back(std::move(row));
+      row.push_back(std::move(inputs));
+    }
+    plan->mask_inputs.push_back(std::move(row));
   }
-  return out;
 }
 
 bool HasPngSignature(const fs::path& path) {
@@ -177,9 +197,28 @@ SessionPlan PlanSession(
     plan.frames.push_back(std::move(row));
   }
   if (plan.options.silhouettes.stereo || plan.options.silhouettes.fusion) {
-    plan.masks = SessionMasks(plan, add_file);
+    PlanMasks(add_file, &plan);
   }
   return plan;
+}
+
+namespace {
+std::string DeterministicBytes(const runtime::Session& s) {
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  s.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return bytes;
+}
+}  // namespace
+
+std::string GivenSessionDigest(const runtime::Session& given, const std::string& extra) {
+  runtime::Session canon = given;
+  canon.clear_given_sha256();
+  canon.clear_derived();
+  return net::Sha256Hex(DeterministicBytes(canon) + "\n" + extra);
 }
 
 std::string SessionDigest(const SessionPlan& plan) {
@@ -205,13 +244,7 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_noop_jobs(plan.spec.noop_jobs());
   // Only when on, so that a session without masks keeps the digest it had before.
   if (o.silhouettes.Any()) *canon.mutable_silhouettes() = ToSilhouetteSettings(o.silhouettes);
-  std::string bytes;
-  google::protobuf::io::StringOutputStream stream(&bytes);
-  google::protobuf::io::CodedOutputStream coded(&stream);
-  coded.SetSerializationDeterministic(true);
-  canon.SerializeToCodedStream(&coded);
-  coded.Trim();
-  return net::Sha256Hex(bytes);
+  return net::Sha256Hex(DeterministicBytes(canon));
 }
 
 std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
@@ -221,8 +254,10 @@ std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
       addresses += plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
     }
   }
-  if (instant < plan.masks.size()) {
-    for (const auto& m : plan.masks[instant]) addresses += m.name() + " " + m.sha256() + "\n";
+  if (instant < plan.mask_inputs.size()) {
+    for (const auto& inputs : plan.mask_inputs[instant]) {
+      for (const auto& m : inputs) addresses += "mask input " + m.name() + " " + m.sha256() + "\n";
+    }
   }
   return net::Sha256Hex(addresses);
 }
