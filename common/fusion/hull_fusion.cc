@@ -35,7 +35,7 @@ void ApplyHull(const VolumeGrid& grid, const silhouette::VisualHull& hull,
           if (s.seen >= 1 && s.background >= std::min(votes, s.seen)) {
             d[v] = std::max(w[v] > 0 ? d[v] : 0.0f, std::min(clamp, float(s.outside_mm)));
             if (w[v] <= 0) w[v] = hull_weight;
-          } else if (s.inside && w[v] <= 0) {
+          } else if (hull_options.fill_unseen && s.inside && w[v] <= 0) {
             d[v] = -std::min(truncation, float(s.inside_mm));
             w[v] = hull_weight;
           }

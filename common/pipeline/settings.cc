@@ -70,7 +70,7 @@ const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
        "search every pixel over its whole range, not the foreground within the hull",
        +[](O& o) -> bool& { return o.stereo; }},
       {"fusion", "!--no-fusion-masks",
-       "no free space outside the hull, no hull surface where stereo saw nothing",
+       "no free space where the masks say background (outside the hull)",
        +[](O& o) -> bool& { return o.fusion; }},
   };
   return fields;

@@ -218,7 +218,8 @@ TEST_F(HullTest, BoundedStereoGivesBackgroundNoDepthAndKeepsThePersons) {
 }
 
 // The free-space rule: a voxel is free space when min(carve_votes, seen) of the cameras
-// that see it vote background; the hull's surface stands in where no image saw a voxel.
+// that see it vote background; with fill_unseen, the hull's surface stands in where no
+// image saw a voxel, and without (the default) such a voxel stays unseen.
 TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
   const std::string instant = take_->instants[1];
   const auto cameras = Cameras();
@@ -249,7 +250,10 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
     slab.ny = grid.ny;
     slab.distance_mm.assign(size_t(grid.nx) * grid.ny * grid.nz, 0.0f);
     slab.weight.assign(slab.distance_mm.size(), stereo_weight);
+    fusion::Slab unfilled = slab;
+    fusion::ApplyHull(grid, hull, options, fusion::HullFusionOptions{}, &unfilled);
     fusion::HullFusionOptions ho;
+    ho.fill_unseen = true;
     fusion::ApplyHull(grid, hull, options, ho, &slab);
     int free = 0, stand_in = 0, kept = 0;
     for (int k = 0; k < grid.nz; ++k) {
@@ -269,6 +273,7 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
               EXPECT_EQ(slab.weight[v], stereo_weight);
             } else {
               ++stand_in;  // the hull's surface stands in, weighted below one image
+              EXPECT_EQ(unfilled.weight[v], 0.0f);  // not without fill_unseen
               EXPECT_LE(slab.distance_mm[v], 0.0f);
               EXPECT_GE(slab.distance_mm[v], -options.truncation_mm);
               EXPECT_EQ(slab.weight[v], 0.5f);
