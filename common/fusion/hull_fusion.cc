@@ -31,7 +31,10 @@ void ApplyHull(const VolumeGrid& grid, const silhouette::VisualHull& hull,
           const int64_t v = int64_t(j) * slab->nx + i;
           // Stereo's clamped free space needs no hull: it is free space either way.
           if (w[v] > 0 && d[v] >= clamp) continue;
-          const silhouette::HullSample s = hull.Sample(grid.VoxelCentreMm(i, j, double(k)));
+          // Once carve_votes cameras say background and one puts the voxel a clamp or
+          // more outside, the rest cannot change what it becomes: free space at the clamp.
+          const silhouette::HullSample s =
+              hull.Sample(grid.VoxelCentreMm(i, j, double(k)), 0.0, -1, clamp);
           if (s.seen >= 1 && s.background >= std::min(votes, s.seen)) {
             d[v] = std::max(w[v] > 0 ? d[v] : 0.0f, std::min(clamp, float(s.outside_mm)));
             if (w[v] <= 0) w[v] = hull_weight;

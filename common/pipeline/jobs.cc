@@ -396,9 +396,15 @@ StageDescriptor StereoStage() {
       input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
     }
     MakeSearchBounds bounds;
-    std::unique_ptr<silhouette::VisualHull> hull;
+    std::unique_ptr<silhouette::VisualHull> own_hull;
+    const silhouette::VisualHull* hull = nullptr;
     if (sj.hull_bounds()) {
-      hull = HullBlobs(job, blobs, num_frames, rig, /*distances=*/false);
+      // Every stereo job of an instant builds the same hull (the masks of all cameras):
+      // a worker's memo keeps it, keyed by the masks and the threads.
+      auto build = [&] { return HullBlobs(job, blobs, num_frames, rig, /*distances=*/false); };
+      std::string key = "stereo hull\n" + std::to_string(job.threads());
+      for (int b = int(num_frames); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
+      hull = memo ? memo->Get<silhouette::VisualHull>(key, build) : (own_hull = build()).get();
       const int index = rig.Find(sj.camera());
       // The ray sampled at the search's own levels (the widest-baseline neighbour's
       // parallax step): exact where the search looks.

@@ -4,6 +4,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
@@ -15,6 +16,19 @@ namespace dome::silhouette {
 
 using core::Require;
 
+namespace {
+
+// std::lround's value (half away from zero) without the library call: the fraction
+// v - trunc(v) is exact. Far values (no pixel of any image) give -1.
+inline long RoundPx(double v) {
+  if (!(std::abs(v) < 1e9)) return -1;
+  double t = std::trunc(v);
+  if (std::abs(v - t) >= 0.5) t += v > 0 ? 1.0 : -1.0;
+  return long(t);
+}
+
+}  // namespace
+
 void HullOptions::Check() const {
   Require(std::isfinite(margin_fraction) && margin_fraction >= 0 && margin_fraction < 0.1,
           "HullOptions: margin_fraction",
@@ -22,6 +36,8 @@ void HullOptions::Check() const {
               std::to_string(margin_fraction));
   Require(carve_votes >= 1, "HullOptions: carve_votes",
           "expected at least 1, got " + std::to_string(carve_votes));
+  Require(ray_block_px >= 1 && ray_block_px <= 64, "HullOptions: ray_block_px",
+          "expected 1..64 pixels, got " + std::to_string(ray_block_px));
 }
 
 int HullOptions::MarginPx(cv::Size size) const {
@@ -65,6 +81,19 @@ VisualHull::VisualHull(const std::vector<geometry::TsaiCamera>& cameras,
       const int r = options_.MarginPx(mask.size());
       cv::dilate(fg, fg, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
       v.fg = fg;
+      if (options_.ray_block_px > 1) {
+        // Distance to the nearest pixel that is foreground or without data (the zeros),
+        // then to the first pixel outside the image on each side.
+        cv::Mat clear;
+        cv::distanceTransform(~fg & v.seen, clear, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+        for (int y = 0; y < clear.rows; ++y) {
+          float* d = clear.ptr<float>(y);
+          const int dy = std::min(y + 1, clear.rows - y);
+          for (int x = 0; x < clear.cols; ++x)
+            d[x] = std::min(d[x], float(std::min({x + 1, clear.cols - x, dy})));
+        }
+        v.clear_px = clear;
+      }
       if (!options_.distances) continue;
       // Distance to the nearest foreground pixel outside, to the nearest background
       // pixel inside (distanceTransform measures to the nearest zero).
@@ -80,7 +109,8 @@ cv::Mat VisualHull::IdealMask(int index) const {
   return views_.at(size_t(index)).fg.clone();
 }
 
-HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm, int skip) const {
+HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm, int skip,
+                              double enough_outside_mm) const {
   DOME_CHECK(radius_mm == 0 || options_.distances, "VisualHull::Sample: a radius needs distances");
   HullSample s;
   double inside = std::numeric_limits<double>::infinity();
@@ -98,6 +128,7 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
     if (d_px > 0) {
       ++s.background;
       s.outside_mm = std::max(s.outside_mm, d_px * mm_per_px);
+      if (s.background >= options_.carve_votes && s.outside_mm >= enough_outside_mm) break;
     } else {
       inside = std::min(inside, -d_px * mm_per_px);
     }
@@ -180,40 +211,103 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
                                       : std::clamp(int(std::ceil(longest)) + 1, 2, 1 << 14);
   const double dw = (w_near - w_far) / (samples - 1);
   const int votes = options_.carve_votes;
+  const int block = options_.ray_block_px;
+  // Reference pixel offsets -> normalised offsets at unit depth (K has no skew).
+  const double inv_fx = 1.0 / ref.K(0, 0), inv_fy = 1.0 / ref.K(1, 1);
   cv::Mat bounds(ref.height, ref.width, CV_32FC2, cv::Scalar(0, 0));
-  core::ParallelFor(0, ref.height, options_.num_threads, [&](int64_t y0, int64_t y1) {
+  const int block_rows = (ref.height + block - 1) / block;
+  core::ParallelFor(0, block_rows, options_.num_threads, [&](int64_t b0, int64_t b1) {
     std::vector<Eigen::Vector3d> p(others.size());
-    for (int64_t y = y0; y < y1; ++y) {
-      const uint8_t* own = ref.fg.ptr<uint8_t>(int(y));
-      const uint8_t* seen = ref.seen.ptr<uint8_t>(int(y));
-      cv::Vec2f* out = bounds.ptr<cv::Vec2f>(int(y));
-      for (int x = 0; x < ref.width; ++x) {
-        if (!own[x] || !seen[x]) continue;
-        for (size_t n = 0; n < others.size(); ++n)
-          p[n] = others[n].A * Eigen::Vector3d(x, double(y), 1.0);
-        auto inside = [&](int i) {
-          const double w = w_near - i * dw;
-          int s = 1, bg = 0;  // the reference sees it in its foreground
-          for (size_t n = 0; n < others.size() && bg < votes; ++n) {
-            const Eigen::Vector3d h = p[n] + w * others[n].b;
-            if (!(h.z() > 0)) continue;
-            const View& v = *others[n].view;
-            const long u = std::lround(h.x() / h.z()), r = std::lround(h.y() / h.z());
-            if (u < 0 || r < 0 || u >= v.width || r >= v.height || !v.seen.at<uint8_t>(r, u))
-              continue;
-            ++s;
-            bg += !v.fg.at<uint8_t>(r, u);
-          }
-          return s - bg >= 2 && bg < votes;
-        };
-        int first = 0;
-        while (first < samples && !inside(first)) ++first;
-        if (first == samples) continue;
-        int last = samples - 1;
-        while (last > first && !inside(last)) --last;
-        const double near_w = w_near - (first - 1) * dw, far_w = w_near - (last + 1) * dw;
-        out[x][0] = float(std::max(z_min_mm, 1.0 / near_w));
-        out[x][1] = float(far_w > 0 ? std::min(z_max_mm, 1.0 / far_w) : z_max_mm);
+    // Pixel (x, y): its first and last inside sample within [lo, hi] (the samples outside
+    // are outside), widened by a step, as depths.
+    auto pixel = [&](int x, int y, int lo, int hi) {
+      if (!ref.fg.at<uint8_t>(y, x) || !ref.seen.at<uint8_t>(y, x)) return;
+      for (size_t n = 0; n < others.size(); ++n)
+        p[n] = others[n].A * Eigen::Vector3d(x, double(y), 1.0);
+      auto inside = [&](int i) {
+        const double w = w_near - i * dw;
+        int s = 1, bg = 0;  // the reference sees it in its foreground
+        for (size_t n = 0; n < others.size() && bg < votes; ++n) {
+          const Eigen::Vector3d h = p[n] + w * others[n].b;
+          if (!(h.z() > 0)) continue;
+          const View& v = *others[n].view;
+          const long u = RoundPx(h.x() / h.z()), r = RoundPx(h.y() / h.z());
+          if (u < 0 || r < 0 || u >= v.width || r >= v.height || !v.seen.at<uint8_t>(r, u))
+            continue;
+          ++s;
+          bg += !v.fg.at<uint8_t>(r, u);
+        }
+        return s - bg >= 2 && bg < votes;
+      };
+      int first = lo;
+      while (first <= hi && !inside(first)) ++first;
+      if (first > hi) return;
+      int last = hi;
+      while (last > first && !inside(last)) --last;
+      const double near_w = w_near - (first - 1) * dw, far_w = w_near - (last + 1) * dw;
+      cv::Vec2f& out = bounds.at<cv::Vec2f>(y, x);
+      out[0] = float(std::max(z_min_mm, 1.0 / near_w));
+      out[1] = float(far_w > 0 ? std::min(z_max_mm, 1.0 / far_w) : z_max_mm);
+    };
+    // The block [x0, x1) x [y0, y1) whose rays can be inside only at samples [lo, hi]:
+    // narrowed by the block test, then halved down to pixels.
+    std::function<void(int, int, int, int, int, int)> refine = [&](int x0, int y0, int x1,
+                                                                   int y1, int lo, int hi) {
+      if (x1 - x0 == 1 && y1 - y0 == 1) return pixel(x0, y0, lo, hi);
+      bool any = false;
+      for (int y = y0; y < y1 && !any; ++y) {
+        const uint8_t* own = ref.fg.ptr<uint8_t>(y);
+        const uint8_t* seen = ref.seen.ptr<uint8_t>(y);
+        for (int x = x0; x < x1 && !any; ++x) any = own[x] && seen[x];
+      }
+      if (!any) return;
+      // At depth z the block's ray points lie within z * spread mm of its centre ray's.
+      const double xc = 0.5 * (x0 + x1 - 1), yc = 0.5 * (y0 + y1 - 1);
+      const double spread = std::hypot(0.5 * (x1 - 1 - x0) * inv_fx, 0.5 * (y1 - 1 - y0) * inv_fy);
+      for (size_t n = 0; n < others.size(); ++n) p[n] = others[n].A * Eigen::Vector3d(xc, yc, 1.0);
+      // True when carve_votes cameras see the whole ball of the block's points at sample
+      // i as background: then every pixel's exact test votes it outside.
+      auto outside = [&](int i) {
+        const double w = w_near - i * dw, z = 1.0 / w;
+        const double r_mm = z * spread * (1.0 + 1e-9);
+        int bg = 0;
+        for (size_t n = 0; n < others.size(); ++n) {
+          const Eigen::Vector3d h = p[n] + w * others[n].b;
+          const double depth = h.z() * z;  // the centre's depth in camera n, mm
+          if (!(depth - r_mm > 0)) continue;
+          const View& v = *others[n].view;
+          const double u = h.x() / h.z(), t = h.y() / h.z();
+          const long cu = RoundPx(u), cv_ = RoundPx(t);
+          if (cu < 0 || cv_ < 0 || cu >= v.width || cv_ >= v.height) continue;
+          // A point P of the ball, |P - C| <= r, projects within f r (1 + |C_xy| / C_z) /
+          // (C_z - r) pixels of C's projection; the roundings to pixels add sqrt(2).
+          const double nu = (u - v.K(0, 2)) / v.K(0, 0), nv = (t - v.K(1, 2)) / v.K(1, 1);
+          const double rho = std::sqrt(nu * nu + nv * nv);
+          const double reach_px =
+              std::max(v.K(0, 0), v.K(1, 1)) * r_mm * (1.0 + rho) / (depth - r_mm) +
+              std::sqrt(2.0) + 1e-3;
+          if (v.clear_px.at<float>(int(cv_), int(cu)) > reach_px && ++bg >= votes) return true;
+        }
+        return false;
+      };
+      while (lo <= hi && outside(lo)) ++lo;
+      if (lo > hi) return;
+      while (hi > lo && outside(hi)) --hi;
+      const int xm = (x0 + x1 + 1) / 2, ym = (y0 + y1 + 1) / 2;
+      refine(x0, y0, xm, ym, lo, hi);
+      if (xm < x1) refine(xm, y0, x1, ym, lo, hi);
+      if (ym < y1) refine(x0, ym, xm, y1, lo, hi);
+      if (xm < x1 && ym < y1) refine(xm, ym, x1, y1, lo, hi);
+    };
+    for (int64_t by = b0; by < b1; ++by) {
+      const int y0 = int(by) * block, y1 = std::min(ref.height, y0 + block);
+      for (int x0 = 0; x0 < ref.width; x0 += block) {
+        const int x1 = std::min(ref.width, x0 + block);
+        if (block == 1) {
+          pixel(x0, y0, 0, samples - 1);
+        } else {
+          refine(x0, y0, x1, y1, 0, samples - 1);
+        }
       }
     }
   });

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "core/error.h"
 #include "fusion/hull_fusion.h"
 #include "io/depth_tiff.h"
 #include "io/image_io.h"
@@ -173,6 +174,59 @@ TEST_F(HullTest, RayBoundsHoldThePersonsDepthAndSkipTheBackground) {
     ASSERT_GT(person, 300);
     EXPECT_GE(double(held) / person, 0.98) << cameras[c].id;
     EXPECT_LT(searched, bounds.rows * bounds.cols / 5) << cameras[c].id;
+  }
+}
+
+// The block test only skips samples no ray of the block can have inside: the bounds are
+// exactly those of every pixel's scan over all samples (ray_block_px 1), at the search's
+// level count and at the one-pixel spacing, with the default votes and with one.
+TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const auto masks = PlateMasks(instant);
+  for (int votes : {2, 1}) {
+    HullOptions plain;
+    plain.distances = false;
+    plain.carve_votes = votes;
+    plain.ray_block_px = 1;
+    const VisualHull exact(cameras, masks, plain);
+    for (int block : {8, 13}) {
+      HullOptions o = plain;
+      o.ray_block_px = block;
+      const VisualHull fast(cameras, masks, o);
+      for (int c = 0; c < int(cameras.size()); ++c) {
+        for (int samples : {0, 97}) {
+          const cv::Mat a = exact.RayBounds(c, 500, 6000, samples);
+          const cv::Mat b = fast.RayBounds(c, 500, 6000, samples);
+          ASSERT_EQ(a.size(), b.size());
+          int searched = 0, differ = 0;
+          for (int y = 0; y < a.rows; ++y) {
+            for (int x = 0; x < a.cols; ++x) {
+              const cv::Vec2f p = a.at<cv::Vec2f>(y, x), q = b.at<cv::Vec2f>(y, x);
+              searched += p[0] < p[1];
+              differ += p[0] != q[0] || p[1] != q[1];
+            }
+          }
+          ASSERT_GT(searched, 300) << cameras[c].id;
+          EXPECT_EQ(differ, 0) << cameras[c].id << " votes " << votes << " block " << block
+                               << " samples " << samples;
+        }
+      }
+    }
+  }
+}
+
+TEST(HullOptions, RayBlockOutOfRangeIsNamed) {
+  HullOptions o;
+  o.ray_block_px = 0;
+  try {
+    o.Check();
+    FAIL() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("HullOptions: ray_block_px"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected 1..64 pixels, got 0"), std::string::npos)
+        << e.what();
   }
 }
 
