@@ -218,6 +218,12 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
   const int block_rows = (ref.height + block - 1) / block;
   core::ParallelFor(0, block_rows, options_.num_threads, [&](int64_t b0, int64_t b1) {
     std::vector<Eigen::Vector3d> p(others.size());
+    // The order the cameras are asked in: those that voted background last come first
+    // (the next sample along a ray, the next ray, is mostly carved by the same cameras,
+    // so an outside sample costs about carve_votes projections). The verdicts do not
+    // depend on the order: counts, and a stop only once carve_votes say background.
+    std::vector<size_t> order(others.size());
+    for (size_t n = 0; n < order.size(); ++n) order[n] = n;
     // Pixel (x, y): its first and last inside sample within [lo, hi] (the samples outside
     // are outside), widened by a step, as depths.
     auto pixel = [&](int x, int y, int lo, int hi) {
@@ -227,7 +233,8 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
       auto inside = [&](int i) {
         const double w = w_near - i * dw;
         int s = 1, bg = 0;  // the reference sees it in its foreground
-        for (size_t n = 0; n < others.size() && bg < votes; ++n) {
+        for (size_t m = 0; m < order.size() && bg < votes; ++m) {
+          const size_t n = order[m];
           const Eigen::Vector3d h = p[n] + w * others[n].b;
           if (!(h.z() > 0)) continue;
           const View& v = *others[n].view;
@@ -235,7 +242,7 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           if (u < 0 || r < 0 || u >= v.width || r >= v.height || !v.seen.at<uint8_t>(r, u))
             continue;
           ++s;
-          bg += !v.fg.at<uint8_t>(r, u);
+          if (!v.fg.at<uint8_t>(r, u)) std::swap(order[m], order[size_t(bg++)]);
         }
         return s - bg >= 2 && bg < votes;
       };
@@ -271,7 +278,8 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
         const double w = w_near - i * dw, z = 1.0 / w;
         const double r_mm = z * spread * (1.0 + 1e-9);
         int bg = 0;
-        for (size_t n = 0; n < others.size(); ++n) {
+        for (size_t m = 0; m < order.size(); ++m) {
+          const size_t n = order[m];
           const Eigen::Vector3d h = p[n] + w * others[n].b;
           const double depth = h.z() * z;  // the centre's depth in camera n, mm
           if (!(depth - r_mm > 0)) continue;
@@ -286,7 +294,10 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           const double reach_px =
               std::max(v.K(0, 0), v.K(1, 1)) * r_mm * (1.0 + rho) / (depth - r_mm) +
               std::sqrt(2.0) + 1e-3;
-          if (v.clear_px.at<float>(int(cv_), int(cu)) > reach_px && ++bg >= votes) return true;
+          if (v.clear_px.at<float>(int(cv_), int(cu)) > reach_px) {
+            std::swap(order[m], order[size_t(bg)]);
+            if (++bg >= votes) return true;
+          }
         }
         return false;
       };

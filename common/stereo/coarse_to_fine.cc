@@ -512,10 +512,14 @@ StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& 
   std::vector<TileJob> jobs;
   for (int ty = 0; ty < height; ty += tile_px) {
     for (int tx = 0; tx < width; tx += tile_px) {
-      const cv::Rect tile = cv::Rect(tx, ty, tile_px, tile_px) & cv::Rect(0, 0, width, height);
       ++st.tiles;
+      // The tile cut to the rectangle of its searched pixels: at a silhouette's edge
+      // most of a tile is background, and a tile costs its pixels (and their window
+      // margin) x its levels. The pixels cut off have no depth either way.
+      const cv::Rect tile = bounds.SearchedRect(cv::Rect(tx, ty, tile_px, tile_px) &
+                                                cv::Rect(0, 0, width, height));
       double near_mm, far_mm;
-      if (!bounds.Range(tile, &near_mm, &far_mm)) continue;
+      if (tile.empty() || !bounds.Range(tile, &near_mm, &far_mm)) continue;
       const double z_lo = std::max(options.z_min_mm, near_mm);
       const double z_hi = std::min(options.z_max_mm, far_mm);
       if (z_lo < z_hi) jobs.push_back({tile, z_lo, z_hi});

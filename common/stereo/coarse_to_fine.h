@@ -118,9 +118,9 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
                                       const SearchBounds* bounds = nullptr);
 
 // The full-range search (ComputeDepth's options) limited by per-pixel bounds: the
-// reference image cut into tiles of tile_px, each matched as the fine pass above over
-// the least near .. greatest far of its searched pixels (within the options' range),
-// tiles without one skipped; then every depth outside its pixel's bounds cleared, and
+// reference image cut into tiles of tile_px, each cut to the rectangle of its searched
+// pixels and matched as the fine pass above over the least near .. greatest far of
+// them (within the options' range), tiles without one skipped; then every depth outside its pixel's bounds cleared, and
 // the speckles removed. The cost of a tile is its pixels x its own levels, so a search
 // bounded to a silhouette's hull costs what the foreground does. Stats: coarse_seconds
 // is the greys' preparation, fine_seconds the tiles'.

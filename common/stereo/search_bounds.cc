@@ -40,6 +40,22 @@ bool SearchBounds::Range(const cv::Rect& rect, double* near_mm, double* far_mm) 
   return lo < hi;
 }
 
+cv::Rect SearchBounds::SearchedRect(const cv::Rect& rect) const {
+  int x0 = rect.br().x, y0 = rect.br().y, x1 = rect.x - 1, y1 = rect.y - 1;
+  for (int y = rect.y; y < rect.br().y; ++y) {
+    const cv::Vec2f* b = near_far_mm.ptr<cv::Vec2f>(y);
+    for (int x = rect.x; x < rect.br().x; ++x) {
+      if (!(b[x][0] < b[x][1])) continue;
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
+  }
+  if (x1 < x0) return {};
+  return cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+}
+
 int64_t SearchBounds::Apply(cv::Mat* depth_mm, cv::Mat* reliability) const {
   int64_t cleared = 0;
   for (int y = 0; y < depth_mm->rows; ++y) {

@@ -29,6 +29,8 @@ struct SearchBounds {
   // The least near and greatest far over the searched pixels of `rect`; false when none
   // is searched.
   bool Range(const cv::Rect& rect, double* near_mm, double* far_mm) const;
+  // The bounding rectangle of the searched pixels of `rect`; empty when none is.
+  cv::Rect SearchedRect(const cv::Rect& rect) const;
   // Clears (sets to 0) the depths of `depth_mm` (CV_32FC1, the grid above) and of
   // `reliability` where the pixel is not searched or its depth is outside its bounds.
   // Returns how many depths it cleared.

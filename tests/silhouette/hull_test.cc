@@ -216,6 +216,17 @@ TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
   }
 }
 
+TEST(SearchBounds, SearchedRectIsTheBoxOfTheSearchedPixels) {
+  stereo::SearchBounds b{cv::Mat(20, 30, CV_32FC2, cv::Scalar(0, 0))};
+  EXPECT_TRUE(b.SearchedRect(cv::Rect(0, 0, 30, 20)).empty());
+  b.near_far_mm.at<cv::Vec2f>(5, 7) = cv::Vec2f(1000, 1200);
+  b.near_far_mm.at<cv::Vec2f>(9, 3) = cv::Vec2f(900, 1100);
+  b.near_far_mm.at<cv::Vec2f>(2, 12) = cv::Vec2f(1300, 1300);  // near == far: not searched
+  EXPECT_EQ(b.SearchedRect(cv::Rect(0, 0, 30, 20)), cv::Rect(3, 5, 5, 5));
+  EXPECT_EQ(b.SearchedRect(cv::Rect(4, 0, 10, 20)), cv::Rect(7, 5, 1, 1));
+  EXPECT_TRUE(b.SearchedRect(cv::Rect(8, 0, 10, 20)).empty());
+}
+
 TEST(HullOptions, RayBlockOutOfRangeIsNamed) {
   HullOptions o;
   o.ray_block_px = 0;
