@@ -48,6 +48,11 @@ inline constexpr int kLargeImagePx = 500000;                 // "large images", 
 // image as foreground (a person far across a dome covers more than 0.1 %).
 inline constexpr double kMinForegroundFraction = 0.001;
 inline constexpr int kHullCells = 96;  // the hull's box: cells along the longest side
+// A rig is sparse for the silhouettes (derive.cc) when its cameras' median nearest axis
+// angle (stereo/cluster.h) exceeds this, degrees: half the cluster's 60 degrees, where a
+// camera's neighbours still see the same side of the scene but a matching window sees
+// a surface's width change by up to a factor of two between them.
+inline constexpr double kSparseAxisAngleDeg = 30.0;
 
 struct DeriveRequest {
   // The volume to use instead of the scene's box (dome run --box), world mm.

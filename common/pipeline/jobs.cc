@@ -137,7 +137,7 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
 // The visual hull of the rig's cameras from the masks at blobs[first..], rig order.
 std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
                                                   size_t first, const geometry::Rig& rig,
-                                                  bool distances) {
+                                                  int carve_votes, bool distances) {
   core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
                     ") after blob " + std::to_string(first) + ", got " +
@@ -151,6 +151,8 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   silhouette::HullOptions options;
   options.num_threads = job.threads();
   options.distances = distances;
+  options.carve_votes = carve_votes;
+  options.Check();
   return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
 }
 
@@ -377,6 +379,7 @@ StageDescriptor StereoStage() {
     }
     if (plan.options.silhouettes.stereo) {
       sj.set_hull_bounds(true);
+      sj.set_carve_votes(plan.options.silhouettes.carve_votes);
       AddMaskBlobs(ctx, &blobs);
     }
     SetJob(sj, std::move(blobs), job);
@@ -400,9 +403,12 @@ StageDescriptor StereoStage() {
     const silhouette::VisualHull* hull = nullptr;
     if (sj.hull_bounds()) {
       // Every stereo job of an instant builds the same hull (the masks of all cameras):
-      // a worker's memo keeps it, keyed by the masks and the threads.
-      auto build = [&] { return HullBlobs(job, blobs, num_frames, rig, /*distances=*/false); };
-      std::string key = "stereo hull\n" + std::to_string(job.threads());
+      // a worker's memo keeps it, keyed by the masks, the rule and the threads.
+      auto build = [&] {
+        return HullBlobs(job, blobs, num_frames, rig, sj.carve_votes(), /*distances=*/false);
+      };
+      std::string key = "stereo hull\n" + std::to_string(job.threads()) + '\n' +
+                        std::to_string(sj.carve_votes());
       for (int b = int(num_frames); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
       hull = memo ? memo->Get<silhouette::VisualHull>(key, build) : (own_hull = build()).get();
       const int index = rig.Find(sj.camera());
@@ -472,6 +478,8 @@ StageDescriptor FusionStage() {
     }
     if (o.silhouettes.fusion) {
       fj.set_hull(true);
+      fj.set_carve_votes(o.silhouettes.carve_votes);
+      fj.set_hull_surface(o.silhouettes.hull_surface);
       AddMaskBlobs(ctx, &blobs);
     }
     SetJob(fj, std::move(blobs), job);
@@ -505,9 +513,13 @@ StageDescriptor FusionStage() {
           images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
         }
       }
+      fusion::HullFusionOptions hull_options;
+      hull_options.fill_unseen = fj.hull_surface();
       return PrepareFusion(grid, std::move(images), options,
-                           fj.hull() ? HullBlobs(job, blobs, rig.cameras.size() + 1, rig, true)
-                                     : nullptr);
+                           fj.hull() ? HullBlobs(job, blobs, rig.cameras.size() + 1, rig,
+                                                 fj.carve_votes(), true)
+                                     : nullptr,
+                           hull_options);
     };
     runtime::FusionJob shared = fj;
     shared.clear_k0();

@@ -42,6 +42,7 @@ void SessionOptions::Check() const {
   core::Require(std::isfinite(speck_gap_voxels) && speck_gap_voxels >= 0, "speck_gap_voxels",
                 "must be >= 0 voxels, got " + std::to_string(speck_gap_voxels));
   smooth.Check();
+  silhouettes.Check();
 }
 
 mesh::DecimationOptions DecimationFor(const SessionOptions& options) {

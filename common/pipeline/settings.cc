@@ -72,6 +72,13 @@ const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
       {"fusion", "!--no-fusion-masks",
        "no free space where the masks say background (outside the hull)",
        +[](O& o) -> bool& { return o.fusion; }},
+      {"hull_surface", "!--no-hull-surface",
+       "no hull surface where no range image saw a voxel inside the hull (derived on for "
+       "sparse rigs)",
+       +[](O& o) -> bool& { return o.hull_surface; }},
+      {"carve_votes", "--carve-votes",
+       "cameras that must see a point as background to carve it from the hull (>= 1)",
+       +[](O& o) -> int& { return o.carve_votes; }},
   };
   return fields;
 }
@@ -233,6 +240,11 @@ TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& path,
 
 std::string StereoOptionsToJson(const TakeStereoOptions& o) {
   return schema::PrintJson(ToStereoSettings(o));
+}
+
+void SilhouetteUse::Check() const {
+  core::Require(carve_votes >= 1, "silhouettes.carve_votes",
+                "must be at least 1 camera, got " + std::to_string(carve_votes));
 }
 
 runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use) {

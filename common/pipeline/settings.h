@@ -48,7 +48,13 @@ struct SilhouetteUse {
   bool volume = false;
   bool stereo = false;
   bool fusion = false;
+  // How the hull is used where it is (fusion/hull_fusion.h fill_unseen,
+  // silhouette/hull.h carve_votes); derived from the rig (pipeline/derive.h).
+  bool hull_surface = false;
+  int carve_votes = 2;
   bool Any() const { return volume || stereo || fusion; }
+  // Throws core::InputError naming the field when out of range.
+  void Check() const;
 };
 
 const std::vector<SettingField<stereo::TakeStereoOptions>>& StereoSettingFields();

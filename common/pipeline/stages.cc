@@ -179,7 +179,8 @@ cv::Rect DepthRect(const cv::Mat& depth_mm) {
 std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
                                               std::vector<fusion::RangeImage> images,
                                               const fusion::FusionOptions& options,
-                                              std::unique_ptr<silhouette::VisualHull> hull) {
+                                              std::unique_ptr<silhouette::VisualHull> hull,
+                                              const fusion::HullFusionOptions& hull_options) {
   auto prepared = std::make_unique<PreparedFusion>();
   // The integrator builds per-pixel tables of every image; only the rectangle of an
   // image's depths matters (a voxel projecting onto a pixel without a depth and one
@@ -197,6 +198,9 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
   }
   prepared->integrator = std::make_unique<fusion::Integrator>(grid, prepared->images, options);
   prepared->hull = std::move(hull);
+  prepared->hull_options = hull_options;
+  prepared->hull_options.num_threads = options.num_threads;
+  prepared->hull_options.Check();
   prepared->options = options;
   return prepared;
 }
@@ -204,10 +208,8 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
 const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1) {
   prepared->integrator->IntegrateSlab(k0, k1, &prepared->slab);
   if (prepared->hull) {
-    fusion::HullFusionOptions ho;
-    ho.num_threads = prepared->options.num_threads;
-    fusion::ApplyHull(prepared->integrator->grid(), *prepared->hull, prepared->options, ho,
-                      &prepared->slab);
+    fusion::ApplyHull(prepared->integrator->grid(), *prepared->hull, prepared->options,
+                      prepared->hull_options, &prepared->slab);
   }
   return prepared->slab;
 }
