@@ -49,9 +49,10 @@ inline constexpr int kLargeImagePx = 500000;                 // "large images", 
 inline constexpr double kMinForegroundFraction = 0.001;
 inline constexpr int kHullCells = 96;  // the hull's box: cells along the longest side
 // A rig is sparse for the silhouettes (derive.cc) when its cameras' median nearest axis
-// angle (stereo/cluster.h) exceeds this, degrees: half the cluster's 60 degrees, where a
-// camera's neighbours still see the same side of the scene but a matching window sees
-// a surface's width change by up to a factor of two between them.
+// angle (stereo/cluster.h) exceeds this, degrees: half the widest angle a stereo cluster
+// takes (60). The seed's dome pairs cameras about 18 degrees apart (the paper take:
+// 17.8), where stereo covers the surface; the small synthetic dome's six cameras (70)
+// and Panoptic's five HD ones (47 to 119 degrees apart) leave most of it unmatched.
 inline constexpr double kSparseAxisAngleDeg = 30.0;
 
 struct DeriveRequest {
