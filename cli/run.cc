@@ -13,12 +13,14 @@
 // Talking to a dome-master needs --master-key FILE (its .pub) and --key FILE (this
 // side's .key, its .pub on the master's allow-list), or --insecure for a plaintext
 // master; the embedded master of `dome run` is in-process and needs no keys.
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,10 +44,11 @@ struct SessionArgs {
   std::vector<double> box;  // --box: x0 y0 z0 x1 y1 z1, world mm
   double voxel_mm = 0, decimate_ratio = 0;
   int slab_planes = 0, smooth_iterations = 0;
-  bool no_texture = false, no_preview = false;
+  bool no_texture = false, no_preview = false, no_masks = false;
   CLI::Option *voxel = nullptr, *slabs = nullptr, *ratio = nullptr, *smooth = nullptr;
   std::unique_ptr<SettingFlags<stereo::TakeStereoOptions>> stereo;
   std::unique_ptr<SettingFlags<fusion::FusionOptions>> fusion;
+  std::unique_ptr<SettingFlags<pipeline::SilhouetteUse>> silhouettes;
 };
 
 void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
@@ -68,6 +71,10 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
       ->expected(6);
   cmd->add_flag("--no-texture", a->no_texture, "skip the textured OBJ");
   cmd->add_flag("--no-preview", a->no_preview, "skip depth preview PNGs");
+  cmd->add_flag("--no-masks", a->no_masks,
+                "no silhouettes: --no-volume-masks --no-stereo-masks --no-fusion-masks");
+  a->silhouettes = std::make_unique<SettingFlags<pipeline::SilhouetteUse>>(
+      cmd, pipeline::SilhouetteSettingFields());
   a->stereo = std::make_unique<SettingFlags<stereo::TakeStereoOptions>>(
       cmd, pipeline::StereoSettingFields());
   a->fusion = std::make_unique<SettingFlags<fusion::FusionOptions>>(
@@ -76,6 +83,26 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
 }
 
 // A Session from a take folder and flags, or from SESSION.json with flags overriding.
+// OUT/session.json (written by the master when the session started) when it was derived
+// from a session given as `given_sha256` (pipeline::GivenSessionDigest); nothing when
+// there is none, another, or one that does not parse (said, and derived again).
+std::optional<runtime::Session> KeptSession(const std::string& out, const std::string& given_sha256) {
+  const std::filesystem::path path = std::filesystem::path(out) / "session.json";
+  if (!std::filesystem::is_regular_file(path)) return std::nullopt;
+  try {
+    runtime::Session kept = pipeline::ReadSessionJson(path);
+    if (kept.given_sha256() != given_sha256) return std::nullopt;
+    spdlog::info("{}: the same take and options: its session kept, derived values included "
+                 "({} note(s); a new output folder derives them again)",
+                 path.string(), kept.derived_size());
+    for (const auto& n : kept.derived()) spdlog::info("derived (kept) {}", n);
+    return kept;
+  } catch (const core::InputError& e) {
+    spdlog::warn("{}: not kept ({}): the session is derived again", path.string(), e.what());
+    return std::nullopt;
+  }
+}
+
 // `embedded`: the session runs on this process's workers (frames derived from are
 // handed to their jobs).
 runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
@@ -104,6 +131,8 @@ runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
   if (a.no_preview) s.set_write_previews(false);
   a.stereo->Apply(s.mutable_stereo());
   a.fusion->Apply(s.mutable_fusion());
+  a.silhouettes->Apply(s.mutable_silhouettes());
+  if (a.no_masks) *s.mutable_silhouettes() = pipeline::ToSilhouetteSettings({});
   // Bad options fail here, not remotely, with the messages of the same values in a
   // session file (one place: pipeline::ResolveSessionOptions). A take derived here has
   // them checked by DeriveSession first, against the volume derived for it rather than
@@ -120,11 +149,21 @@ runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
         "(the seed's volume) apply unless --box and the options are given",
         s.take());
   } else if (!s.has_noop_jobs()) {
+    std::string box;
+    for (double v : a.box) box += fmt::format("{} ", v);
+    const std::string given = pipeline::GivenSessionDigest(s, "box " + box);
+    // The same take and options into the same folder again (a resume): the session the
+    // folder holds, derived values included. They come from the frames (the scene's
+    // extent, the masks' hull), so deriving again after a frame was rewritten would
+    // change every instant's session, and the journal would redo them all rather than
+    // the instant whose inputs changed (master/journal.h).
+    if (auto kept = KeptSession(s.out(), given)) return *kept;
     pipeline::DeriveRequest r;
     r.offer_frames = embedded;
     if (!a.box.empty()) r.box = {{a.box[0], a.box[1], a.box[2]}, {a.box[3], a.box[4], a.box[5]}};
     const pipeline::Derivation d = pipeline::DeriveSession(r, &s);
     for (const auto& n : d.notes) s.add_derived(n);
+    s.set_given_sha256(given);
   }
   return s;
 }

@@ -19,6 +19,12 @@
 //               uniqueness 0.02, the two nearest cameras as the cluster, speckle pieces
 //               below 1.5 % of the image (step five pixel footprints) dropped, 10
 //               Taubin smoothing iterations of mesh.ply;
+//   silhouettes each use of the foreground masks (volume, stereo, fusion) on when masks
+//               can be made for the take and two cameras find a foreground, else off;
+//               with the volume on, the scene's box shrinks to the bounding box of the
+//               masks' visual hull (silhouette/hull.h) at 15 of the session's instants
+//               at most (evenly spread, as a median background's), grown by the scene
+//               extent's margin;
 //   fusion      truncation and free-space clamp three voxels (the seed's), one voxel for
 //               large images (the budget makes their voxel coarser than their matches'
 //               depth error).
@@ -38,6 +44,16 @@ namespace dome::pipeline {
 
 inline constexpr double kMaxVoxels = 300.0 * 300.0 * 300.0;  // the seed's 6 m / 20 mm cube
 inline constexpr int kLargeImagePx = 500000;                 // "large images", pixels
+// Silhouettes are used when at least two cameras' masks hold this fraction of the
+// image as foreground (a person far across a dome covers more than 0.1 %).
+inline constexpr double kMinForegroundFraction = 0.001;
+inline constexpr int kHullCells = 96;  // the hull's box: cells along the longest side
+// A rig is sparse for the silhouettes (derive.cc) when its cameras' median nearest axis
+// angle (stereo/cluster.h) exceeds this, degrees: half the widest angle a stereo cluster
+// takes (60). The seed's dome pairs cameras about 18 degrees apart (the paper take:
+// 17.8), where stereo covers the surface; the small synthetic dome's six cameras (70)
+// and Panoptic's five HD ones (47 to 119 degrees apart) leave most of it unmatched.
+inline constexpr double kSparseAxisAngleDeg = 30.0;
 
 struct DeriveRequest {
   // The volume to use instead of the scene's box (dome run --box), world mm.

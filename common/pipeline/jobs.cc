@@ -19,6 +19,8 @@
 #include "pipeline/stages.h"
 #include "pipeline/surface_stream.h"
 #include "schema/rig_json.h"
+#include "silhouette/hull.h"
+#include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
 
 namespace dome::pipeline {
@@ -132,6 +134,34 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
   return rig.cameras[k].model;
 }
 
+// The visual hull of the rig's cameras from the masks at blobs[first..], rig order.
+std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
+                                                  size_t first, const geometry::Rig& rig,
+                                                  int carve_votes, bool distances) {
+  core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
+                "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
+                    ") after blob " + std::to_string(first) + ", got " +
+                    std::to_string(blobs.size() - std::min(blobs.size(), first)));
+  std::vector<geometry::TsaiCamera> cameras;
+  std::vector<cv::Mat> masks;
+  for (size_t c = 0; c < rig.cameras.size(); ++c) {
+    cameras.push_back(rig.cameras[c].model);
+    masks.push_back(FrameBlob(job, blobs, first + c, io::ImageMode::kGray8));
+  }
+  silhouette::HullOptions options;
+  options.num_threads = job.threads();
+  options.distances = distances;
+  options.carve_votes = carve_votes;
+  options.Check();
+  return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
+}
+
+// The masks stage's outputs of the instant, rig order.
+void AddMaskBlobs(const JobContext& ctx, std::vector<runtime::BlobRef>* blobs) {
+  for (int c = 0; c < int(ctx.plan.cameras.size()); ++c)
+    blobs->push_back(ctx.outputs("masks", c).at(0));
+}
+
 // A job's settings message (serialized) and its blobs, in the order its run reads them.
 void SetJob(const google::protobuf::Message& settings, std::vector<runtime::BlobRef> blobs,
             runtime::Job* job) {
@@ -240,8 +270,98 @@ std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, 
   return images;
 }
 
+// ---- masks ----------------------------------------------------------------------------
+
+// One camera's foreground mask at one instant (silhouette/take_masks.h), made where the
+// jobs run rather than at submit: a long take's submit would otherwise decode and
+// classify every frame before its first job. Parts: the cameras, when stereo or fusion
+// use the masks; none otherwise.
+StageDescriptor MaskStage() {
+  StageDescriptor d = Descriptor("masks", {}, [](const SessionPlan& plan) {
+    return Reconstructs(plan) && !plan.mask_inputs.empty() ? plan.cameras
+                                                           : std::vector<std::string>{};
+  });
+  d.send_ahead = true;
+  d.make_job = [](const JobContext& ctx, runtime::Job* job) {
+    runtime::MaskJob mj;
+    mj.set_camera(ctx.plan.cameras[ctx.part]);
+    mj.set_source(ctx.plan.mask_sources.at(ctx.part));
+    std::vector<runtime::BlobRef> blobs = {ctx.plan.rig};
+    for (const auto& b : ctx.plan.mask_inputs.at(ctx.instant).at(ctx.part)) blobs.push_back(b);
+    SetJob(mj, std::move(blobs), job);
+  };
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+    const auto mj = JobSettings<runtime::MaskJob>(job);
+    RequireBlobs(job, blobs, 2);
+    const geometry::Rig rig = RigBlob(job, blobs);
+    const geometry::TsaiCamera& camera = RigCameraOf(rig, mj.camera(), job);
+    const cv::Size size(camera.width_px, camera.height_px);
+    auto unchanged = [&](size_t i) { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); };
+    cv::Mat mask;
+    if (mj.source() == "given") {
+      mask = silhouette::MaskImage(unchanged(1), size, mj.camera(), BlobName(job, 1));
+    } else if (mj.source() == "plate" || mj.source() == "median") {
+      const bool median = mj.source() == "median";
+      const size_t needed = median ? 1 + silhouette::MaskOptions::kMinMedianInstants : 2;
+      core::Require(median ? blobs.size() >= 1 + needed : blobs.size() == 1 + needed,
+                    JobWhere(job),
+                    median ? "a median mask needs the frame and at least " +
+                                 std::to_string(needed - 1) + " frames for the median, got " +
+                                 std::to_string(blobs.size() - 1) + " blobs after the rig"
+                           : "a plate's mask needs the frame and the plate, got " +
+                                 std::to_string(blobs.size() - 1) + " blobs after the rig");
+      const silhouette::Frame frame =
+          silhouette::SplitFrame(unchanged(1), size, mj.camera(), BlobName(job, 1));
+      cv::Mat background;
+      if (median) {
+        std::vector<cv::Mat> colours(blobs.size() - 2);
+        core::ParallelFor(0, int64_t(colours.size()), job.threads(), [&](int64_t b, int64_t e) {
+          for (int64_t i = b; i < e; ++i) {
+            colours[size_t(i)] = silhouette::SplitFrame(unchanged(size_t(i) + 2), size,
+                                                        mj.camera(), BlobName(job, size_t(i) + 2))
+                                     .colour;
+          }
+        });
+        background = silhouette::MedianBackground(colours, frame.colour.channels());
+      } else {
+        background = silhouette::SplitFrame(unchanged(2), size, mj.camera(), BlobName(job, 2)).colour;
+      }
+      mask = silhouette::MaskAgainst(
+          frame, background,
+          median ? silhouette::MaskSource::kMedian : silhouette::MaskSource::kPlate,
+          silhouette::MaskOptions{});
+    } else {
+      throw core::InputError(JobWhere(job), "unknown mask source '" + mj.source() +
+                                                "' (expected given, plate or median)");
+    }
+    std::vector<runtime::Output> outputs(1);
+    outputs[0].set_name(kMaskOutput);
+    outputs[0].set_data(io::EncodePng(mask));
+    return outputs;
+  };
+  d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
+    const std::string& bytes = OutputBytes(r, kMaskOutput, ctx.where);
+    const std::string& cam = ctx.plan.cameras[ctx.part];
+    const geometry::TsaiCamera& camera = ctx.plan.take.rig.cameras[ctx.part].model;
+    const cv::Mat mask = io::DecodeImage(bytes, io::ImageMode::kUnchanged, ctx.where);
+    core::Require(mask.type() == CV_8UC1 && mask.cols == camera.width_px &&
+                      mask.rows == camera.height_px,
+                  ctx.where,
+                  "expected the mask of camera '" + cam + "' as an 8-bit gray " +
+                      std::to_string(camera.width_px) + "x" + std::to_string(camera.height_px) +
+                      " PNG, got " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
+                      " of type " + std::to_string(mask.type()));
+    fs::create_directories(ctx.dir / "mask");
+    io::WriteFileAtomically(ctx.dir / "mask" / (cam + ".png"), bytes);
+    return StoredResult{{ctx.blobs->Keep(bytes, kMaskOutput)}, nullptr};
+  };
+  return d;
+}
+
+// ---- stereo -----------------------------------------------------------------------------
+
 StageDescriptor StereoStage() {
-  StageDescriptor d = Descriptor("stereo", {}, [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("stereo", {"masks"}, [](const SessionPlan& plan) {
     return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
   });
   d.send_ahead = true;
@@ -257,11 +377,17 @@ StageDescriptor StereoStage() {
       sj.add_neighbours(plan.cameras[j]);
       blobs.push_back(frames[j]);
     }
+    if (plan.options.silhouettes.stereo) {
+      sj.set_hull_bounds(true);
+      sj.set_carve_votes(plan.options.silhouettes.carve_votes);
+      AddMaskBlobs(ctx, &blobs);
+    }
     SetJob(sj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto sj = JobSettings<runtime::StereoJob>(job);
-    RequireBlobs(job, blobs, 2 + sj.neighbours_size());
+    const size_t num_frames = 2 + size_t(sj.neighbours_size());
+    RequireBlobs(job, blobs, num_frames);
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
@@ -272,7 +398,34 @@ StageDescriptor StereoStage() {
     for (int n = 0; n < sj.neighbours_size(); ++n) {
       input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
     }
-    const stereo::StereoResult result = Stereo(input, options, JobWhere(job));
+    MakeSearchBounds bounds;
+    std::unique_ptr<silhouette::VisualHull> own_hull;
+    const silhouette::VisualHull* hull = nullptr;
+    if (sj.hull_bounds()) {
+      // Every stereo job of an instant builds the same hull (the masks of all cameras):
+      // a worker's memo keeps it, keyed by the masks, the rule and the threads.
+      auto build = [&] {
+        return HullBlobs(job, blobs, num_frames, rig, sj.carve_votes(), /*distances=*/false);
+      };
+      std::string key = "stereo hull\n" + std::to_string(job.threads()) + '\n' +
+                        std::to_string(sj.carve_votes());
+      for (int b = int(num_frames); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
+      hull = memo ? memo->Get<silhouette::VisualHull>(key, build) : (own_hull = build()).get();
+      const int index = rig.Find(sj.camera());
+      // The ray sampled at the search's own levels (the widest-baseline neighbour's
+      // parallax step): exact where the search looks.
+      bounds = [&, index](double z_min, double z_max) {
+        std::vector<geometry::TsaiCamera> nb;
+        for (const auto& v : input.neighbours) nb.push_back(v.camera);
+        const int levels =
+            options.stereo.num_levels > 0
+                ? options.stereo.num_levels
+                : stereo::CountDepthLevels(input.reference.camera, nb, z_min, z_max,
+                                           options.stereo.level_step_px);
+        return stereo::SearchBounds{hull->RayBounds(index, z_min, z_max, levels)};
+      };
+    }
+    const stereo::StereoResult result = Stereo(input, options, JobWhere(job), bounds);
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kStereoOutput);
     outputs[0].set_data(EncodeStereoOutput(result));
@@ -304,7 +457,7 @@ StageDescriptor StereoStage() {
 // ---- fusion ---------------------------------------------------------------------------
 
 StageDescriptor FusionStage() {
-  StageDescriptor d = Descriptor("fusion", {"stereo"}, [](const SessionPlan& plan) {
+  StageDescriptor d = Descriptor("fusion", {"masks", "stereo"}, [](const SessionPlan& plan) {
     std::vector<std::string> parts;
     for (int s = 0; Reconstructs(plan) && s < plan.num_slabs; ++s)
       parts.push_back(std::to_string(s));
@@ -323,6 +476,12 @@ StageDescriptor FusionStage() {
     for (int c = 0; c < int(ctx.plan.cameras.size()); ++c) {
       blobs.push_back(ctx.outputs("stereo", c).at(0));
     }
+    if (o.silhouettes.fusion) {
+      fj.set_hull(true);
+      fj.set_carve_votes(o.silhouettes.carve_votes);
+      fj.set_hull_surface(o.silhouettes.hull_surface);
+      AddMaskBlobs(ctx, &blobs);
+    }
     SetJob(fj, std::move(blobs), job);
   };
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
@@ -337,10 +496,12 @@ StageDescriptor FusionStage() {
       const geometry::Rig rig = RigBlob(job, blobs);
       fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
       options.num_threads = job.threads();
-      core::Require(blobs.size() == rig.cameras.size() + 1, where,
+      const size_t num_masks = fj.hull() ? rig.cameras.size() : 0;
+      core::Require(blobs.size() == rig.cameras.size() + 1 + num_masks, where,
                     "expected one stereo output per rig camera (" +
-                        std::to_string(rig.cameras.size()) + "), got " +
-                        std::to_string(blobs.size() - 1));
+                        std::to_string(rig.cameras.size()) + ")" +
+                        (num_masks ? " and one mask each" : "") + ", got " +
+                        std::to_string(blobs.size() - 1) + " blobs after the rig");
       // Cameras in rig order, windows in the options' order.
       std::vector<fusion::RangeImage> images;
       for (size_t c = 0; c < rig.cameras.size(); ++c) {
@@ -352,7 +513,13 @@ StageDescriptor FusionStage() {
           images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
         }
       }
-      return PrepareFusion(grid, std::move(images), options);
+      fusion::HullFusionOptions hull_options;
+      hull_options.fill_unseen = fj.hull_surface();
+      return PrepareFusion(grid, std::move(images), options,
+                           fj.hull() ? HullBlobs(job, blobs, rig.cameras.size() + 1, rig,
+                                                 fj.carve_votes(), true)
+                                     : nullptr,
+                           hull_options);
     };
     runtime::FusionJob shared = fj;
     shared.clear_k0();
@@ -580,7 +747,7 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
 
 std::shared_ptr<const StageSet> DefaultStages() {
   static const auto stages =
-      std::make_shared<const StageSet>(StageSet{{StereoStage(), FusionStage(), SurfaceStage(),
+      std::make_shared<const StageSet>(StageSet{{MaskStage(), StereoStage(), FusionStage(), SurfaceStage(),
                                                  DecimateStage(), TextureStage(), NoopStage()}});
   return stages;
 }

@@ -23,6 +23,7 @@
 
 namespace dome::pipeline {
 
+inline constexpr const char* kMaskOutput = "mask";  // a mask PNG, 255 = foreground
 inline constexpr const char* kStereoOutput = "stereo";
 inline constexpr const char* kSlabOutput = "slab";
 

@@ -7,14 +7,18 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <set>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
+#include "io/image_io.h"
 #include "io/file_util.h"
 #include "net/content_hash.h"
 #include "pipeline/settings.h"
 #include "pipeline/stages.h"
 #include "schema/json.h"
+#include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
 
 namespace dome::pipeline {
@@ -38,6 +42,7 @@ void SessionOptions::Check() const {
   core::Require(std::isfinite(speck_gap_voxels) && speck_gap_voxels >= 0, "speck_gap_voxels",
                 "must be >= 0 voxels, got " + std::to_string(speck_gap_voxels));
   smooth.Check();
+  silhouettes.Check();
 }
 
 mesh::DecimationOptions DecimationFor(const SessionOptions& options) {
@@ -70,6 +75,7 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   if (s.has_speck_area_fraction()) o.speck_area_fraction = s.speck_area_fraction();
   if (s.has_speck_diagonal_voxels()) o.speck_diagonal_voxels = s.speck_diagonal_voxels();
   if (s.has_speck_gap_voxels()) o.speck_gap_voxels = s.speck_gap_voxels();
+  o.silhouettes = FromSilhouetteSettings(s.silhouettes());
   try {
     o.Check();
   } catch (const core::InputError& e) {
@@ -92,6 +98,51 @@ std::vector<std::string> SessionInstants(const runtime::Session& session, const 
 }
 
 namespace {
+
+// What the masks stage makes each camera's mask from (SessionPlan::mask_inputs). The
+// sources are decided, and the given masks' and plates' kinds and sizes checked, here
+// (silhouette::TakeMasks), so a bad file fails the submit; no mask is made here: each
+// is a job, so a long take's submit reads no more than its files' bytes.
+void PlanMasks(const std::function<runtime::BlobRef(const fs::path&, const std::string&)>& add_file,
+               SessionPlan* plan) {
+  const silhouette::TakeMasks masks(plan->take, silhouette::MaskOptions{});
+  std::map<fs::path, runtime::BlobRef> added;  // each file once
+  auto add = [&](const fs::path& path, const std::string& name) {
+    auto it = added.find(path);
+    if (it == added.end()) it = added.emplace(path, add_file(path, name)).first;
+    return it->second;
+  };
+  const std::vector<std::string> median =
+      silhouette::MedianInstants(plan->take.instants, silhouette::MaskOptions{}.median_max_instants);
+  for (const auto& cam : plan->cameras)
+    plan->mask_sources.push_back(silhouette::MaskSourceName(masks.Source(cam)));
+  for (size_t t = 0; t < plan->instants.size(); ++t) {
+    const std::string& in = plan->instants[t];
+    std::vector<std::vector<runtime::BlobRef>> row;
+    for (size_t c = 0; c < plan->cameras.size(); ++c) {
+      const std::string& cam = plan->cameras[c];
+      std::vector<runtime::BlobRef> inputs;
+      switch (masks.Source(cam)) {
+        case silhouette::MaskSource::kGiven:
+          inputs.push_back(add(masks.GivenMaskPath(in, cam), "masks/" + in + "/" + cam + ".png"));
+          break;
+        case silhouette::MaskSource::kPlate:
+          inputs.push_back(plan->frames[t][c]);
+          inputs.push_back(add(masks.PlatePath(cam), "background/" + cam + ".png"));
+          break;
+        case silhouette::MaskSource::kMedian:
+          inputs.push_back(plan->frames[t][c]);
+          for (const auto& m : median)
+            inputs.push_back(
+                add(plan->take.FramePath(m, cam), "frames/" + m + "/" + cam + ".png"));
+          break;
+      }
+      row.push_back(std::move(inputs));
+    }
+    plan->mask_inputs.push_back(std::move(row));
+  }
+}
+
 bool HasPngSignature(const fs::path& path) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   std::ifstream in(path, std::ios::binary);
@@ -146,7 +197,29 @@ SessionPlan PlanSession(
     }
     plan.frames.push_back(std::move(row));
   }
+  if (plan.options.silhouettes.stereo || plan.options.silhouettes.fusion) {
+    PlanMasks(add_file, &plan);
+  }
   return plan;
+}
+
+namespace {
+std::string DeterministicBytes(const runtime::Session& s) {
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  s.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return bytes;
+}
+}  // namespace
+
+std::string GivenSessionDigest(const runtime::Session& given, const std::string& extra) {
+  runtime::Session canon = given;
+  canon.clear_given_sha256();
+  canon.clear_derived();
+  return net::Sha256Hex(DeterministicBytes(canon) + "\n" + extra);
 }
 
 std::string SessionDigest(const SessionPlan& plan) {
@@ -170,13 +243,9 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_speck_gap_voxels(o.speck_gap_voxels);
   canon.set_write_previews(o.stereo.write_previews);
   canon.set_noop_jobs(plan.spec.noop_jobs());
-  std::string bytes;
-  google::protobuf::io::StringOutputStream stream(&bytes);
-  google::protobuf::io::CodedOutputStream coded(&stream);
-  coded.SetSerializationDeterministic(true);
-  canon.SerializeToCodedStream(&coded);
-  coded.Trim();
-  return net::Sha256Hex(bytes);
+  // Only when on, so that a session without masks keeps the digest it had before.
+  if (o.silhouettes.Any()) *canon.mutable_silhouettes() = ToSilhouetteSettings(o.silhouettes);
+  return net::Sha256Hex(DeterministicBytes(canon));
 }
 
 std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
@@ -184,6 +253,11 @@ std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
   if (instant < plan.frames.size()) {
     for (size_t c = 0; c < plan.frames[instant].size(); ++c) {
       addresses += plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
+    }
+  }
+  if (instant < plan.mask_inputs.size()) {
+    for (const auto& inputs : plan.mask_inputs[instant]) {
+      for (const auto& m : inputs) addresses += "mask input " + m.name() + " " + m.sha256() + "\n";
     }
   }
   return net::Sha256Hex(addresses);

@@ -17,6 +17,7 @@
 #include "fusion/volume.h"
 #include "mesh/decimate.h"
 #include "mesh/smooth.h"
+#include "pipeline/settings.h"
 #include "runtime.pb.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
@@ -46,6 +47,7 @@ struct SessionOptions {
   double speck_area_fraction = 0.01;
   double speck_diagonal_voxels = 20.0;
   double speck_gap_voxels = 2.0;
+  SilhouetteUse silhouettes;  // the masks' uses; off unless the session says (derive.h)
 
   // Throws core::InputError naming the first bad option ("slab_planes").
   void Check() const;
@@ -77,6 +79,13 @@ struct SessionPlan {
   int num_slabs = 0;                                  // fusion jobs per instant
   runtime::BlobRef rig;                               // TAKE/rig.json
   std::vector<std::vector<runtime::BlobRef>> frames;  // [instant][camera], rig order
+  // With silhouettes in stereo or fusion: what each camera's foreground mask is made
+  // from by the masks stage's job (jobs.h; proto/runtime.proto MaskJob), [instant]
+  // [camera], rig order: given, the mask file; plate, the frame and the plate; median,
+  // the frame and the camera's frames at the median's instants. Its source per camera
+  // in mask_sources (silhouette::MaskSourceName). Empty otherwise.
+  std::vector<std::vector<std::vector<runtime::BlobRef>>> mask_inputs;
+  std::vector<std::string> mask_sources;
 };
 
 // Resolves and checks the session, opens its take and checks every camera's stereo
@@ -90,6 +99,12 @@ SessionPlan PlanSession(const runtime::Session& spec,
 // What a session's journal is keyed on (master/journal.h): the SHA-256 of its take
 // folder, instants and every resolved option (not its id, not its output folder).
 std::string SessionDigest(const SessionPlan& plan);
+
+// The SHA-256 of a session as given, before DeriveSession (pipeline/derive.h) fills in
+// what it left unset, with `extra` (what else steers the derivation: `dome run --box`)
+// appended; its given_sha256 and derived notes are left out. Deterministic protobuf
+// bytes, so equal sessions give equal digests.
+std::string GivenSessionDigest(const runtime::Session& given, const std::string& extra);
 
 // What a job of instant `instant` (index into plan.instants) is made from, beyond the
 // options: the SHA-256 of the rig's and that instant's frames' content addresses. The

@@ -60,6 +60,29 @@ const std::vector<SettingField<TakeStereoOptions>>& StereoSettingFields() {
   return fields;
 }
 
+const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
+  using O = SilhouetteUse;
+  static const std::vector<SettingField<O>> fields = {
+      {"volume", "!--no-volume-masks",
+       "do not shrink the derived volume to the masks' visual hull",
+       +[](O& o) -> bool& { return o.volume; }},
+      {"stereo", "!--no-stereo-masks",
+       "search every pixel over its whole range, not the foreground within the hull",
+       +[](O& o) -> bool& { return o.stereo; }},
+      {"fusion", "!--no-fusion-masks",
+       "no free space where the masks say background (outside the hull)",
+       +[](O& o) -> bool& { return o.fusion; }},
+      {"hull_surface", "!--no-hull-surface",
+       "no hull surface where no range image saw a voxel inside the hull (derived on for "
+       "sparse rigs)",
+       +[](O& o) -> bool& { return o.hull_surface; }},
+      {"carve_votes", "--carve-votes",
+       "cameras that must see a point as background to carve it from the hull (>= 1)",
+       +[](O& o) -> int& { return o.carve_votes; }},
+  };
+  return fields;
+}
+
 const std::vector<SettingField<CoarseToFineOptions>>& CoarseToFineSettingFields() {
   using O = CoarseToFineOptions;
   static const std::vector<SettingField<O>> fields = {
@@ -217,6 +240,23 @@ TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& path,
 
 std::string StereoOptionsToJson(const TakeStereoOptions& o) {
   return schema::PrintJson(ToStereoSettings(o));
+}
+
+void SilhouetteUse::Check() const {
+  core::Require(carve_votes >= 1, "silhouettes.carve_votes",
+                "must be at least 1 camera, got " + std::to_string(carve_votes));
+}
+
+runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use) {
+  runtime::SilhouetteSettings s;
+  SetAll(SilhouetteSettingFields(), use, &s);
+  return s;
+}
+
+SilhouetteUse FromSilhouetteSettings(const runtime::SilhouetteSettings& s) {
+  SilhouetteUse use;
+  GetSet(SilhouetteSettingFields(), s, &use);
+  return use;
 }
 
 runtime::CoarseToFineSettings ToCoarseToFineSettings(const CoarseToFineOptions& o) {

@@ -41,7 +41,24 @@ struct SettingField {
       member;
 };
 
+// Which uses of the take's foreground masks are on (proto SilhouetteSettings): the
+// volume (pipeline/derive.h), stereo's search (stereo/search_bounds.h) and fusion
+// (fusion/hull_fusion.h). All off: the reconstruction without masks, bit for bit.
+struct SilhouetteUse {
+  bool volume = false;
+  bool stereo = false;
+  bool fusion = false;
+  // How the hull is used where it is (fusion/hull_fusion.h fill_unseen,
+  // silhouette/hull.h carve_votes); derived from the rig (pipeline/derive.h).
+  bool hull_surface = false;
+  int carve_votes = 2;
+  bool Any() const { return volume || stereo || fusion; }
+  // Throws core::InputError naming the field when out of range.
+  void Check() const;
+};
+
 const std::vector<SettingField<stereo::TakeStereoOptions>>& StereoSettingFields();
+const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields();
 const std::vector<SettingField<stereo::CoarseToFineOptions>>& CoarseToFineSettingFields();
 const std::vector<SettingField<fusion::FusionOptions>>& FusionSettingFields();
 
@@ -74,6 +91,10 @@ stereo::TakeStereoOptions ReadStereoOptionsJson(const std::filesystem::path& pat
                                                 const stereo::TakeStereoOptions& base = {});
 // The JSON of `options` (every field written), parseable by ParseStereoOptionsJson.
 std::string StereoOptionsToJson(const stereo::TakeStereoOptions& options);
+
+// Silhouette uses <-> SilhouetteSettings (unset fields: off).
+runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use);
+SilhouetteUse FromSilhouetteSettings(const runtime::SilhouetteSettings& settings);
 
 // Coarse to fine <-> CoarseToFineSettings; the clip box is set when both corners are.
 runtime::CoarseToFineSettings ToCoarseToFineSettings(const stereo::CoarseToFineOptions& options);

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/json.h"
+#include "fusion/hull_fusion.h"
 #include "io/ply.h"
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
@@ -24,10 +26,11 @@ namespace {
 // greys are decoded, undistorted and stretched, and the coarse pass searched, over the
 // cut alone (Robovision: the object and its holder, about half of each frame). A view
 // that does not see the box keeps its whole image. The depths go back to their place in
-// the whole image.
+// the whole image. Search bounds (whole reference grid) are cut with the reference.
 stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
                                        const stereo::StereoOptions& o,
-                                       const stereo::CoarseToFineOptions& c2f) {
+                                       const stereo::CoarseToFineOptions& c2f,
+                                       const stereo::SearchBounds* bounds) {
   take::CropBox box;
   box.min_mm = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
   box.max_mm = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
@@ -50,8 +53,12 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
   const bool whole = ref_rect.width == input.reference.camera.width_px &&
                      ref_rect.height == input.reference.camera.height_px;
   if (whole || ref_rect.width < 4 * f || ref_rect.height < 4 * f)
-    return stereo::ComputeDepthCoarseToFine(input, o, c2f);
-  stereo::StereoResult cropped = stereo::ComputeDepthCoarseToFine(in, o, c2f);
+    return stereo::ComputeDepthCoarseToFine(input, o, c2f, nullptr, bounds);
+  // The ideal grid of a cut camera is the whole camera's, shifted by the cut's corner.
+  std::optional<stereo::SearchBounds> cut_bounds;
+  if (bounds) cut_bounds = stereo::SearchBounds{bounds->near_far_mm(ref_rect).clone()};
+  stereo::StereoResult cropped = stereo::ComputeDepthCoarseToFine(
+      in, o, c2f, nullptr, cut_bounds ? &*cut_bounds : nullptr);
   const int width = input.reference.camera.width_px, height = input.reference.camera.height_px;
   for (auto& ri : cropped.range_images) {
     cv::Mat depth(height, width, CV_32FC1, cv::Scalar(0));
@@ -68,22 +75,27 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
 // Stereo with the options as given (the camera's own range applied).
 stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
                                    const stereo::TakeStereoOptions& options,
-                                   const std::string& where) {
+                                   const std::string& where, const MakeSearchBounds& bounds) {
   stereo::StereoResult result;
+  stereo::StereoOptions o = options.stereo;
   if (options.coarse_to_fine) {
-    stereo::StereoOptions o = options.stereo;
     stereo::ClipDepthRange(*options.coarse_to_fine, input.reference.camera, where, &o);
-    result = options.coarse_to_fine->clip
-                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine)
-                 : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine);
   } else if (options.clip) {
-    stereo::StereoOptions o = options.stereo;
     stereo::ClipDepthRangeToVisibleBox(options.clip_min_mm, options.clip_max_mm,
                                        options.clip_pad_mm, input.reference.camera,
                                        where + ": clip_min_mm", &o);
-    result = stereo::ComputeDepth(input, o);
+  }
+  std::optional<stereo::SearchBounds> sb;
+  if (bounds) sb = bounds(o.z_min_mm, o.z_max_mm);
+  if (options.coarse_to_fine) {
+    const stereo::SearchBounds* b = sb ? &*sb : nullptr;
+    result = options.coarse_to_fine->clip
+                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b)
+                 : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine, nullptr, b);
+  } else if (sb) {
+    result = stereo::ComputeDepthBounded(input, o, *sb);
   } else {
-    result = stereo::ComputeDepth(input, options.stereo);
+    result = stereo::ComputeDepth(input, o);
   }
   result.camera = input.reference.camera.id;
   return result;
@@ -92,7 +104,8 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
 }  // namespace
 
 stereo::StereoResult Stereo(const stereo::StereoInput& input,
-                            const stereo::TakeStereoOptions& options, const std::string& where) {
+                            const stereo::TakeStereoOptions& options, const std::string& where,
+                            const MakeSearchBounds& bounds) {
   stereo::TakeStereoOptions limited = options;
   const auto range = options.camera_depth_mm.find(input.reference.camera.id);
   if (range != options.camera_depth_mm.end()) {
@@ -102,7 +115,7 @@ stereo::StereoResult Stereo(const stereo::StereoInput& input,
     core::Require(s.z_min_mm < s.z_max_mm, where + ": camera_depths",
                   "camera '" + input.reference.camera.id + "': its range misses the session's");
   }
-  return StereoLimited(input, limited, where);
+  return StereoLimited(input, limited, where, bounds);
 }
 
 std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,
@@ -165,7 +178,9 @@ cv::Rect DepthRect(const cv::Mat& depth_mm) {
 
 std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
                                               std::vector<fusion::RangeImage> images,
-                                              const fusion::FusionOptions& options) {
+                                              const fusion::FusionOptions& options,
+                                              std::unique_ptr<silhouette::VisualHull> hull,
+                                              const fusion::HullFusionOptions& hull_options) {
   auto prepared = std::make_unique<PreparedFusion>();
   // The integrator builds per-pixel tables of every image; only the rectangle of an
   // image's depths matters (a voxel projecting onto a pixel without a depth and one
@@ -182,11 +197,20 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
     prepared->images.push_back(std::move(image));
   }
   prepared->integrator = std::make_unique<fusion::Integrator>(grid, prepared->images, options);
+  prepared->hull = std::move(hull);
+  prepared->hull_options = hull_options;
+  prepared->hull_options.num_threads = options.num_threads;
+  prepared->hull_options.Check();
+  prepared->options = options;
   return prepared;
 }
 
 const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1) {
   prepared->integrator->IntegrateSlab(k0, k1, &prepared->slab);
+  if (prepared->hull) {
+    fusion::ApplyHull(prepared->integrator->grid(), *prepared->hull, prepared->options,
+                      prepared->hull_options, &prepared->slab);
+  }
   return prepared->slab;
 }
 

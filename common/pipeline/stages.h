@@ -20,13 +20,16 @@
 #include <string>
 #include <vector>
 
+#include "fusion/hull_fusion.h"
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
 #include "io/mesh.h"
 #include "mesh/decimate.h"
 #include "mesh/smooth.h"
 #include "mesh/texture.h"
+#include "silhouette/hull.h"
 #include "stereo/multi_baseline.h"
+#include "stereo/search_bounds.h"
 #include "stereo/take_stereo.h"
 #include "take/take.h"
 
@@ -37,8 +40,14 @@ namespace dome::pipeline {
 // The range images of `input`'s reference view: the full-range search, or, with
 // options.coarse_to_fine, coarse to fine with the reference camera's depth range
 // clipped to its box. result.camera is the reference camera's id. Errors name `where`.
+// With `bounds`: it is called with the reference camera's final depth range (z_min,
+// z_max mm, after the camera's own range and the clip box) and its search bounds limit
+// the search (stereo/search_bounds.h; ComputeDepthBounded, or the coarse-to-fine
+// search's tiles).
+using MakeSearchBounds = std::function<stereo::SearchBounds(double z_min_mm, double z_max_mm)>;
 stereo::StereoResult Stereo(const stereo::StereoInput& input,
-                            const stereo::TakeStereoOptions& options, const std::string& where);
+                            const stereo::TakeStereoOptions& options, const std::string& where,
+                            const MakeSearchBounds& bounds = nullptr);
 
 // `dome stereo`: Stereo for every (instant, camera) asked for (empty = all) of the take
 // at `take_dir`, written under `out_dir` (stereo/take_stereo.h layout). Errors name the
@@ -57,15 +66,22 @@ struct PreparedFusion {
   std::vector<fusion::RangeImage> images;  // referenced by `integrator`
   std::unique_ptr<fusion::Integrator> integrator;
   fusion::Slab slab;  // the last slab's buffers, reused by the next slab of its size
+  // The visual hull that corrects every slab (fusion/hull_fusion.h); null: none.
+  std::unique_ptr<silhouette::VisualHull> hull;
+  fusion::HullFusionOptions hull_options;  // how (its num_threads: options')
+  fusion::FusionOptions options;
 };
 
 // Range images in the order given: the accumulation order is fixed by it, so every run
 // gives the same bits. Each image is kept as the rectangle of its depths (its camera
 // cut to match, take/crop.h); images without a depth are left out.
-std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
-                                              std::vector<fusion::RangeImage> images,
-                                              const fusion::FusionOptions& options);
-// Fuses planes [k0, k1) into prepared->slab and returns it (valid until the next call).
+std::unique_ptr<PreparedFusion> PrepareFusion(
+    const fusion::VolumeGrid& grid, std::vector<fusion::RangeImage> images,
+    const fusion::FusionOptions& options,
+    std::unique_ptr<silhouette::VisualHull> hull = nullptr,
+    const fusion::HullFusionOptions& hull_options = {});
+// Fuses planes [k0, k1) into prepared->slab, corrected by the hull when there is one,
+// and returns it (valid until the next call).
 const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1);
 
 // The slabs of a volume of `slab_planes` planes each: how many, and slab s's planes.

@@ -25,8 +25,8 @@ cv::Size CameraSize(const take::Take& take, const std::string& camera) {
   return {model.width_px, model.height_px};
 }
 
-void RequireSize(const fs::path& path, cv::Size got, cv::Size expected, const std::string& camera) {
-  Require(got == expected, path.string(),
+void RequireSize(const std::string& path, cv::Size got, cv::Size expected, const std::string& camera) {
+  Require(got == expected, path,
           "image is " + SizeText(got) + ", rig.json says camera '" + camera + "' is " +
               SizeText(expected));
 }
@@ -41,14 +41,7 @@ cv::Mat ToChannels(const cv::Mat& image, int channels) {
 
 // A given mask as 255 / 0, checked for depth and size.
 cv::Mat ReadMaskFile(const fs::path& path, cv::Size size, const std::string& camera) {
-  const cv::Mat raw = io::ReadImage(path, io::ImageMode::kUnchanged);
-  Require(raw.depth() == CV_8U, path.string(),
-          "expected an 8-bit mask (0 = background, nonzero = foreground), got depth code " +
-              std::to_string(raw.depth()));
-  RequireSize(path, raw.size(), size, camera);
-  cv::Mat first;
-  cv::extractChannel(raw, first, 0);
-  return first != 0;  // 255 / 0
+  return MaskImage(io::ReadImage(path, io::ImageMode::kUnchanged), size, camera, path.string());
 }
 
 }  // namespace
@@ -84,14 +77,29 @@ std::vector<std::string> MedianInstants(const std::vector<std::string>& instants
   return out;
 }
 
+cv::Mat MaskImage(const cv::Mat& raw, cv::Size size, const std::string& camera,
+                  const std::string& where) {
+  Require(raw.depth() == CV_8U, where,
+          "expected an 8-bit mask (0 = background, nonzero = foreground), got depth code " +
+              std::to_string(raw.depth()));
+  RequireSize(where, raw.size(), size, camera);
+  cv::Mat first;
+  cv::extractChannel(raw, first, 0);
+  return first != 0;  // 255 / 0
+}
+
 Frame ReadFrame(const fs::path& path, cv::Size size, const std::string& camera) {
-  const cv::Mat raw = io::ReadImage(path, io::ImageMode::kUnchanged);
+  return SplitFrame(io::ReadImage(path, io::ImageMode::kUnchanged), size, camera, path.string());
+}
+
+Frame SplitFrame(const cv::Mat& raw, cv::Size size, const std::string& camera,
+                 const std::string& where) {
   Require(
       raw.depth() == CV_8U && (raw.channels() == 1 || raw.channels() == 3 || raw.channels() == 4),
-      path.string(),
+      where,
       "expected an 8-bit gray, BGR or BGRA image, got " + std::to_string(raw.channels()) +
           " channel(s) of depth code " + std::to_string(raw.depth()));
-  RequireSize(path, raw.size(), size, camera);
+  RequireSize(where, raw.size(), size, camera);
   Frame frame;
   if (raw.channels() == 4) {
     cv::cvtColor(raw, frame.colour, cv::COLOR_BGRA2BGR);
@@ -183,10 +191,9 @@ const cv::Mat& TakeMasks::Background(const std::string& camera, int channels) {
     } else {
       std::vector<cv::Mat> images;
       for (const auto& instant : MedianInstants(take_.instants, options_.median_max_instants)) {
-        images.push_back(
-            ToChannels(ReadFrame(take_.FramePath(instant, camera), size, camera).colour, channels));
+        images.push_back(ReadFrame(take_.FramePath(instant, camera), size, camera).colour);
       }
-      slot = MedianImage(images);
+      slot = MedianBackground(images, channels);
     }
   }
   return slot;
@@ -202,15 +209,31 @@ cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, M
     mask = ReadMaskFile(GivenMaskPath(instant, camera), size, camera);
   } else {
     const Frame frame = ReadFrame(take_.FramePath(instant, camera), size, camera);
-    const cv::Mat& background = Background(camera, frame.colour.channels());
-    // A gray plate for colour frames (or the reverse): both in the fewer channels.
-    const int channels = std::min(frame.colour.channels(), background.channels());
-    const cv::Mat raw = ClassifyForeground(
-        ToChannels(frame.colour, channels), ToChannels(background, channels), frame.valid,
-        options_.foreground, source == MaskSource::kMedian, &local.stats);
-    mask = CleanMask(raw, frame.valid, options_.cleanup);
+    mask = MaskAgainst(frame, Background(camera, frame.colour.channels()), source, options_,
+                       &local);
   }
   local.fraction = static_cast<double>(cv::countNonZero(mask)) / (size.width * size.height);
+  if (info != nullptr) *info = local;
+  return mask;
+}
+
+cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels) {
+  std::vector<cv::Mat> images;
+  for (const auto& c : colours) images.push_back(ToChannels(c, channels));
+  return MedianImage(images);
+}
+
+cv::Mat MaskAgainst(const Frame& frame, const cv::Mat& background, MaskSource source,
+                    const MaskOptions& options, MaskInfo* info) {
+  // A gray plate for colour frames (or the reverse): both in the fewer channels.
+  const int channels = std::min(frame.colour.channels(), background.channels());
+  MaskInfo local;
+  local.source = source;
+  const cv::Mat raw = ClassifyForeground(
+      ToChannels(frame.colour, channels), ToChannels(background, channels), frame.valid,
+      options.foreground, source == MaskSource::kMedian, &local.stats);
+  cv::Mat mask = CleanMask(raw, frame.valid, options.cleanup);
+  local.fraction = static_cast<double>(cv::countNonZero(mask)) / double(mask.total());
   if (info != nullptr) *info = local;
   return mask;
 }

@@ -103,6 +103,23 @@ struct Frame {
 // Reads a frame or plate: 8-bit gray, BGR or BGRA. Throws core::InputError naming the
 // file when it is another kind, or not `size` (rig.json's size of `camera`).
 Frame ReadFrame(const std::filesystem::path& path, cv::Size size, const std::string& camera);
+// The same for an image already decoded unchanged (io::ImageMode::kUnchanged), errors
+// naming `where`.
+Frame SplitFrame(const cv::Mat& raw, cv::Size size, const std::string& camera,
+                 const std::string& where);
+// A given mask decoded unchanged as 255 / 0 (its first channel nonzero). Throws
+// core::InputError naming `where` unless it is 8-bit of `size`.
+cv::Mat MaskImage(const cv::Mat& raw, cv::Size size, const std::string& camera,
+                  const std::string& where);
+
+// The per-pixel median of one camera's frame colours (ReadFrame), in `channels`
+// channels: the median background TakeMasks uses.
+cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels);
+// The mask of `frame` against `background` (a plate, or a median background when
+// `source` is kMedian), as TakeMasks::Mask makes it: classified (background.h), then
+// cleaned; `info` gets its source, statistics and foreground fraction.
+cv::Mat MaskAgainst(const Frame& frame, const cv::Mat& background, MaskSource source,
+                    const MaskOptions& options, MaskInfo* info = nullptr);
 
 // The image darkened to a third outside the mask, with the mask's outline in green: for
 // looking at a mask (BGR, the image's size).

@@ -82,4 +82,21 @@ std::vector<int> SelectCluster(const geometry::Rig& rig, const std::string& came
   return cluster;
 }
 
+double MedianNearestAxisAngleDeg(const geometry::Rig& rig) {
+  std::vector<double> nearest;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const Eigen::Vector3d ai = rig.cameras[i].model.rotation.row(2).transpose();
+    double best = 180.0;
+    for (size_t j = 0; j < rig.cameras.size(); ++j) {
+      if (j == i) continue;
+      const Eigen::Vector3d aj = rig.cameras[j].model.rotation.row(2).transpose();
+      best = std::min(best, std::acos(std::clamp(ai.dot(aj), -1.0, 1.0)) * 180.0 / M_PI);
+    }
+    if (rig.cameras.size() > 1) nearest.push_back(best);
+  }
+  if (nearest.empty()) return 0.0;
+  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+  return nearest[nearest.size() / 2];
+}
+
 }  // namespace dome::stereo

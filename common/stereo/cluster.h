@@ -29,4 +29,9 @@ struct ClusterOptions {
 std::vector<int> SelectCluster(const geometry::Rig& rig, const std::string& camera_id,
                                const ClusterOptions& options);
 
+// The median over the rig's cameras of the angle between a camera's optical axis and the
+// nearest other camera's, in degrees (0 for a rig of one camera): how far apart the
+// views that stereo pairs are.
+double MedianNearestAxisAngleDeg(const geometry::Rig& rig);
+
 }  // namespace dome::stereo

@@ -179,31 +179,28 @@ geometry::TsaiCamera ReducedCamera(const geometry::TsaiCamera& camera, int facto
   return c;
 }
 
-StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOptions& options,
-                                      const CoarseToFineOptions& c2f, CoarseToFineStats* stats) {
-  core::Stopwatch watch;
-  CoarseToFineStats st;
-  options.Check();
-  c2f.Check();
-  core::Require(!input.neighbours.empty(), "cluster",
-                "camera '" + input.reference.camera.id + "' has no neighbours");
-  const int f = c2f.coarse_factor;
-  const auto& ref_cam = input.reference.camera;
-  ref_cam.Check("reference '" + ref_cam.id + "': camera");
-  core::Require(ref_cam.width_px >= 4 * f && ref_cam.height_px >= 4 * f,
-                "reference '" + ref_cam.id + "'",
-                "image too small for a coarse pass reduced " + std::to_string(f) + " times");
+namespace {
 
+// Every view's grey, undistorted, and its ideal camera (the reference first).
+struct IdealViews {
+  std::vector<const StereoView*> views;
+  std::vector<cv::Mat> greys;
+  std::vector<geometry::TsaiCamera> cameras;
+};
+
+IdealViews MakeIdealViews(const StereoInput& input, const StereoOptions& options) {
+  IdealViews iv;
+  std::vector<const StereoView*>& views = iv.views;
+  std::vector<cv::Mat>& greys = iv.greys;
+  std::vector<geometry::TsaiCamera>& cameras = iv.cameras;
   // Greys once per image, stretched over the whole image and undistorted once (as
   // ComputeDepth does: the lens removed, then the grey mapping), so that the coarse pass
   // and every tile match ideal images with the ideal cameras: no tile builds remap tables
   // for its crop or resamples it, and a tile's border keeps the data its crop alone could
   // not undistort (on a 1920x1080 Panoptic camera, 0.71x the job's CPU time and twice
   // its depths).
-  std::vector<const StereoView*> views = {&input.reference};
+  views = {&input.reference};
   for (const auto& v : input.neighbours) views.push_back(&v);
-  std::vector<cv::Mat> greys;
-  std::vector<geometry::TsaiCamera> cameras;  // the ideal cameras of the greys
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
     greys.push_back(
@@ -211,51 +208,20 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
                   (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
     cameras.push_back(views[i]->camera.Ideal());
   }
-  const geometry::TsaiCamera& ideal_ref = cameras[0];
+  return iv;
+}
 
-  // 1. Coarse pass over the whole range.
-  StereoInput coarse;
-  coarse.reference = {ReducedCamera(ideal_ref, f), ReduceGrey(greys[0], f)};
-  for (size_t i = 1; i < views.size(); ++i) {
-    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), ReduceGrey(greys[i], f)});
-  }
-  StereoOptions coarse_options = options;
-  coarse_options.normalize_contrast = false;  // the greys above are mapped already
-  coarse_options.sqrt_greys = false;
-  coarse_options.window_sizes_px = {c2f.coarse_window_px};
-  coarse_options.speckle = {};  // stray coarse depths are trimmed per tile instead
-  if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
-  if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
-  const StereoResult coarse_result = ComputeDepth(coarse, coarse_options);
-  cv::Mat coarse_depth = coarse_result.range_images[0].depth_mm;
-  if (c2f.clip) {
-    // The clip box bounds the scene: a coarse depth whose point lies outside it (grown by
-    // clip_pad_mm) is a wrong match or the background (a table, the walls), and would make
-    // its tile search depths no surface of the box has (or search a tile that sees none).
-    const Eigen::Vector3d lo = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
-    const Eigen::Vector3d hi = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
-    for (int y = 0; y < coarse_depth.rows; ++y) {
-      float* d = coarse_depth.ptr<float>(y);
-      for (int x = 0; x < coarse_depth.cols; ++x) {
-        if (!(d[x] > 0)) continue;
-        const Eigen::Vector3d p =
-            coarse.reference.camera.BackProjectAtDepth(Eigen::Vector2d(x, y), d[x]);
-        if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) d[x] = 0;
-      }
-    }
-  }
-  // Inverse depth per coarse level, 1/mm.
-  const double coarse_w_step =
-      (1.0 / options.z_min_mm - 1.0 / options.z_max_mm) / std::max(1, coarse_result.num_levels - 1);
+// A tile of the reference image and the depths it searches (z, mm).
+struct TileJob {
+  cv::Rect tile;
+  double z_lo, z_hi;
+};
 
-  st.coarse_levels = coarse_result.num_levels;
-  st.coarse_seconds = watch.ElapsedSeconds();
-  watch.Restart();
-
-  // 2. Fine pass per tile.
+// The result's range images, one per window size, without depths.
+StereoResult EmptyResult(const std::string& camera, const StereoOptions& options, int width,
+                         int height) {
   StereoResult result;
-  result.camera = ref_cam.id;
-  const int width = ref_cam.width_px, height = ref_cam.height_px;
+  result.camera = camera;
   for (int w : options.window_sizes_px) {
     RangeImage ri;
     ri.window_px = w;
@@ -263,80 +229,24 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
     ri.reliability = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
     result.range_images.push_back(std::move(ri));
   }
+  return result;
+}
+
+// Matches every tile of `jobs` at full resolution over its own depths, writing its
+// pixels of `result`; counts into `st`.
+void MatchTiles(const IdealViews& iv, const StereoOptions& options,
+                const std::vector<TileJob>& jobs, StereoResult* out, CoarseToFineStats* out_st) {
+  const std::vector<const StereoView*>& views = iv.views;
+  const std::vector<cv::Mat>& greys = iv.greys;
+  const std::vector<geometry::TsaiCamera>& cameras = iv.cameras;
+  const geometry::TsaiCamera& ideal_ref = cameras[0];
+  StereoResult& result = *out;
+  CoarseToFineStats& st = *out_st;
+  const int width = ideal_ref.width_px, height = ideal_ref.height_px;
+  const cv::Rect image(0, 0, width, height);
   const int half =
       *std::max_element(options.window_sizes_px.begin(), options.window_sizes_px.end()) / 2;
   const double w_range = 1.0 / options.z_min_mm - 1.0 / options.z_max_mm;
-  const cv::Rect image(0, 0, width, height);
-  // The tiles to search and their depth bounds.
-  struct TileJob {
-    cv::Rect tile;
-    double z_lo, z_hi;
-  };
-  std::vector<TileJob> jobs;
-  std::vector<float> depths;
-  const int tiles_x = (width + c2f.tile_px - 1) / c2f.tile_px;
-  const int tiles_y = (height + c2f.tile_px - 1) / c2f.tile_px;
-  std::vector<int> job_of(size_t(tiles_x) * tiles_y, -1);  // tile -> jobs index, -1: none
-  for (int ty = 0; ty < height; ty += c2f.tile_px) {
-    for (int tx = 0; tx < width; tx += c2f.tile_px) {
-      const cv::Rect tile = cv::Rect(tx, ty, c2f.tile_px, c2f.tile_px) & image;
-      const size_t tile_index = size_t(ty / c2f.tile_px) * tiles_x + tx / c2f.tile_px;
-      // Coarse depths over the tile, its windows and one coarse pixel more.
-      const int g = half + f;
-      const cv::Rect around =
-          cv::Rect((tile.x - g) / f, (tile.y - g) / f, (tile.width + 2 * g) / f + 2,
-                   (tile.height + 2 * g) / f + 2) &
-          cv::Rect(0, 0, coarse_depth.cols, coarse_depth.rows);
-      depths.clear();
-      for (int y = std::max(0, around.y); y < around.br().y; ++y) {
-        const float* d = coarse_depth.ptr<float>(y);
-        for (int x = std::max(0, around.x); x < around.br().x; ++x) {
-          if (d[x] > 0) depths.push_back(d[x]);
-        }
-      }
-      ++st.tiles;
-      if (depths.size() < size_t(c2f.min_coarse_depths)) continue;
-      const size_t trim = size_t(c2f.trim_fraction * double(depths.size()));
-      std::nth_element(depths.begin(), depths.begin() + trim, depths.end());
-      const double near_z = depths[trim];
-      std::nth_element(depths.begin(), depths.end() - 1 - trim, depths.end());
-      const double far_z = depths[depths.size() - 1 - trim];
-      const double margin_w = c2f.margin_levels * coarse_w_step;
-      const double z_lo = std::max(options.z_min_mm, 1.0 / (1.0 / near_z + margin_w));
-      const double far_w = 1.0 / far_z - margin_w;
-      const double z_hi = far_w > 0 ? std::min(options.z_max_mm, 1.0 / far_w) : options.z_max_mm;
-      if (z_hi > z_lo) {
-        job_of[tile_index] = int(jobs.size());
-        jobs.push_back({tile, z_lo, z_hi});
-      }
-    }
-  }
-  // Tiles without coarse depths, beside searched ones, search the union of their bounds.
-  if (c2f.fill_min_neighbours > 0) {
-    const size_t searched = jobs.size();  // filled tiles do not fill others
-    for (int by = 0; by < tiles_y; ++by) {
-      for (int bx = 0; bx < tiles_x; ++bx) {
-        if (job_of[size_t(by) * tiles_x + bx] >= 0) continue;
-        int count = 0;
-        double z_lo = options.z_max_mm, z_hi = options.z_min_mm;
-        for (int ny = std::max(0, by - 1); ny <= std::min(tiles_y - 1, by + 1); ++ny) {
-          for (int nx = std::max(0, bx - 1); nx <= std::min(tiles_x - 1, bx + 1); ++nx) {
-            const int j = job_of[size_t(ny) * tiles_x + nx];
-            if (j < 0 || size_t(j) >= searched) continue;
-            ++count;
-            z_lo = std::min(z_lo, jobs[j].z_lo);
-            z_hi = std::max(z_hi, jobs[j].z_hi);
-          }
-        }
-        if (count < c2f.fill_min_neighbours) continue;
-        const cv::Rect tile =
-            cv::Rect(bx * c2f.tile_px, by * c2f.tile_px, c2f.tile_px, c2f.tile_px) & image;
-        jobs.push_back({tile, z_lo, z_hi});
-        ++st.tiles_filled;
-      }
-    }
-  }
-
   // Tiles are small: one thread each, threads dealt tiles in turn (the object is
   // usually central, so contiguous halves would be uneven). Each tile writes only its
   // own pixels of the result.
@@ -408,13 +318,218 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
     st.tiles_matched += ss.matched;
     st.mean_tile_levels += ss.level_sum;
   }
+}
+
+// Speckles removed (after the bounds: a piece the bounds cut is judged by what is left)
+// and the densities counted.
+void FinishResult(const StereoOptions& options, const SearchBounds* bounds,
+                  StereoResult* result) {
+  for (auto& ri : result->range_images) {
+    if (bounds) bounds->Apply(&ri.depth_mm, &ri.reliability);
+    RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
+    ri.density = double(cv::countNonZero(ri.depth_mm)) / double(ri.depth_mm.total());
+  }
+}
+
+}  // namespace
+
+StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOptions& options,
+                                      const CoarseToFineOptions& c2f, CoarseToFineStats* stats,
+                                      const SearchBounds* bounds) {
+  core::Stopwatch watch;
+  CoarseToFineStats st;
+  options.Check();
+  c2f.Check();
+  core::Require(!input.neighbours.empty(), "cluster",
+                "camera '" + input.reference.camera.id + "' has no neighbours");
+  const int f = c2f.coarse_factor;
+  const auto& ref_cam = input.reference.camera;
+  ref_cam.Check("reference '" + ref_cam.id + "': camera");
+  if (bounds) {
+    bounds->Check(cv::Size(ref_cam.width_px, ref_cam.height_px),
+                  "search bounds of '" + ref_cam.id + "'");
+  }
+  core::Require(ref_cam.width_px >= 4 * f && ref_cam.height_px >= 4 * f,
+                "reference '" + ref_cam.id + "'",
+                "image too small for a coarse pass reduced " + std::to_string(f) + " times");
+
+  const IdealViews iv = MakeIdealViews(input, options);
+  const std::vector<const StereoView*>& views = iv.views;
+  const std::vector<cv::Mat>& greys = iv.greys;
+  const std::vector<geometry::TsaiCamera>& cameras = iv.cameras;
+  const geometry::TsaiCamera& ideal_ref = cameras[0];
+
+  // 1. Coarse pass over the whole range.
+  StereoInput coarse;
+  coarse.reference = {ReducedCamera(ideal_ref, f), ReduceGrey(greys[0], f)};
+  for (size_t i = 1; i < views.size(); ++i) {
+    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), ReduceGrey(greys[i], f)});
+  }
+  StereoOptions coarse_options = options;
+  coarse_options.normalize_contrast = false;  // the greys above are mapped already
+  coarse_options.sqrt_greys = false;
+  coarse_options.window_sizes_px = {c2f.coarse_window_px};
+  coarse_options.speckle = {};  // stray coarse depths are trimmed per tile instead
+  if (c2f.coarse_min_uniqueness > 0) coarse_options.min_uniqueness = c2f.coarse_min_uniqueness;
+  if (options.num_levels > 0) coarse_options.num_levels = std::max(3, options.num_levels / f);
+  const StereoResult coarse_result = ComputeDepth(coarse, coarse_options);
+  cv::Mat coarse_depth = coarse_result.range_images[0].depth_mm;
+  if (c2f.clip) {
+    // The clip box bounds the scene: a coarse depth whose point lies outside it (grown by
+    // clip_pad_mm) is a wrong match or the background (a table, the walls), and would make
+    // its tile search depths no surface of the box has (or search a tile that sees none).
+    const Eigen::Vector3d lo = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
+    const Eigen::Vector3d hi = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
+    for (int y = 0; y < coarse_depth.rows; ++y) {
+      float* d = coarse_depth.ptr<float>(y);
+      for (int x = 0; x < coarse_depth.cols; ++x) {
+        if (!(d[x] > 0)) continue;
+        const Eigen::Vector3d p =
+            coarse.reference.camera.BackProjectAtDepth(Eigen::Vector2d(x, y), d[x]);
+        if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) d[x] = 0;
+      }
+    }
+  }
+  // Inverse depth per coarse level, 1/mm.
+  const double coarse_w_step =
+      (1.0 / options.z_min_mm - 1.0 / options.z_max_mm) / std::max(1, coarse_result.num_levels - 1);
+
+  st.coarse_levels = coarse_result.num_levels;
+  st.coarse_seconds = watch.ElapsedSeconds();
+  watch.Restart();
+
+  // 2. Fine pass per tile.
+  const int width = ref_cam.width_px, height = ref_cam.height_px;
+  StereoResult result = EmptyResult(ref_cam.id, options, width, height);
+  const int half =
+      *std::max_element(options.window_sizes_px.begin(), options.window_sizes_px.end()) / 2;
+  const cv::Rect image(0, 0, width, height);
+  // The tiles to search and their depth bounds.
+  std::vector<TileJob> jobs;
+  std::vector<float> depths;
+  const int tiles_x = (width + c2f.tile_px - 1) / c2f.tile_px;
+  const int tiles_y = (height + c2f.tile_px - 1) / c2f.tile_px;
+  std::vector<int> job_of(size_t(tiles_x) * tiles_y, -1);  // tile -> jobs index, -1: none
+  for (int ty = 0; ty < height; ty += c2f.tile_px) {
+    for (int tx = 0; tx < width; tx += c2f.tile_px) {
+      const cv::Rect tile = cv::Rect(tx, ty, c2f.tile_px, c2f.tile_px) & image;
+      const size_t tile_index = size_t(ty / c2f.tile_px) * tiles_x + tx / c2f.tile_px;
+      // Coarse depths over the tile, its windows and one coarse pixel more.
+      const int g = half + f;
+      const cv::Rect around =
+          cv::Rect((tile.x - g) / f, (tile.y - g) / f, (tile.width + 2 * g) / f + 2,
+                   (tile.height + 2 * g) / f + 2) &
+          cv::Rect(0, 0, coarse_depth.cols, coarse_depth.rows);
+      depths.clear();
+      for (int y = std::max(0, around.y); y < around.br().y; ++y) {
+        const float* d = coarse_depth.ptr<float>(y);
+        for (int x = std::max(0, around.x); x < around.br().x; ++x) {
+          if (d[x] > 0) depths.push_back(d[x]);
+        }
+      }
+      ++st.tiles;
+      if (depths.size() < size_t(c2f.min_coarse_depths)) continue;
+      const size_t trim = size_t(c2f.trim_fraction * double(depths.size()));
+      std::nth_element(depths.begin(), depths.begin() + trim, depths.end());
+      const double near_z = depths[trim];
+      std::nth_element(depths.begin(), depths.end() - 1 - trim, depths.end());
+      const double far_z = depths[depths.size() - 1 - trim];
+      const double margin_w = c2f.margin_levels * coarse_w_step;
+      const double z_lo = std::max(options.z_min_mm, 1.0 / (1.0 / near_z + margin_w));
+      const double far_w = 1.0 / far_z - margin_w;
+      const double z_hi = far_w > 0 ? std::min(options.z_max_mm, 1.0 / far_w) : options.z_max_mm;
+      if (z_hi > z_lo) {
+        job_of[tile_index] = int(jobs.size());
+        jobs.push_back({tile, z_lo, z_hi});
+      }
+    }
+  }
+  // Tiles without coarse depths, beside searched ones, search the union of their bounds.
+  if (c2f.fill_min_neighbours > 0) {
+    const size_t searched = jobs.size();  // filled tiles do not fill others
+    for (int by = 0; by < tiles_y; ++by) {
+      for (int bx = 0; bx < tiles_x; ++bx) {
+        if (job_of[size_t(by) * tiles_x + bx] >= 0) continue;
+        int count = 0;
+        double z_lo = options.z_max_mm, z_hi = options.z_min_mm;
+        for (int ny = std::max(0, by - 1); ny <= std::min(tiles_y - 1, by + 1); ++ny) {
+          for (int nx = std::max(0, bx - 1); nx <= std::min(tiles_x - 1, bx + 1); ++nx) {
+            const int j = job_of[size_t(ny) * tiles_x + nx];
+            if (j < 0 || size_t(j) >= searched) continue;
+            ++count;
+            z_lo = std::min(z_lo, jobs[j].z_lo);
+            z_hi = std::max(z_hi, jobs[j].z_hi);
+          }
+        }
+        if (count < c2f.fill_min_neighbours) continue;
+        const cv::Rect tile =
+            cv::Rect(bx * c2f.tile_px, by * c2f.tile_px, c2f.tile_px, c2f.tile_px) & image;
+        jobs.push_back({tile, z_lo, z_hi});
+        ++st.tiles_filled;
+      }
+    }
+  }
+
+  if (bounds) {
+    // Each tile searches only the part of its range its pixels' bounds allow.
+    std::vector<TileJob> kept;
+    for (TileJob job : jobs) {
+      double near_mm, far_mm;
+      if (!bounds->Range(job.tile, &near_mm, &far_mm)) continue;
+      job.z_lo = std::max(job.z_lo, near_mm);
+      job.z_hi = std::min(job.z_hi, far_mm);
+      if (job.z_lo < job.z_hi) kept.push_back(job);
+    }
+    jobs = std::move(kept);
+  }
+  MatchTiles(iv, options, jobs, &result, &st);
   st.fine_seconds = watch.ElapsedSeconds();
   if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
   if (stats) *stats = st;
-  for (auto& ri : result.range_images) {
-    RemoveSpeckles(options.speckle, &ri.depth_mm, &ri.reliability);
-    ri.density = double(cv::countNonZero(ri.depth_mm)) / (double(width) * height);
+  FinishResult(options, bounds, &result);
+  return result;
+}
+
+StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& options,
+                                 const SearchBounds& bounds, int tile_px,
+                                 CoarseToFineStats* stats) {
+  core::Stopwatch watch;
+  options.Check();
+  core::Require(tile_px >= 8, "search bounds: tile_px",
+                "expected at least 8 pixels, got " + std::to_string(tile_px));
+  core::Require(!input.neighbours.empty(), "cluster",
+                "camera '" + input.reference.camera.id + "' has no neighbours");
+  const auto& ref_cam = input.reference.camera;
+  ref_cam.Check("reference '" + ref_cam.id + "': camera");
+  bounds.Check(cv::Size(ref_cam.width_px, ref_cam.height_px),
+               "search bounds of '" + ref_cam.id + "'");
+  const IdealViews iv = MakeIdealViews(input, options);
+  CoarseToFineStats st;
+  st.coarse_seconds = watch.ElapsedSeconds();
+  watch.Restart();
+  const int width = ref_cam.width_px, height = ref_cam.height_px;
+  StereoResult result = EmptyResult(ref_cam.id, options, width, height);
+  std::vector<TileJob> jobs;
+  for (int ty = 0; ty < height; ty += tile_px) {
+    for (int tx = 0; tx < width; tx += tile_px) {
+      ++st.tiles;
+      // The tile cut to the rectangle of its searched pixels: at a silhouette's edge
+      // most of a tile is background, and a tile costs its pixels (and their window
+      // margin) x its levels. The pixels cut off have no depth either way.
+      const cv::Rect tile = bounds.SearchedRect(cv::Rect(tx, ty, tile_px, tile_px) &
+                                                cv::Rect(0, 0, width, height));
+      double near_mm, far_mm;
+      if (tile.empty() || !bounds.Range(tile, &near_mm, &far_mm)) continue;
+      const double z_lo = std::max(options.z_min_mm, near_mm);
+      const double z_hi = std::min(options.z_max_mm, far_mm);
+      if (z_lo < z_hi) jobs.push_back({tile, z_lo, z_hi});
+    }
   }
+  MatchTiles(iv, options, jobs, &result, &st);
+  st.fine_seconds = watch.ElapsedSeconds();
+  if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
+  if (stats) *stats = st;
+  FinishResult(options, &bounds, &result);
   return result;
 }
 

@@ -35,6 +35,7 @@
 #include <string>
 
 #include "stereo/multi_baseline.h"
+#include "stereo/search_bounds.h"
 
 namespace dome::stereo {
 
@@ -108,8 +109,23 @@ struct CoarseToFineStats {
 
 // Stereo as ComputeDepth(input, options), coarse to fine (above). result.num_levels is
 // the most levels any fine tile searched.
+// With `bounds` (stereo/search_bounds.h), each tile's range is also clipped to its
+// pixels' bounds, tiles without a searched pixel are skipped, and depths outside a
+// pixel's own bounds are cleared (before the speckle removal).
 StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOptions& options,
                                       const CoarseToFineOptions& c2f,
-                                      CoarseToFineStats* stats = nullptr);
+                                      CoarseToFineStats* stats = nullptr,
+                                      const SearchBounds* bounds = nullptr);
+
+// The full-range search (ComputeDepth's options) limited by per-pixel bounds: the
+// reference image cut into tiles of tile_px, each cut to the rectangle of its searched
+// pixels and matched as the fine pass above over the least near .. greatest far of
+// them (within the options' range), tiles without one skipped; then every depth outside its pixel's bounds cleared, and
+// the speckles removed. The cost of a tile is its pixels x its own levels, so a search
+// bounded to a silhouette's hull costs what the foreground does. Stats: coarse_seconds
+// is the greys' preparation, fine_seconds the tiles'.
+StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& options,
+                                 const SearchBounds& bounds, int tile_px = 32,
+                                 CoarseToFineStats* stats = nullptr);
 
 }  // namespace dome::stereo

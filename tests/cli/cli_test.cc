@@ -8,6 +8,7 @@
 
 #include "core/json.h"
 #include "io/file_util.h"
+#include "io/image_io.h"
 #include "take_fixture.h"
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
@@ -295,7 +296,10 @@ TEST(Cli, ImportPanopticWholeDomeCalibrationIsARigOnlyTake) {
 }
 
 // Resume keys on the inputs' contents, not the take's path: a frame rewritten with
-// other bytes redoes exactly its instant, and the outputs are those of a fresh run.
+// other bytes redoes exactly its instant, and the outputs are those of a fresh run of
+// the same session. With silhouettes (the synthetic take's plates): the derived volume
+// is the masks' hull at the take's instants, so the rewritten frames would change it;
+// the second run keeps the session the folder holds instead of deriving again.
 TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out", fresh = tmp / "fresh";
@@ -303,6 +307,12 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   const std::string flags = " --workers 2 --no-texture --no-preview";
   const Result first = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_NE(first.output.find("derived silhouettes: volume true, stereo true, fusion true"),
+            std::string::npos)
+      << first.output;
+  EXPECT_NE(first.output.find("shrunk to the bounding box of the masks' visual hull"),
+            std::string::npos)
+      << first.output;
   std::vector<std::string> instants;
   for (const auto& e : fs::directory_iterator(take / "frames")) {
     instants.push_back(e.path().filename().string());
@@ -316,6 +326,10 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   }
   const Result again = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find((out / "session.json").string() +
+                              ": the same take and options: its session kept"),
+            std::string::npos)
+      << again.output;
   EXPECT_NE(again.output.find("instant " + instants[1] + ": the take's rig or frames changed"),
             std::string::npos)
       << again.output;
@@ -326,14 +340,31 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   const int total = report.value("jobs", -1);
   ASSERT_GT(total, 0) << report.dump();
   EXPECT_EQ(report.value("jobs_resumed_from_journal", -1), total / 2) << report.dump();
-  ASSERT_EQ(RunDomeBinary("run " + take.string() + " --out " + fresh.string() + flags).exit_code,
-            0);
+  const Result scratch =
+      RunDomeBinary("run " + (out / "session.json").string() + " --out " + fresh.string() + flags);
+  ASSERT_EQ(scratch.exit_code, 0) << scratch.output;
   for (const auto& instant : instants) {
     for (const char* mesh : {"mesh.ply", "mesh_decimated.ply"}) {
       EXPECT_EQ(io::ReadFileBytes(out / instant / mesh), io::ReadFileBytes(fresh / instant / mesh))
           << instant << "/" << mesh;
     }
   }
+  // The masks stage's jobs made the take's masks (silhouette::TakeMasks, as `dome masks`
+  // makes them), the rewritten instant's from its new frames.
+  const fs::path derived = tmp / "masks";
+  ASSERT_EQ(RunDomeBinary("masks " + take.string() + " --out " + derived.string()).exit_code, 0);
+  int compared = 0;
+  for (const auto& instant : instants) {
+    for (const auto& e : fs::directory_iterator(derived / instant)) {
+      const cv::Mat want = io::ReadImage(e.path(), io::ImageMode::kGray8);
+      const cv::Mat got =
+          io::ReadImage(out / instant / "mask" / e.path().filename(), io::ImageMode::kGray8);
+      ASSERT_EQ(got.size(), want.size()) << e.path();
+      EXPECT_EQ(cv::countNonZero(got != want), 0) << e.path();
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 12);  // 6 cameras x 2 instants
 }
 
 // The small synthetic take of `instants` instants (no tape, no calibration images) at

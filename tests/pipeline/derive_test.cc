@@ -95,6 +95,32 @@ TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
   EXPECT_EQ(HeldDecodedFrames(), 0u);
 }
 
+// The small dome's six cameras are a sparse rig (median nearest axis angle 70 degrees):
+// with masks from its plates, the hull's surface stands in where stereo saw nothing and
+// one background vote carves; given values win, and a count below one is named.
+TEST_F(Derive, SparseRigGetsTheHullSurfaceAndOneCarvingVote) {
+  runtime::Session s = Fresh();
+  const Derivation d = DeriveSession({}, &s);
+  EXPECT_TRUE(s.silhouettes().fusion());
+  EXPECT_TRUE(s.silhouettes().hull_surface());
+  EXPECT_EQ(s.silhouettes().carve_votes(), 1);
+  bool note = false;
+  for (const auto& n : d.notes)
+    note |= n.find("hull surface true, carve votes 1 (masks: 6 plate; the cameras' median "
+                   "nearest axis angle 70.4 deg, sparse above 30)") != std::string::npos;
+  EXPECT_TRUE(note);
+  runtime::Session t = Fresh();
+  t.mutable_silhouettes()->set_hull_surface(false);
+  t.mutable_silhouettes()->set_carve_votes(3);
+  DeriveSession({}, &t);
+  EXPECT_FALSE(t.silhouettes().hull_surface());
+  EXPECT_EQ(t.silhouettes().carve_votes(), 3);
+  EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.carve_votes, 3);
+  t.mutable_silhouettes()->set_carve_votes(0);
+  dome::testing::ExpectInputError([&] { ResolveSessionOptions(t, "session"); },
+                                  {"session: silhouettes.carve_votes", "at least 1 camera, got 0"});
+}
+
 TEST_F(Derive, GivenValuesAndTheBoxWin) {
   runtime::Session s = Fresh();
   s.mutable_volume()->set_voxel_size_mm(50);

@@ -28,7 +28,10 @@ namespace dome::testing {
 
 // Small voxels' worth of slabs: enough jobs per instant (about 20 fusion slabs of the
 // derived volume) that the fault tests can act while a session runs.
-inline const std::vector<std::string> kSessionFlags = {"--voxel-mm", "40", "--slab-planes", "5"};
+// Without silhouettes: these tests compare the runtime with the offline commands, which
+// take no masks.
+inline const std::vector<std::string> kSessionFlags = {"--voxel-mm", "40", "--slab-planes", "5",
+                                                       "--no-masks"};
 
 inline std::string Join(const std::vector<std::string>& v) {
   std::string s;

@@ -6,8 +6,9 @@ namespace dome::scheduler {
 namespace {
 
 // The default stages' graph: stereo per camera, fusion per slab, then one surface,
-// decimate and texture part; stage indices in that order.
-enum Stage { kStereo, kFusion, kSurface, kDecimate, kTexture };
+// decimate and texture part; stage indices in that order, after the masks stage (no
+// parts here: the plan has no mask inputs).
+enum Stage { kMasks, kStereo, kFusion, kSurface, kDecimate, kTexture };
 
 JobGraph DefaultShape(const std::vector<std::string>& instants,
                       const std::vector<std::string>& cameras, int slabs) {

@@ -65,6 +65,17 @@ TEST(ClusterTest, SparseRigTakesTheNearestInAxisAngle) {
   EXPECT_EQ(SelectCluster(rig, "c0", one), (std::vector<int>{2}));
 }
 
+TEST(ClusterTest, MedianNearestAxisAngle) {
+  // Axes at 0, 20 and 90 degrees: nearest others 20, 20 and 70 degrees away.
+  geometry::Rig rig = LineRig(3);
+  rig.cameras[1].model.rotation = TurnedAboutY(20);
+  rig.cameras[2].model.rotation = TurnedAboutY(90);
+  EXPECT_NEAR(MedianNearestAxisAngleDeg(rig), 20.0, 1e-9);
+  rig.cameras[0].model.rotation = TurnedAboutY(-60);  // now 80, 20, 70: median 70
+  EXPECT_NEAR(MedianNearestAxisAngleDeg(rig), 70.0, 1e-9);
+  EXPECT_EQ(MedianNearestAxisAngleDeg(LineRig(1)), 0.0);
+}
+
 TEST(ClusterTest, BadInputs) {
   dome::testing::ExpectInputError([&] { SelectCluster(LineRig(3), "c9", {}); },
                                   {"--camera", "'c9'", "not in the rig"});

@@ -1,0 +1,328 @@
+#include "silhouette/hull.h"
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+#include "geometry/undistort.h"
+
+namespace dome::silhouette {
+
+using core::Require;
+
+namespace {
+
+// std::lround's value (half away from zero) without the library call: the fraction
+// v - trunc(v) is exact. Far values (no pixel of any image) give -1.
+inline long RoundPx(double v) {
+  if (!(std::abs(v) < 1e9)) return -1;
+  double t = std::trunc(v);
+  if (std::abs(v - t) >= 0.5) t += v > 0 ? 1.0 : -1.0;
+  return long(t);
+}
+
+}  // namespace
+
+void HullOptions::Check() const {
+  Require(std::isfinite(margin_fraction) && margin_fraction >= 0 && margin_fraction < 0.1,
+          "HullOptions: margin_fraction",
+          "expected a fraction of the image diagonal in [0, 0.1), got " +
+              std::to_string(margin_fraction));
+  Require(carve_votes >= 1, "HullOptions: carve_votes",
+          "expected at least 1, got " + std::to_string(carve_votes));
+  Require(ray_block_px >= 1 && ray_block_px <= 64, "HullOptions: ray_block_px",
+          "expected 1..64 pixels, got " + std::to_string(ray_block_px));
+}
+
+int HullOptions::MarginPx(cv::Size size) const {
+  return std::max(1, int(std::lround(margin_fraction * std::hypot(size.width, size.height))));
+}
+
+VisualHull::VisualHull(const std::vector<geometry::TsaiCamera>& cameras,
+                       const std::vector<cv::Mat>& masks, const HullOptions& options)
+    : options_(options) {
+  options_.Check();
+  DOME_CHECK(cameras.size() == masks.size(), "VisualHull: one mask per camera");
+  views_.resize(cameras.size());
+  core::ParallelFor(0, int64_t(cameras.size()), options_.num_threads, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      const geometry::TsaiCamera& cam = cameras[c];
+      const cv::Mat& mask = masks[c];
+      Require(mask.type() == CV_8UC1 && mask.cols == cam.width_px && mask.rows == cam.height_px,
+              "mask of camera '" + cam.id + "'",
+              "expected 8-bit gray of " + std::to_string(cam.width_px) + "x" +
+                  std::to_string(cam.height_px) + ", got " + std::to_string(mask.cols) + "x" +
+                  std::to_string(mask.rows) + " of type code " + std::to_string(mask.type()));
+      View& v = views_[c];
+      v.K = cam.K();
+      v.R = cam.rotation;
+      v.t = cam.translation_mm;
+      v.P.leftCols<3>() = v.K * v.R;
+      v.P.col(3) = v.K * v.t;
+      v.f_px = 0.5 * (v.K(0, 0) + v.K(1, 1));
+      v.width = cam.width_px;
+      v.height = cam.height_px;
+      cv::Mat fg = mask != 0;
+      if (cam.HasDistortion()) {
+        // Bilinear resampling of 0 / 255: a pixel at least half foreground stays so.
+        // The tables come from the process-wide cache: a worker builds a hull per job.
+        const auto tables = geometry::SharedUndistortTables(cam);
+        fg = geometry::Remap(fg, *tables) >= 128;
+        v.seen = geometry::Remap(cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255)), *tables) > 0;
+      } else {
+        v.seen = cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255));
+      }
+      const int r = options_.MarginPx(mask.size());
+      cv::dilate(fg, fg, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+      v.fg = fg;
+      if (options_.ray_block_px > 1) {
+        // Distance to the nearest pixel that is foreground or without data (the zeros),
+        // then to the first pixel outside the image on each side.
+        cv::Mat clear;
+        cv::distanceTransform(~fg & v.seen, clear, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+        for (int y = 0; y < clear.rows; ++y) {
+          float* d = clear.ptr<float>(y);
+          const int dy = std::min(y + 1, clear.rows - y);
+          for (int x = 0; x < clear.cols; ++x)
+            d[x] = std::min(d[x], float(std::min({x + 1, clear.cols - x, dy})));
+        }
+        v.clear_px = clear;
+      }
+      if (!options_.distances) continue;
+      // Distance to the nearest foreground pixel outside, to the nearest background
+      // pixel inside (distanceTransform measures to the nearest zero).
+      cv::Mat out_px, in_px;
+      cv::distanceTransform(~fg, out_px, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+      cv::distanceTransform(fg, in_px, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+      v.signed_px = out_px - in_px;
+    }
+  });
+}
+
+cv::Mat VisualHull::IdealMask(int index) const {
+  return views_.at(size_t(index)).fg.clone();
+}
+
+HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm, int skip,
+                              double enough_outside_mm) const {
+  DOME_CHECK(radius_mm == 0 || options_.distances, "VisualHull::Sample: a radius needs distances");
+  HullSample s;
+  double inside = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < int(views_.size()); ++c) {
+    if (c == skip) continue;
+    const View& v = views_[c];
+    const Eigen::Vector3d h = v.P.leftCols<3>() * world_mm + v.P.col(3);
+    if (!(h.z() > 0)) continue;
+    const long x = std::lround(h.x() / h.z()), y = std::lround(h.y() / h.z());
+    if (x < 0 || y < 0 || x >= v.width || y >= v.height || !v.seen.at<uint8_t>(y, x)) continue;
+    ++s.seen;
+    const double mm_per_px = h.z() / v.f_px;
+    const double d_px = v.signed_px.empty() ? (v.fg.at<uint8_t>(y, x) ? 0.0 : 1.0)
+                                            : v.signed_px.at<float>(y, x) - radius_mm / mm_per_px;
+    if (d_px > 0) {
+      ++s.background;
+      s.outside_mm = std::max(s.outside_mm, d_px * mm_per_px);
+      if (s.background >= options_.carve_votes && s.outside_mm >= enough_outside_mm) break;
+    } else {
+      inside = std::min(inside, -d_px * mm_per_px);
+    }
+  }
+  s.inside_mm = std::isfinite(inside) ? inside : 0.0;
+  s.inside = s.seen - s.background >= 2 && s.background < options_.carve_votes;
+  return s;
+}
+
+bool VisualHull::BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
+                             Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi) const {
+  DOME_CHECK(cells >= 1 && (hi - lo).minCoeff() > 0, "VisualHull::BoundingBox: a box and cells");
+  const double cell = (hi - lo).maxCoeff() / cells;
+  Eigen::Vector3i n;
+  for (int a = 0; a < 3; ++a) n[a] = std::max(1, int(std::ceil((hi[a] - lo[a]) / cell)));
+  const double radius = 0.5 * std::sqrt(3.0) * cell;
+  // Per plane k: the least and greatest cell indices inside (x, y), plus k itself.
+  std::vector<Eigen::Vector4i> found(size_t(n.z()), Eigen::Vector4i(n.x(), n.y(), -1, -1));
+  core::ParallelFor(0, n.z(), options_.num_threads, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k) {
+      Eigen::Vector4i& f = found[size_t(k)];
+      for (int j = 0; j < n.y(); ++j) {
+        for (int i = 0; i < n.x(); ++i) {
+          const Eigen::Vector3d p = lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+          if (!Sample(p, radius).inside) continue;
+          f = Eigen::Vector4i(std::min(f[0], i), std::min(f[1], j), std::max(f[2], i),
+                              std::max(f[3], j));
+        }
+      }
+    }
+  });
+  Eigen::Vector3i a(n.x(), n.y(), n.z()), b(-1, -1, -1);
+  for (int k = 0; k < n.z(); ++k) {
+    const Eigen::Vector4i& f = found[size_t(k)];
+    if (f[2] < 0) continue;
+    a = Eigen::Vector3i(std::min(a.x(), f[0]), std::min(a.y(), f[1]), std::min(a.z(), k));
+    b = Eigen::Vector3i(std::max(b.x(), f[2]), std::max(b.y(), f[3]), std::max(b.z(), k));
+  }
+  if (b.z() < 0) return false;
+  *hull_lo = lo + cell * a.cast<double>();
+  *hull_hi = (lo + cell * (b + Eigen::Vector3i::Ones()).cast<double>()).cwiseMin(hi);
+  return true;
+}
+
+cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int num_samples) const {
+  DOME_CHECK(index >= 0 && index < int(views_.size()) && z_min_mm > 0 && z_max_mm > z_min_mm,
+             "VisualHull::RayBounds: a camera and a depth range");
+  const View& ref = views_[size_t(index)];
+  // Per other camera, the ray of reference pixel x at inverse depth w projects to
+  // h ~ A x + w b (A = K_n R K_r^-1, b = K_n (t_n - R t_r), R = R_n R_r^T); h.z has the
+  // sign of the point's depth in camera n.
+  struct Other {
+    Eigen::Matrix3d A;
+    Eigen::Vector3d b;
+    const View* view;
+  };
+  std::vector<Other> others;
+  const Eigen::Matrix3d K_inv = ref.K.inverse();
+  for (int c = 0; c < int(views_.size()); ++c) {
+    if (c == index) continue;
+    const View& v = views_[c];
+    const Eigen::Matrix3d R = v.R * ref.R.transpose();
+    others.push_back({v.K * R * K_inv, v.K * (v.t - R * ref.t), &v});
+  }
+  const double w_near = 1.0 / z_min_mm, w_far = 1.0 / z_max_mm;
+  // Samples: the longest projection of the ray's range into another camera, over a
+  // 9x9 grid of reference pixels, in pixels (ends in front of that camera).
+  double longest = 1.0;
+  for (int gy = 0; gy < 9 && num_samples <= 0; ++gy) {
+    for (int gx = 0; gx < 9; ++gx) {
+      const Eigen::Vector3d x((ref.width - 1) * gx / 8.0, (ref.height - 1) * gy / 8.0, 1.0);
+      for (const Other& o : others) {
+        const Eigen::Vector3d p = o.A * x, a = p + w_near * o.b, b = p + w_far * o.b;
+        if (!(a.z() > 0 && b.z() > 0)) continue;
+        longest = std::max(longest, (a.hnormalized() - b.hnormalized()).norm());
+      }
+    }
+  }
+  const int samples = num_samples > 0 ? std::max(2, num_samples)
+                                      : std::clamp(int(std::ceil(longest)) + 1, 2, 1 << 14);
+  const double dw = (w_near - w_far) / (samples - 1);
+  const int votes = options_.carve_votes;
+  const int block = options_.ray_block_px;
+  // Reference pixel offsets -> normalised offsets at unit depth (K has no skew).
+  const double inv_fx = 1.0 / ref.K(0, 0), inv_fy = 1.0 / ref.K(1, 1);
+  cv::Mat bounds(ref.height, ref.width, CV_32FC2, cv::Scalar(0, 0));
+  const int block_rows = (ref.height + block - 1) / block;
+  core::ParallelFor(0, block_rows, options_.num_threads, [&](int64_t b0, int64_t b1) {
+    std::vector<Eigen::Vector3d> p(others.size());
+    // The order the cameras are asked in: those that voted background last come first
+    // (the next sample along a ray, the next ray, is mostly carved by the same cameras,
+    // so an outside sample costs about carve_votes projections). The verdicts do not
+    // depend on the order: counts, and a stop only once carve_votes say background.
+    std::vector<size_t> order(others.size());
+    for (size_t n = 0; n < order.size(); ++n) order[n] = n;
+    // Pixel (x, y): its first and last inside sample within [lo, hi] (the samples outside
+    // are outside), widened by a step, as depths.
+    auto pixel = [&](int x, int y, int lo, int hi) {
+      if (!ref.fg.at<uint8_t>(y, x) || !ref.seen.at<uint8_t>(y, x)) return;
+      for (size_t n = 0; n < others.size(); ++n)
+        p[n] = others[n].A * Eigen::Vector3d(x, double(y), 1.0);
+      auto inside = [&](int i) {
+        const double w = w_near - i * dw;
+        int s = 1, bg = 0;  // the reference sees it in its foreground
+        for (size_t m = 0; m < order.size() && bg < votes; ++m) {
+          const size_t n = order[m];
+          const Eigen::Vector3d h = p[n] + w * others[n].b;
+          if (!(h.z() > 0)) continue;
+          const View& v = *others[n].view;
+          const long u = RoundPx(h.x() / h.z()), r = RoundPx(h.y() / h.z());
+          if (u < 0 || r < 0 || u >= v.width || r >= v.height || !v.seen.at<uint8_t>(r, u))
+            continue;
+          ++s;
+          if (!v.fg.at<uint8_t>(r, u)) std::swap(order[m], order[size_t(bg++)]);
+        }
+        return s - bg >= 2 && bg < votes;
+      };
+      int first = lo;
+      while (first <= hi && !inside(first)) ++first;
+      if (first > hi) return;
+      int last = hi;
+      while (last > first && !inside(last)) --last;
+      const double near_w = w_near - (first - 1) * dw, far_w = w_near - (last + 1) * dw;
+      cv::Vec2f& out = bounds.at<cv::Vec2f>(y, x);
+      out[0] = float(std::max(z_min_mm, 1.0 / near_w));
+      out[1] = float(far_w > 0 ? std::min(z_max_mm, 1.0 / far_w) : z_max_mm);
+    };
+    // The block [x0, x1) x [y0, y1) whose rays can be inside only at samples [lo, hi]:
+    // narrowed by the block test, then halved down to pixels.
+    std::function<void(int, int, int, int, int, int)> refine = [&](int x0, int y0, int x1,
+                                                                   int y1, int lo, int hi) {
+      if (x1 - x0 == 1 && y1 - y0 == 1) return pixel(x0, y0, lo, hi);
+      bool any = false;
+      for (int y = y0; y < y1 && !any; ++y) {
+        const uint8_t* own = ref.fg.ptr<uint8_t>(y);
+        const uint8_t* seen = ref.seen.ptr<uint8_t>(y);
+        for (int x = x0; x < x1 && !any; ++x) any = own[x] && seen[x];
+      }
+      if (!any) return;
+      // At depth z the block's ray points lie within z * spread mm of its centre ray's.
+      const double xc = 0.5 * (x0 + x1 - 1), yc = 0.5 * (y0 + y1 - 1);
+      const double spread = std::hypot(0.5 * (x1 - 1 - x0) * inv_fx, 0.5 * (y1 - 1 - y0) * inv_fy);
+      for (size_t n = 0; n < others.size(); ++n) p[n] = others[n].A * Eigen::Vector3d(xc, yc, 1.0);
+      // True when carve_votes cameras see the whole ball of the block's points at sample
+      // i as background: then every pixel's exact test votes it outside.
+      auto outside = [&](int i) {
+        const double w = w_near - i * dw, z = 1.0 / w;
+        const double r_mm = z * spread * (1.0 + 1e-9);
+        int bg = 0;
+        for (size_t m = 0; m < order.size(); ++m) {
+          const size_t n = order[m];
+          const Eigen::Vector3d h = p[n] + w * others[n].b;
+          const double depth = h.z() * z;  // the centre's depth in camera n, mm
+          if (!(depth - r_mm > 0)) continue;
+          const View& v = *others[n].view;
+          const double u = h.x() / h.z(), t = h.y() / h.z();
+          const long cu = RoundPx(u), cv_ = RoundPx(t);
+          if (cu < 0 || cv_ < 0 || cu >= v.width || cv_ >= v.height) continue;
+          // A point P of the ball, |P - C| <= r, projects within f r (1 + |C_xy| / C_z) /
+          // (C_z - r) pixels of C's projection; the roundings to pixels add sqrt(2).
+          const double nu = (u - v.K(0, 2)) / v.K(0, 0), nv = (t - v.K(1, 2)) / v.K(1, 1);
+          const double rho = std::sqrt(nu * nu + nv * nv);
+          const double reach_px =
+              std::max(v.K(0, 0), v.K(1, 1)) * r_mm * (1.0 + rho) / (depth - r_mm) +
+              std::sqrt(2.0) + 1e-3;
+          if (v.clear_px.at<float>(int(cv_), int(cu)) > reach_px) {
+            std::swap(order[m], order[size_t(bg)]);
+            if (++bg >= votes) return true;
+          }
+        }
+        return false;
+      };
+      while (lo <= hi && outside(lo)) ++lo;
+      if (lo > hi) return;
+      while (hi > lo && outside(hi)) --hi;
+      const int xm = (x0 + x1 + 1) / 2, ym = (y0 + y1 + 1) / 2;
+      refine(x0, y0, xm, ym, lo, hi);
+      if (xm < x1) refine(xm, y0, x1, ym, lo, hi);
+      if (ym < y1) refine(x0, ym, xm, y1, lo, hi);
+      if (xm < x1 && ym < y1) refine(xm, ym, x1, y1, lo, hi);
+    };
+    for (int64_t by = b0; by < b1; ++by) {
+      const int y0 = int(by) * block, y1 = std::min(ref.height, y0 + block);
+      for (int x0 = 0; x0 < ref.width; x0 += block) {
+        const int x1 = std::min(ref.width, x0 + block);
+        if (block == 1) {
+          pixel(x0, y0, 0, samples - 1);
+        } else {
+          refine(x0, y0, x1, y1, 0, samples - 1);
+        }
+      }
+    }
+  });
+  return bounds;
+}
+
+}  // namespace dome::silhouette

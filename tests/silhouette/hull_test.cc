@@ -1,0 +1,375 @@
+// The visual hull (silhouette/hull.h) and its uses -- stereo's search bounds
+// (stereo/search_bounds.h) and fusion's free space and stand-in surface
+// (fusion/hull_fusion.h) -- against the synthetic dome's exact truth (small preset:
+// 6 cameras with barrel distortion, 160x120, 3 instants, background plates).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+#include "core/error.h"
+#include "fusion/hull_fusion.h"
+#include "io/depth_tiff.h"
+#include "io/image_io.h"
+#include "io/ply.h"
+#include "silhouette/hull.h"
+#include "silhouette/take_masks.h"
+#include "stereo/coarse_to_fine.h"
+#include "stereo/take_stereo.h"
+#include "synth/synth.h"
+#include "take/take.h"
+#include "testing/temp_dir.h"
+
+namespace dome::silhouette {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The person's part of the scene, as bench/fusion/batter_eval.cc crops the truth: the
+// room's walls and the floor (background in every mask) left out.
+bool OnPerson(const Eigen::Vector3d& p) {
+  return std::abs(p.x()) <= 1500 && std::abs(p.y()) <= 1500 && p.z() >= 30 && p.z() <= 2600;
+}
+
+class HullTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    temp_ = new dome::testing::TempDir();
+    synth::SynthOptions options;
+    options.preset = "small";
+    options.threads = 2;
+    options.write_tape = false;
+    options.write_calibration = false;
+    synth::GenerateTake(options, *temp_ / "take");
+    take_ = new take::Take(take::OpenTake(*temp_ / "take"));
+  }
+  static void TearDownTestSuite() {
+    delete take_;
+    delete temp_;
+  }
+
+  static std::vector<geometry::TsaiCamera> Cameras() {
+    std::vector<geometry::TsaiCamera> out;
+    for (const auto& rc : take_->rig.cameras) out.push_back(rc.model);
+    return out;
+  }
+  static std::vector<cv::Mat> TruthMasks(const std::string& instant) {
+    std::vector<cv::Mat> out;
+    for (const auto& rc : take_->rig.cameras) {
+      out.push_back(io::ReadImage(take_->dir / "truth" / instant / "mask" / (rc.model.id + ".png"),
+                                  io::ImageMode::kGray8));
+    }
+    return out;
+  }
+  static std::vector<cv::Mat> PlateMasks(const std::string& instant) {
+    TakeMasks masks(*take_, MaskOptions{});
+    std::vector<cv::Mat> out;
+    for (const auto& rc : take_->rig.cameras) out.push_back(masks.Mask(instant, rc.model.id));
+    return out;
+  }
+  static std::vector<Eigen::Vector3d> PersonVertices(const std::string& instant) {
+    const io::Mesh mesh = io::ReadPly(take_->dir / "truth" / instant / "mesh.ply");
+    std::vector<Eigen::Vector3d> out;
+    for (const auto& v : mesh.vertices) {
+      if (OnPerson(v.cast<double>())) out.push_back(v.cast<double>());
+    }
+    return out;
+  }
+
+  static dome::testing::TempDir* temp_;
+  static take::Take* take_;
+};
+dome::testing::TempDir* HullTest::temp_ = nullptr;
+take::Take* HullTest::take_ = nullptr;
+
+TEST_F(HullTest, ContainsThePersonAndItsBoxContainsTheTruthMesh) {
+  for (const std::string& instant : take_->instants) {
+    const std::vector<Eigen::Vector3d> person = PersonVertices(instant);
+    ASSERT_GT(person.size(), 1000u);
+    for (const bool plates : {false, true}) {
+      const VisualHull hull(Cameras(), plates ? PlateMasks(instant) : TruthMasks(instant),
+                            HullOptions{});
+      size_t inside = 0;
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+      for (const auto& p : person) {
+        inside += hull.Inside(p);
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      const double fraction = double(inside) / person.size();
+      Eigen::Vector3d h_lo, h_hi;
+      const Eigen::Vector3d box_lo(-1500, -1500, 30), box_hi(1500, 1500, 2600);
+      ASSERT_TRUE(hull.BoundingBox(box_lo, box_hi, 96, &h_lo, &h_hi));
+      // How much of the crop box the hull leaves: sampled on a 40^3 grid.
+      int kept = 0, total = 0;
+      for (int k = 0; k < 40; ++k) {
+        for (int j = 0; j < 40; ++j) {
+          for (int i = 0; i < 40; ++i, ++total) {
+            kept += hull.Inside(box_lo + (box_hi - box_lo).cwiseProduct(
+                                             Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5) / 40.0));
+          }
+        }
+      }
+      std::printf("%s %s: %.4f of %zu person vertices inside; box [%.0f %.0f %.0f]..[%.0f %.0f "
+                  "%.0f] holds [%.0f %.0f %.0f]..[%.0f %.0f %.0f]; %.4f of the crop box kept\n",
+                  instant.c_str(), plates ? "plates" : "truth", fraction, person.size(),
+                  h_lo.x(), h_lo.y(), h_lo.z(), h_hi.x(), h_hi.y(), h_hi.z(), lo.x(), lo.y(),
+                  lo.z(), hi.x(), hi.y(), hi.z(), double(kept) / total);
+      EXPECT_GE(fraction, plates ? 0.995 : 0.999) << instant;
+      EXPECT_TRUE((h_lo.array() <= lo.array()).all() && (h_hi.array() >= hi.array()).all())
+          << instant << (plates ? " plates" : " truth");
+      EXPECT_LT(double(kept) / total, 0.05) << "the hull carves most of the empty box";
+    }
+  }
+}
+
+// Truth depth of the ray of ideal pixel (x, y) of `camera` (the truth maps are in the
+// distorted grid), 0 where none.
+float TruthDepthOfIdealPixel(const geometry::TsaiCamera& camera, const cv::Mat& truth, int x,
+                             int y) {
+  const Eigen::Vector2d d = camera.DistortPixel(Eigen::Vector2d(x, y));
+  const long u = std::lround(d.x()), v = std::lround(d.y());
+  if (u < 0 || v < 0 || u >= truth.cols || v >= truth.rows) return 0.0f;
+  return truth.at<float>(int(v), int(u));
+}
+
+TEST_F(HullTest, RayBoundsHoldThePersonsDepthAndSkipTheBackground) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const VisualHull hull(cameras, PlateMasks(instant), HullOptions{});
+  for (int c = 0; c < int(cameras.size()); ++c) {
+    const cv::Mat bounds = hull.RayBounds(c, 500, 6000);
+    const cv::Mat own = hull.IdealMask(c);
+    const cv::Mat truth = io::ReadDepthTiff(take_->TruthDepthPath(instant, cameras[c].id));
+    // The mask's inner pixels: an edge pixel's centre may see the floor behind.
+    cv::Mat truth_mask = io::ReadImage(
+        take_->dir / "truth" / instant / "mask" / (cameras[c].id + ".png"), io::ImageMode::kGray8);
+    cv::erode(truth_mask, truth_mask, cv::Mat());
+    int person = 0, held = 0, searched = 0;
+    for (int y = 0; y < bounds.rows; ++y) {
+      for (int x = 0; x < bounds.cols; ++x) {
+        const cv::Vec2f b = bounds.at<cv::Vec2f>(y, x);
+        const bool s = b[0] < b[1];
+        searched += s;
+        // Background pixels (outside the camera's own dilated mask) are not searched.
+        if (!own.at<uint8_t>(y, x)) {
+          EXPECT_FALSE(s) << cameras[c].id << " (" << x << ", " << y << ")";
+        }
+        const Eigen::Vector2d d = cameras[c].DistortPixel(Eigen::Vector2d(x, y));
+        const long u = std::lround(d.x()), v = std::lround(d.y());
+        if (u < 0 || v < 0 || u >= truth.cols || v >= truth.rows) continue;
+        if (!truth_mask.at<uint8_t>(int(v), int(u))) continue;
+        const float z = TruthDepthOfIdealPixel(cameras[c], truth, x, y);
+        if (!(z > 0)) continue;
+        ++person;
+        held += s && z >= b[0] && z <= b[1];
+      }
+    }
+    std::printf("%s: %d of %d person pixels hold their truth depth; %d of %d pixels searched\n",
+                cameras[c].id.c_str(), held, person, searched, bounds.rows * bounds.cols);
+    ASSERT_GT(person, 300);
+    EXPECT_GE(double(held) / person, 0.98) << cameras[c].id;
+    EXPECT_LT(searched, bounds.rows * bounds.cols / 5) << cameras[c].id;
+  }
+}
+
+// The block test only skips samples no ray of the block can have inside: the bounds are
+// exactly those of every pixel's scan over all samples (ray_block_px 1), at the search's
+// level count and at the one-pixel spacing, with the default votes and with one.
+TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const auto masks = PlateMasks(instant);
+  for (int votes : {2, 1}) {
+    HullOptions plain;
+    plain.distances = false;
+    plain.carve_votes = votes;
+    plain.ray_block_px = 1;
+    const VisualHull exact(cameras, masks, plain);
+    for (int block : {8, 13}) {
+      HullOptions o = plain;
+      o.ray_block_px = block;
+      const VisualHull fast(cameras, masks, o);
+      for (int c = 0; c < int(cameras.size()); ++c) {
+        for (int samples : {0, 97}) {
+          const cv::Mat a = exact.RayBounds(c, 500, 6000, samples);
+          const cv::Mat b = fast.RayBounds(c, 500, 6000, samples);
+          ASSERT_EQ(a.size(), b.size());
+          int searched = 0, differ = 0;
+          for (int y = 0; y < a.rows; ++y) {
+            for (int x = 0; x < a.cols; ++x) {
+              const cv::Vec2f p = a.at<cv::Vec2f>(y, x), q = b.at<cv::Vec2f>(y, x);
+              searched += p[0] < p[1];
+              differ += p[0] != q[0] || p[1] != q[1];
+            }
+          }
+          ASSERT_GT(searched, 300) << cameras[c].id;
+          EXPECT_EQ(differ, 0) << cameras[c].id << " votes " << votes << " block " << block
+                               << " samples " << samples;
+        }
+      }
+    }
+  }
+}
+
+TEST(SearchBounds, SearchedRectIsTheBoxOfTheSearchedPixels) {
+  stereo::SearchBounds b{cv::Mat(20, 30, CV_32FC2, cv::Scalar(0, 0))};
+  EXPECT_TRUE(b.SearchedRect(cv::Rect(0, 0, 30, 20)).empty());
+  b.near_far_mm.at<cv::Vec2f>(5, 7) = cv::Vec2f(1000, 1200);
+  b.near_far_mm.at<cv::Vec2f>(9, 3) = cv::Vec2f(900, 1100);
+  b.near_far_mm.at<cv::Vec2f>(2, 12) = cv::Vec2f(1300, 1300);  // near == far: not searched
+  EXPECT_EQ(b.SearchedRect(cv::Rect(0, 0, 30, 20)), cv::Rect(3, 5, 5, 5));
+  EXPECT_EQ(b.SearchedRect(cv::Rect(4, 0, 10, 20)), cv::Rect(7, 5, 1, 1));
+  EXPECT_TRUE(b.SearchedRect(cv::Rect(8, 0, 10, 20)).empty());
+}
+
+TEST(HullOptions, RayBlockOutOfRangeIsNamed) {
+  HullOptions o;
+  o.ray_block_px = 0;
+  try {
+    o.Check();
+    FAIL() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("HullOptions: ray_block_px"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected 1..64 pixels, got 0"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(HullTest, BoundedStereoGivesBackgroundNoDepthAndKeepsThePersons) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const VisualHull hull(cameras, PlateMasks(instant), HullOptions{});
+  stereo::StereoOptions options;
+  options.z_min_mm = 1000;
+  options.z_max_mm = 6000;
+  options.num_threads = 2;
+  int most = 0;
+  for (int c = 0; c < int(cameras.size()); ++c) {
+    const stereo::StereoInput input =
+        stereo::LoadStereoInput(*take_, instant, cameras[c].id, stereo::ClusterOptions{});
+    const stereo::SearchBounds bounds{hull.RayBounds(c, options.z_min_mm, options.z_max_mm)};
+    const stereo::StereoResult full = stereo::ComputeDepth(input, options);
+    const stereo::StereoResult bounded = stereo::ComputeDepthBounded(input, options, bounds);
+    const cv::Mat truth = io::ReadDepthTiff(take_->TruthDepthPath(instant, cameras[c].id));
+    const cv::Mat& a = full.range_images[0].depth_mm;
+    const cv::Mat& b = bounded.range_images[0].depth_mm;
+    // Within the searched pixels: depths within 2 % of the truth, full and bounded.
+    int good_full = 0, good_bounded = 0;
+    for (int y = 0; y < b.rows; ++y) {
+      for (int x = 0; x < b.cols; ++x) {
+        const float db = b.at<float>(y, x);
+        if (!bounds.Searched(x, y)) {
+          EXPECT_EQ(db, 0.0f) << cameras[c].id << " (" << x << ", " << y << ")";
+          continue;
+        }
+        const float z = TruthDepthOfIdealPixel(cameras[c], truth, x, y);
+        if (!(z > 0)) continue;
+        good_full += std::abs(a.at<float>(y, x) - z) < 0.02f * z;
+        good_bounded += std::abs(db - z) < 0.02f * z;
+      }
+    }
+    std::printf("%s: depths within 2 %% of the truth in the searched pixels: full %d, bounded %d\n",
+                cameras[c].id.c_str(), good_full, good_bounded);
+    EXPECT_GE(good_bounded, good_full * 0.95) << cameras[c].id;
+    most = std::max(most, good_bounded);
+  }
+  EXPECT_GT(most, 100);
+}
+
+// The free-space rule: a voxel is free space when min(carve_votes, seen) of the cameras
+// that see it vote background; with fill_unseen, the hull's surface stands in where no
+// image saw a voxel, and without (the default) such a voxel stays unseen.
+TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const std::vector<cv::Mat> masks = TruthMasks(instant);
+  const std::vector<Eigen::Vector3d> person = PersonVertices(instant);
+  // The person's centre (mean of its vertices) and a point in the empty dome.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : person) centre += p;
+  centre /= double(person.size());
+  const VisualHull hull(cameras, masks, HullOptions{});
+  ASSERT_TRUE(hull.Inside(centre));
+  fusion::VolumeGrid grid;
+  grid.voxel_size_mm = 50;
+  grid.origin_mm = Eigen::Vector3d(-1500, -1500, 30);
+  grid.nx = grid.ny = 60;
+  grid.nz = 51;
+  fusion::FusionOptions options;
+  options.truncation_mm = options.front_clamp_mm = 150;
+  auto voxel_of = [&](const Eigen::Vector3d& p) {
+    return ((p - grid.origin_mm) / grid.voxel_size_mm).array().floor().cast<int>().eval();
+  };
+  for (const float stereo_weight : {0.0f, 1.0f}) {
+    // Stereo's slab: a surface everywhere (d = 0) with weight 1, or nothing observed.
+    fusion::Slab slab;
+    slab.k0 = 0;
+    slab.k1 = grid.nz;
+    slab.nx = grid.nx;
+    slab.ny = grid.ny;
+    slab.distance_mm.assign(size_t(grid.nx) * grid.ny * grid.nz, 0.0f);
+    slab.weight.assign(slab.distance_mm.size(), stereo_weight);
+    fusion::Slab unfilled = slab;
+    fusion::ApplyHull(grid, hull, options, fusion::HullFusionOptions{}, &unfilled);
+    fusion::HullFusionOptions ho;
+    ho.fill_unseen = true;
+    fusion::ApplyHull(grid, hull, options, ho, &slab);
+    int free = 0, stand_in = 0, kept = 0;
+    for (int k = 0; k < grid.nz; ++k) {
+      for (int j = 0; j < grid.ny; ++j) {
+        for (int i = 0; i < grid.nx; ++i) {
+          const size_t v = (size_t(k) * grid.ny + j) * grid.nx + i;
+          const HullSample s = hull.Sample(grid.VoxelCentreMm(i, j, k));
+          if (s.seen >= 1 && s.background >= std::min(2, s.seen)) {
+            ++free;
+            EXPECT_GT(slab.distance_mm[v], 0.0f);
+            EXPECT_LE(slab.distance_mm[v], options.front_clamp_mm);
+            EXPECT_EQ(slab.weight[v], stereo_weight > 0 ? stereo_weight : 0.5f);
+          } else if (s.inside) {
+            if (stereo_weight > 0) {
+              ++kept;  // stereo saw it: stereo's value stays
+              EXPECT_EQ(slab.distance_mm[v], 0.0f);
+              EXPECT_EQ(slab.weight[v], stereo_weight);
+            } else {
+              ++stand_in;  // the hull's surface stands in, weighted below one image
+              EXPECT_EQ(unfilled.weight[v], 0.0f);  // not without fill_unseen
+              EXPECT_LE(slab.distance_mm[v], 0.0f);
+              EXPECT_GE(slab.distance_mm[v], -options.truncation_mm);
+              EXPECT_EQ(slab.weight[v], 0.5f);
+            }
+          }
+        }
+      }
+    }
+    EXPECT_GT(free, grid.nx * grid.ny * grid.nz / 2);
+    EXPECT_GT(stereo_weight > 0 ? kept : stand_in, 100);
+    // The person's centre: deep inside, minus the truncation when standing in.
+    const auto c = voxel_of(centre);
+    const size_t v = (size_t(c.z()) * grid.ny + c.y()) * grid.nx + c.x();
+    if (stereo_weight == 0) EXPECT_LT(slab.distance_mm[v], -40.0f);
+  }
+  // One camera whose mask lost the person: two votes keep the person, one carves it.
+  std::vector<cv::Mat> broken = masks;
+  int sees_centre = -1;
+  for (int c = 0; c < int(cameras.size()) && sees_centre < 0; ++c) {
+    Eigen::Vector2d px;
+    if (cameras[c].Project(centre, &px) && px.x() >= 0 && px.y() >= 0 &&
+        px.x() < cameras[c].width_px && px.y() < cameras[c].height_px)
+      sees_centre = c;
+  }
+  ASSERT_GE(sees_centre, 0);
+  broken[sees_centre] = cv::Mat::zeros(broken[sees_centre].size(), CV_8UC1);
+  EXPECT_TRUE(VisualHull(cameras, broken, HullOptions{}).Inside(centre));
+  HullOptions strict;
+  strict.carve_votes = 1;
+  EXPECT_FALSE(VisualHull(cameras, broken, strict).Inside(centre));
+}
+
+}  // namespace
+}  // namespace dome::silhouette
