@@ -151,8 +151,7 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   silhouette::HullOptions options;
   options.num_threads = job.threads();
   options.distances = distances;
-  options.carve_votes = carve_votes;
-  options.Check();
+  options.carve_votes = carve_votes;  // checked by the hull
   return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
 }
 

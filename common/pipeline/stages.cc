@@ -199,8 +199,7 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
   prepared->integrator = std::make_unique<fusion::Integrator>(grid, prepared->images, options);
   prepared->hull = std::move(hull);
   prepared->hull_options = hull_options;
-  prepared->hull_options.num_threads = options.num_threads;
-  prepared->hull_options.Check();
+  prepared->hull_options.num_threads = options.num_threads;  // checked by ApplyHull
   prepared->options = options;
   return prepared;
 }
