@@ -12,9 +12,11 @@
 #    11, uniqueness 0.02, two neighbours, speckle 20000 px / 0.3 mm, coarse to fine
 #    clipped to the box, truncation one voxel, 10 smoothing iterations, no decimation,
 #    texture or previews; run with 1 worker of 2 threads.
-# Only `dome run` is timed (the imports are made once, before). PAIRS (default 5)
-# alternating A B runs of whole processes under /usr/bin/time; prints each run and the
-# medians of wall and CPU (user + system) seconds and of the per-pair ratios A/B.
+# Each path is what a user runs: its import, then `dome run`. PAIRS (default 5)
+# alternating A B pairs of whole processes under /usr/bin/time (A's import and run, then
+# B's import with the crop and run); prints each process and the medians of wall and CPU
+# (user + system) seconds and of the per-pair ratios A/B, for `dome run` alone and for
+# import + run. B's box is computed once, before (reading the reference is not counted).
 set -euo pipefail
 DOME=$(realpath "$1"); OUT=$2; SCENE=${3:-2016_10_24__17_43_02}; PAIRS=${4:-5}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -70,26 +72,36 @@ PY
 
 extra=()
 if [ "$SAME" = 1 ]; then extra=(--decimate-ratio 1 --no-texture --no-preview); fi
-timed() {  # label, out folder, dome run arguments...
-  local label=$1 out=$2; shift 2
-  rm -rf "$out"
-  /usr/bin/time -f "%e %U %S" -o "$OUT/time.txt" "$DOME" run "$@" --out "$out" \
-    > "$OUT/$label.log" 2>&1
-  awk -v l="$label" '{print l, $1, $2 + $3}' "$OUT/time.txt" | tee -a "$OUT/times.txt"
+timed() {  # label, phase, command...
+  local label=$1 phase=$2; shift 2
+  /usr/bin/time -f "%e %U %S" -o "$OUT/time.txt" "$@" > "$OUT/$label-$phase.log" 2>&1
+  awk -v l="$label" -v p="$phase" '{print l, p, $1, $2 + $3}' "$OUT/time.txt" | tee -a "$OUT/times.txt"
 }
 : > "$OUT/times.txt"
 for ((i = 0; i < PAIRS; ++i)); do
-  timed A "$OUT/a" "$OUT/take" "${extra[@]}"
-  timed B "$OUT/b" "$OUT/tuned_session.json" --workers 1 --threads 2
+  rm -rf "$OUT/take" "$OUT/a"
+  timed A import "$DOME" import halcon "$SRC" --out "$OUT/take"
+  timed A run "$DOME" run "$OUT/take" "${extra[@]}" --out "$OUT/a"
+  rm -rf "$OUT/tuned_take" "$OUT/b"
+  timed B import "$DOME" import halcon "$SRC" --out "$OUT/tuned_take" --crop-box $(cat "$OUT/box.txt") \
+    --crop-margin-px 16
+  timed B run "$DOME" run "$OUT/tuned_session.json" --workers 1 --threads 2 --out "$OUT/b"
 done
 /usr/bin/python3 - "$OUT/times.txt" <<'PY'
 import statistics, sys
 rows = [l.split() for l in open(sys.argv[1])]
-a = [(float(w), float(c)) for k, w, c in rows if k == "A"]
-b = [(float(w), float(c)) for k, w, c in rows if k == "B"]
 med = statistics.median
-print("A (default path): wall %.2f s, CPU %.2f s" % (med(x[0] for x in a), med(x[1] for x in a)))
-print("B (tuned session): wall %.2f s, CPU %.2f s" % (med(x[0] for x in b), med(x[1] for x in b)))
-print("A/B per pair, median: wall %.3fx, CPU %.3fx" % (
-    med(x[0] / y[0] for x, y in zip(a, b)), med(x[1] / y[1] for x, y in zip(a, b))))
+def runs(label, phases):
+    out = []
+    for k in range(0, len(rows), 4):
+        pair = [r for r in rows[k:k + 4] if r[0] == label and r[1] in phases]
+        out.append((sum(float(r[2]) for r in pair), sum(float(r[3]) for r in pair)))
+    return out
+for name, phases in (("dome run", ("run",)), ("import + run", ("import", "run"))):
+    a, b = runs("A", phases), runs("B", phases)
+    print("%s: A (default path) wall %.2f s, CPU %.2f s; B (tuned) wall %.2f s, CPU %.2f s; "
+          "A/B per pair, median: wall %.3fx, CPU %.3fx" % (
+              name, med(x[0] for x in a), med(x[1] for x in a), med(x[0] for x in b),
+              med(x[1] for x in b), med(x[0] / y[0] for x, y in zip(a, b)),
+              med(x[1] / y[1] for x, y in zip(a, b))))
 PY
