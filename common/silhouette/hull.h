@@ -95,8 +95,9 @@ class VisualHull {
 
   // The bounding box of the hull within the box [lo, hi] (world mm): the box cut into
   // `cells` cells along its longest axis (cubes), each tested as its enclosing ball
-  // (conservative, so thin parts are not lost between cell centres); the box of the
-  // cells inside, as cells. False when no cell is inside.
+  // (conservative, so thin parts are not lost between cell centres; Sample's verdict
+  // with the ball's radius); the box of the cells inside, as cells. False when no cell
+  // is inside. Needs the distances (HullOptions::distances).
   bool BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
                    Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi) const;
 
@@ -131,6 +132,10 @@ class VisualHull {
     // around it is background seen by the camera (RayBounds' block test).
     cv::Mat clear_px;
   };
+  // Sample(world_mm, radius_mm).inside, asking the cameras in *order and moving those
+  // that vote background to its front; stops at carve_votes background votes.
+  bool BallInside(const Eigen::Vector3d& world_mm, double radius_mm, std::vector<int>* order) const;
+
   HullOptions options_;
   std::vector<View> views_;
 };

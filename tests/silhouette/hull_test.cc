@@ -216,6 +216,45 @@ TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
   }
 }
 
+// BoundingBox tests each row's cells from both ends only and stops at the carving votes:
+// its box must be that of every cell's full vote (Sample with the cell's ball).
+TEST_F(HullTest, BoundingBoxEqualsTheBoxOfEveryCellsVote) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const auto masks = PlateMasks(instant);
+  for (int votes : {2, 1}) {
+    HullOptions o;
+    o.carve_votes = votes;
+    const VisualHull hull(cameras, masks, o);
+    const Eigen::Vector3d lo(-1500, -1500, 30), hi(1500, 1500, 2600);
+    const int cells = 40;
+    Eigen::Vector3d h_lo, h_hi;
+    ASSERT_TRUE(hull.BoundingBox(lo, hi, cells, &h_lo, &h_hi));
+    const double cell = (hi - lo).maxCoeff() / cells;
+    Eigen::Vector3i n, a = Eigen::Vector3i::Constant(1 << 20), b = -a;
+    for (int i = 0; i < 3; ++i) n[i] = int(std::ceil((hi[i] - lo[i]) / cell));
+    int inside = 0;
+    for (int k = 0; k < n.z(); ++k) {
+      for (int j = 0; j < n.y(); ++j) {
+        for (int i = 0; i < n.x(); ++i) {
+          const Eigen::Vector3d p = lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+          if (!hull.Sample(p, 0.5 * std::sqrt(3.0) * cell).inside) continue;
+          ++inside;
+          a = a.cwiseMin(Eigen::Vector3i(i, j, k));
+          b = b.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+    ASSERT_GT(inside, 20) << "votes " << votes;
+    const Eigen::Vector3d e_lo = lo + cell * a.cast<double>();
+    const Eigen::Vector3d e_hi =
+        (lo + cell * (b + Eigen::Vector3i::Ones()).cast<double>()).cwiseMin(hi);
+    EXPECT_EQ(h_lo, e_lo) << "votes " << votes;
+    EXPECT_EQ(h_hi, e_hi) << "votes " << votes;
+    EXPECT_LT((e_hi - e_lo).prod(), 0.5 * (hi - lo).prod()) << "the hull shrinks the box";
+  }
+}
+
 TEST(SearchBounds, SearchedRectIsTheBoxOfTheSearchedPixels) {
   stereo::SearchBounds b{cv::Mat(20, 30, CV_32FC2, cv::Scalar(0, 0))};
   EXPECT_TRUE(b.SearchedRect(cv::Rect(0, 0, 30, 20)).empty());
