@@ -89,6 +89,21 @@ class ClusterFixture : public ::testing::Test {
     std::filesystem::remove_all(root_, ec);
   }
 
+  // `defaults` (flag, value) then `extra`, less the defaults whose flag `extra` gives (the
+  // programs refuse a flag given twice).
+  static std::vector<std::string> WithDefaults(
+      const std::vector<std::pair<std::string, std::string>>& defaults,
+      const std::vector<std::string>& extra) {
+    std::vector<std::string> args;
+    for (const auto& [flag, value] : defaults) {
+      if (std::find(extra.begin(), extra.end(), flag) != extra.end()) continue;
+      args.push_back(flag);
+      args.push_back(value);
+    }
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  }
+
   // A master on loopback with fast heartbeats (200 ms, liveness 3); endpoints read back
   // from its file. `workers` is its worker endpoint: a restarted master binds the port
   // its workers know.
@@ -104,10 +119,11 @@ class ClusterFixture : public ::testing::Test {
     Master m;
     const fs::path file = root_ / (name + ".endpoints");
     fs::remove(file);
-    std::vector<std::string> args = {"--bind",     workers, "--control",        control,
-                                     "--events",   events,  "--heartbeat-ms",   "200",
-                                     "--liveness", "3",     "--endpoints-file", file.string()};
-    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<std::string> args =
+        WithDefaults({{"--bind", workers}, {"--control", control}, {"--events", events},
+                      {"--heartbeat-ms", "200"}, {"--liveness", "3"},
+                      {"--endpoints-file", file.string()}},
+                     extra);
     // Plaintext unless the test gives keys (--keys DIR).
     if (std::find(extra.begin(), extra.end(), "--keys") == extra.end())
       args.push_back("--insecure");
@@ -122,10 +138,10 @@ class ClusterFixture : public ::testing::Test {
   }
   std::unique_ptr<ChildProcess> StartWorker(const Master& m, const std::string& name,
                                             std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"--master",   m.workers, "--threads",      "1",
-                                     "--cache-mb", "256",     "--heartbeat-ms", "200",
-                                     "--liveness", "3",       "--name",         name};
-    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<std::string> args =
+        WithDefaults({{"--master", m.workers}, {"--threads", "1"}, {"--cache-mb", "256"},
+                      {"--heartbeat-ms", "200"}, {"--liveness", "3"}, {"--name", name}},
+                     extra);
     // Plaintext unless the test gives keys (--master-key FILE --key FILE).
     if (std::find(extra.begin(), extra.end(), "--key") == extra.end()) args.push_back("--insecure");
     return std::make_unique<ChildProcess>("dome-worker", args, (root_ / (name + ".log")).string());

@@ -144,13 +144,23 @@ TEST_F(Faults, KilledMasterRestartsFromItsJournal) {
 }
 
 TEST_F(Faults, WorkerJoiningMidSessionGetsJobs) {
-  Master m = StartMaster("master_join");
-  auto first = StartWorker(m, "j1");
+  // The first worker is held (SIGSTOP) from its third result until the second worker has
+  // finished a job: left running, on a loaded machine it can end the session before the
+  // second has started. A long liveness on both sides and a long job time-out keep the
+  // held worker from being lost or its job re-queued.
+  Master m = StartMaster("master_join", {"--liveness", "150", "--job-timeout-s", "600"});
+  auto first = StartWorker(m, "j1", {"--liveness", "150"});
   const fs::path out = root_ / "joined";
   const std::string id = Submit(m, MakeSession(out));
   ASSERT_TRUE(WaitFor(m, id, [](const auto& st) { return st.jobs_done() >= 3; }));
+  first->Signal(SIGSTOP);
+  // A result the first worker sent before it stopped is counted by now.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const int done_before = Status(m, id).jobs_done();
   auto second = StartWorker(m, "j2");
+  const bool second_ran = WaitFor(m, id, [&](const auto& st) { return st.jobs_done() > done_before; });
+  first->Signal(SIGCONT);
+  ASSERT_TRUE(second_ran) << m.process->Log();
   const auto final = WaitForEnd(m, id);
   ASSERT_EQ(final.state(), "done") << final.error() << m.process->Log();
   ExpectSameOutputs(reference_, out);
