@@ -16,11 +16,12 @@ void SearchBounds::Check(cv::Size size, const std::string& where) const {
   for (int y = 0; y < near_far_mm.rows; ++y) {
     const cv::Vec2f* b = near_far_mm.ptr<cv::Vec2f>(y);
     for (int x = 0; x < near_far_mm.cols; ++x) {
-      core::Require(std::isfinite(b[x][0]) && std::isfinite(b[x][1]) && b[x][0] >= 0 &&
-                        b[x][1] >= 0,
-                    where,
-                    "search bounds of pixel (" + std::to_string(x) + ", " + std::to_string(y) +
-                        ") are not finite non-negative depths");
+      // The message is built only for a bad pixel: this runs on every pixel of a job.
+      if (std::isfinite(b[x][0]) && std::isfinite(b[x][1]) && b[x][0] >= 0 && b[x][1] >= 0)
+        continue;
+      throw core::InputError(where, "search bounds of pixel (" + std::to_string(x) + ", " +
+                                        std::to_string(y) +
+                                        ") are not finite non-negative depths");
     }
   }
 }

@@ -22,6 +22,7 @@
 #include "stereo/take_stereo.h"
 #include "synth/synth.h"
 #include "take/take.h"
+#include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
 namespace dome::silhouette {
@@ -264,6 +265,19 @@ TEST(SearchBounds, SearchedRectIsTheBoxOfTheSearchedPixels) {
   EXPECT_EQ(b.SearchedRect(cv::Rect(0, 0, 30, 20)), cv::Rect(3, 5, 5, 5));
   EXPECT_EQ(b.SearchedRect(cv::Rect(4, 0, 10, 20)), cv::Rect(7, 5, 1, 1));
   EXPECT_TRUE(b.SearchedRect(cv::Rect(8, 0, 10, 20)).empty());
+}
+
+TEST(SearchBounds, BadBoundsAreNamedWithTheirPixel) {
+  stereo::SearchBounds b{cv::Mat(20, 30, CV_32FC2, cv::Scalar(0, 0))};
+  b.Check(cv::Size(30, 20), "bounds of 'c7'");  // all unsearched: fine
+  dome::testing::ExpectInputError([&] { b.Check(cv::Size(31, 20), "bounds of 'c7'"); },
+                                  {"bounds of 'c7'", "per pixel of 31x20", "got 30x20"});
+  b.near_far_mm.at<cv::Vec2f>(2, 3) = cv::Vec2f(1000, NAN);
+  dome::testing::ExpectInputError([&] { b.Check(cv::Size(30, 20), "bounds of 'c7'"); },
+                                  {"bounds of 'c7'", "pixel (3, 2)", "not finite non-negative"});
+  b.near_far_mm.at<cv::Vec2f>(2, 3) = cv::Vec2f(-1, 1000);
+  dome::testing::ExpectInputError([&] { b.Check(cv::Size(30, 20), "bounds of 'c7'"); },
+                                  {"pixel (3, 2)"});
 }
 
 TEST(HullOptions, RayBlockOutOfRangeIsNamed) {
