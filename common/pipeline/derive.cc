@@ -120,6 +120,7 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
   silhouette::HullOptions ho;
   ho.num_threads = num_threads;
   ho.carve_votes = carve_votes;
+  ho.ray_block_px = 1;  // only its box is asked for: no ray bounds
   Eigen::Vector3d a = Eigen::Vector3d::Constant(INFINITY), b = -a;
   for (size_t i = 0; i < instants.size(); ++i) {
     spdlog::info("derive: the masks' visual hull at {} ({}/{})", instants[i], i + 1,

@@ -152,6 +152,8 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   options.num_threads = job.threads();
   options.distances = distances;
   options.carve_votes = carve_votes;  // checked by the hull
+  // Fusion's hull (the one with distances) is never asked for ray bounds.
+  if (distances) options.ray_block_px = 1;
   return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
 }
 

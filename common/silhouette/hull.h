@@ -55,6 +55,8 @@ struct HullOptions {
   // the cost drops from pixels x samples x cameras to about blocks x samples x cameras
   // plus, per level, the samples near the hull's border. 8: an 8x8 block's rays stay
   // within a few pixels of each other in the other cameras at a dome's distances.
+  // Blocks need a distance transform per camera at construction: a hull never asked for
+  // ray bounds (fusion's free space, the derived volume's box) sets 1 and skips it.
   int ray_block_px = 8;
 
   // Throws core::InputError naming the field when out of range.
