@@ -38,6 +38,8 @@ void HullOptions::Check() const {
           "expected at least 1, got " + std::to_string(carve_votes));
   Require(ray_block_px >= 1 && ray_block_px <= 64, "HullOptions: ray_block_px",
           "expected 1..64 pixels, got " + std::to_string(ray_block_px));
+  Require(ray_leaf_px >= 1 && ray_leaf_px <= 64, "HullOptions: ray_leaf_px",
+          "expected 1..64 pixels, got " + std::to_string(ray_leaf_px));
 }
 
 int HullOptions::MarginPx(cv::Size size) const {
@@ -242,6 +244,7 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
   const double dw = (w_near - w_far) / (samples - 1);
   const int votes = options_.carve_votes;
   const int block = options_.ray_block_px;
+  const int leaf = block > 1 ? std::min(options_.ray_leaf_px, block) : 1;  // 1: none
   // Reference pixel offsets -> normalised offsets at unit depth (K has no skew).
   const double inv_fx = 1.0 / ref.K(0, 0), inv_fy = 1.0 / ref.K(1, 1);
   cv::Mat bounds(ref.height, ref.width, CV_32FC2, cv::Scalar(0, 0));
@@ -334,6 +337,19 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
       while (lo <= hi && outside(lo)) ++lo;
       if (lo > hi) return;
       while (hi > lo && outside(hi)) --hi;
+      if (x1 - x0 <= leaf && y1 - y0 <= leaf) {
+        // A leaf: its samples [lo, hi] for each of its pixels in the camera's own mask.
+        const double near_w = w_near - (lo - 1) * dw, far_w = w_near - (hi + 1) * dw;
+        const cv::Vec2f b(float(std::max(z_min_mm, 1.0 / near_w)),
+                          float(far_w > 0 ? std::min(z_max_mm, 1.0 / far_w) : z_max_mm));
+        for (int y = y0; y < y1; ++y) {
+          for (int x = x0; x < x1; ++x) {
+            if (ref.fg.at<uint8_t>(y, x) && ref.seen.at<uint8_t>(y, x))
+              bounds.at<cv::Vec2f>(y, x) = b;
+          }
+        }
+        return;
+      }
       const int xm = (x0 + x1 + 1) / 2, ym = (y0 + y1 + 1) / 2;
       refine(x0, y0, xm, ym, lo, hi);
       if (xm < x1) refine(xm, y0, x1, ym, lo, hi);

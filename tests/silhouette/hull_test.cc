@@ -194,6 +194,7 @@ TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
     for (int block : {8, 13}) {
       HullOptions o = plain;
       o.ray_block_px = block;
+      o.ray_leaf_px = 1;
       const VisualHull fast(cameras, masks, o);
       for (int c = 0; c < int(cameras.size()); ++c) {
         for (int samples : {0, 97}) {
@@ -215,6 +216,52 @@ TEST_F(HullTest, RayBoundsInBlocksEqualThePerPixelScan) {
       }
     }
   }
+}
+
+// Leaf blocks of 2x2 pixels (the default) give each pixel its block's bounds: they hold
+// the pixel's own exact bounds, and are somewhat wider (a pixel of one leaf at the hull's
+// border may be searched though its own ray misses the hull).
+TEST_F(HullTest, RayBoundsOfLeafBlocksHoldEachPixelsOwn) {
+  const std::string instant = take_->instants[1];
+  const auto cameras = Cameras();
+  const auto masks = PlateMasks(instant);
+  HullOptions plain;
+  plain.distances = false;
+  plain.ray_block_px = 1;
+  const VisualHull exact(cameras, masks, plain);
+  HullOptions o = plain;
+  o.ray_block_px = HullOptions{}.ray_block_px;
+  ASSERT_EQ(o.ray_leaf_px, 2);
+  const VisualHull leaves(cameras, masks, o);
+  int64_t searched = 0, extra = 0;
+  double width = 0, leaf_width = 0;
+  for (int c = 0; c < int(cameras.size()); ++c) {
+    // A stereo job's range and levels on this take (about 150 levels over 0.8..3.2 m).
+    const cv::Mat a = exact.RayBounds(c, 800, 3200, 150);
+    const cv::Mat b = leaves.RayBounds(c, 800, 3200, 150);
+    int not_held = 0;
+    for (int y = 0; y < a.rows; ++y) {
+      for (int x = 0; x < a.cols; ++x) {
+        const cv::Vec2f p = a.at<cv::Vec2f>(y, x), q = b.at<cv::Vec2f>(y, x);
+        const bool own = p[0] < p[1], leaf = q[0] < q[1];
+        extra += leaf && !own;
+        if (!own) continue;
+        ++searched;
+        not_held += !(leaf && q[0] <= p[0] && q[1] >= p[1]);
+        width += p[1] - p[0];
+        leaf_width += q[1] - q[0];
+      }
+    }
+    EXPECT_EQ(not_held, 0) << cameras[c].id;
+  }
+  std::printf("leaf bounds: %lld pixels searched, %lld more; widths %.3fx the pixels' own\n",
+              static_cast<long long>(searched), static_cast<long long>(extra),
+              leaf_width / width);
+  ASSERT_GT(searched, 5000);
+  // Measured: 15 more pixels of 5702, widths 1.64x in sum (the paper take: 4 % more,
+  // 1.44x, silhouette_ray_bounds).
+  EXPECT_LT(double(extra) / searched, 0.05);
+  EXPECT_LT(leaf_width / width, 2.0);
 }
 
 // BoundingBox tests each row's cells from both ends only and stops at the carving votes:
@@ -278,6 +325,13 @@ TEST(SearchBounds, BadBoundsAreNamedWithTheirPixel) {
   b.near_far_mm.at<cv::Vec2f>(2, 3) = cv::Vec2f(-1, 1000);
   dome::testing::ExpectInputError([&] { b.Check(cv::Size(30, 20), "bounds of 'c7'"); },
                                   {"pixel (3, 2)"});
+}
+
+TEST(HullOptions, RayLeafOutOfRangeIsNamed) {
+  HullOptions o;
+  o.ray_leaf_px = 65;
+  dome::testing::ExpectInputError([&] { o.Check(); },
+                                  {"HullOptions: ray_leaf_px", "expected 1..64 pixels, got 65"});
 }
 
 TEST(HullOptions, RayBlockOutOfRangeIsNamed) {
