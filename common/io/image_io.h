@@ -56,6 +56,9 @@ PngHeader ReadPngHeader(std::string_view bytes, const std::string& where);
 // PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
 // types are a programmer error (DOME_CHECK).
 std::string EncodePng(const cv::Mat& image);
+// The same with zlib's `level` (0..9; EncodePng's is 3): 1 for images made to be looked
+// at once (depth previews), where the encoder's time matters more than the bytes.
+std::string EncodePng(const cv::Mat& image, int level);
 
 // Writes `image` as PNG to `path` (which must end in .png), atomically. Throws
 // core::InputError naming the file when the folder is missing or not writable.

@@ -14,6 +14,7 @@
 #include "io/image_io.h"
 #include "io/ply.h"
 #include "pipeline/frame_handoff.h"
+#include "pipeline/ideal_greys.h"
 #include "pipeline/settings.h"
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
@@ -398,6 +399,19 @@ StageDescriptor StereoStage() {
     input.reference.image = frames[0];
     for (int n = 0; n < sj.neighbours_size(); ++n) {
       input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
+    }
+    if (!options.coarse_to_fine) {
+      // The whole views' ideal greys, kept for the process's other stereo jobs of the
+      // instant (pipeline/ideal_greys.h); coarse to fine cuts its views and makes its own.
+      auto grey = [&](stereo::StereoView* v, int blob, const char* role) {
+        v->ideal_grey = SharedIdealGrey(
+            IdealGreyKey(job.blobs(blob).sha256(), job.blobs(0).sha256(), v->camera.id,
+                         options.stereo),
+            *v, options.stereo, role + v->camera.id + "'");
+      };
+      grey(&input.reference, 1, "reference '");
+      for (int n = 0; n < sj.neighbours_size(); ++n)
+        grey(&input.neighbours[size_t(n)], 2 + n, "neighbour '");
     }
     MakeSearchBounds bounds;
     std::unique_ptr<silhouette::VisualHull> own_hull;

@@ -203,9 +203,8 @@ IdealViews MakeIdealViews(const StereoInput& input, const StereoOptions& options
   for (const auto& v : input.neighbours) views.push_back(&v);
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
-    greys.push_back(
-        GreyImage(*views[i], options, /*undistort=*/true,
-                  (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
+    greys.push_back(IdealGrey(*views[i], options,
+                              (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
     cameras.push_back(views[i]->camera.Ideal());
   }
   return iv;

@@ -73,6 +73,20 @@ std::pair<float, float> OrderStatistics(const std::vector<float>& values, size_t
 
 }  // namespace
 
+cv::Mat IdealGrey(const StereoView& view, const StereoOptions& options, const std::string& where) {
+  if (view.ideal_grey.empty()) return GreyImage(view, options, /*undistort=*/true, where);
+  const auto& cam = view.camera;
+  core::Require(view.ideal_grey.type() == CV_32FC1 && view.ideal_grey.cols == cam.width_px &&
+                    view.ideal_grey.rows == cam.height_px,
+                where + ": ideal grey",
+                "must be 32-bit float of the camera's " + std::to_string(cam.width_px) + "x" +
+                    std::to_string(cam.height_px) + " pixels, got " +
+                    std::to_string(view.ideal_grey.cols) + "x" +
+                    std::to_string(view.ideal_grey.rows) + " of type code " +
+                    std::to_string(view.ideal_grey.type()));
+  return view.ideal_grey;
+}
+
 cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool undistort,
                   const std::string& where) {
   const auto& cam = view.camera;
@@ -257,11 +271,11 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
 
   // Distortion removed once per image.
   const cv::Mat ref_nan =
-      GreyImage(input.reference, options, true, "reference '" + input.reference.camera.id + "'");
+      IdealGrey(input.reference, options, "reference '" + input.reference.camera.id + "'");
   std::vector<cv::Mat> nb_images;
   std::vector<geometry::TsaiCamera> nb_cams;
   for (const auto& v : input.neighbours) {
-    nb_images.push_back(GreyImage(v, options, true, "neighbour '" + v.camera.id + "'"));
+    nb_images.push_back(IdealGrey(v, options, "neighbour '" + v.camera.id + "'"));
     nb_cams.push_back(v.camera);
   }
   const auto& ref_cam = input.reference.camera;

@@ -114,6 +114,10 @@ StereoOptions RealImageOptions();
 struct StereoView {
   geometry::TsaiCamera camera;
   cv::Mat image;
+  // Optional: IdealGrey's result for this view and the search's options, made by a
+  // caller that keeps it between searches (a worker's stereo jobs share frames); empty:
+  // made from `image` when needed. A view cut from another (a crop) has none.
+  cv::Mat ideal_grey;
 };
 
 struct StereoInput {
@@ -165,5 +169,8 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
 // `where` names the view in errors.
 cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool undistort,
                   const std::string& where);
+// GreyImage(view, options, /*undistort=*/true, where), or view.ideal_grey when it is set
+// (checked to be CV_32FC1 of the camera's size; InputError naming `where` otherwise).
+cv::Mat IdealGrey(const StereoView& view, const StereoOptions& options, const std::string& where);
 
 }  // namespace dome::stereo

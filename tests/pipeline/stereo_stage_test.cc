@@ -11,6 +11,7 @@
 #include "io/file_util.h"
 #include "net/content_hash.h"
 #include "pipeline/frame_handoff.h"
+#include "pipeline/ideal_greys.h"
 #include "pipeline/jobs.h"
 #include "pipeline/session.h"
 #include "pipeline/settings.h"
@@ -106,10 +107,32 @@ TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
   EXPECT_EQ(handed, plain);
 
   OfferDecodedFrame(sha256, cv::Mat(frame.size(), frame.type(), cv::Scalar::all(255)));
+  DropIdealGreys();  // else the real frame's grey, kept under its address, is used
   JobMemo fresh;
   RunStereoJob("c00", settings, &fresh, &poisoned);
+  DropIdealGreys();  // the poisoned grey must not reach other tests
   EXPECT_EQ(HeldDecodedFrames(), 0u);
   EXPECT_NE(poisoned, plain);
+}
+
+// Each frame's ideal grey is made once for the process's stereo jobs (ideal_greys.h): a
+// job whose frames were seen by an earlier one adds only its new greys, and its outputs
+// are the bytes of the job run with none kept.
+TEST_F(StereoStage, IdealGreysKeptForTheProcessGiveTheSameOutputs) {
+  const runtime::StereoSettings settings = DefaultSettings();
+  DropIdealGreys();
+  std::string first, second, alone;
+  RunStereoJob("c00", settings, nullptr, &first);
+  const size_t after_first = HeldIdealGreys();
+  EXPECT_GE(after_first, 3u);  // the reference and its neighbours
+  RunStereoJob("c01", settings, nullptr, &second);
+  EXPECT_LT(HeldIdealGreys(), 2 * after_first) << "c01 shares frames with c00's cluster";
+  DropIdealGreys();
+  RunStereoJob("c01", settings, nullptr, &alone);
+  EXPECT_EQ(second, alone);
+  DropIdealGreys();
+  RunStereoJob("c00", settings, nullptr, &alone);
+  EXPECT_EQ(first, alone);
 }
 
 // A worker keeps the decoded frames of an instant for its next stereo jobs (a frame is

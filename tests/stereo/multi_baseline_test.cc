@@ -139,6 +139,24 @@ TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
   EXPECT_EQ(g.at<float>(0, 199), 255.0f);
 }
 
+// IdealGrey takes a view's own grey when it carries one (checked for its size), else
+// makes it as GreyImage does with undistortion.
+TEST(GreyImage, IdealGreyTakesTheViewsOwnOrMakesIt) {
+  StereoView view;
+  view.camera = PlaneCamera("c", 0, 0, 200, 1);
+  view.image = cv::Mat(1, 200, CV_8UC1);
+  for (int x = 0; x < 200; ++x) view.image.at<uint8_t>(0, x) = uint8_t(x + 20);
+  StereoOptions o;
+  o.sqrt_greys = true;
+  const cv::Mat made = IdealGrey(view, o, "view");
+  EXPECT_EQ(cv::norm(made, GreyImage(view, o, true, "view"), cv::NORM_INF), 0.0);
+  view.ideal_grey = cv::Mat(1, 200, CV_32FC1, cv::Scalar(7));
+  EXPECT_EQ(IdealGrey(view, o, "view").at<float>(0, 13), 7.0f);
+  view.ideal_grey = cv::Mat(1, 199, CV_32FC1, cv::Scalar(7));
+  dome::testing::ExpectInputError([&] { IdealGrey(view, o, "neighbour 'c'"); },
+                                  {"neighbour 'c': ideal grey", "camera's 200x1", "got 199x1"});
+}
+
 // The stretch's percentiles are the exact order statistics (what a full selection
 // gives) on a float image of many distinct values, negative ones and both zeros
 // included: the stretched image is the one computed from std::nth_element's values.
