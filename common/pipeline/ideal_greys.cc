@@ -1,28 +1,15 @@
 #include "pipeline/ideal_greys.h"
 
-#include <deque>
-#include <mutex>
+#include "pipeline/mat_store.h"
 
 namespace dome::pipeline {
 namespace {
 
-struct Held {
-  std::string key;
-  cv::Mat grey;
-};
-
-struct Greys {
-  std::mutex mutex;
-  std::deque<Held> greys;
-  size_t bytes = 0;
-};
-
-Greys& Process() {
-  static Greys* greys = new Greys;  // never destroyed: workers may outlive statics
-  return *greys;
+MatStore& Process() {
+  // Never destroyed: workers may outlive statics.
+  static MatStore* store = new MatStore(kIdealGreysBudgetBytes);
+  return *store;
 }
-
-size_t Bytes(const cv::Mat& m) { return m.total() * m.elemSize(); }
 
 }  // namespace
 
@@ -34,39 +21,15 @@ std::string IdealGreyKey(const std::string& frame_sha256, const std::string& rig
 
 cv::Mat SharedIdealGrey(const std::string& key, const stereo::StereoView& view,
                         const stereo::StereoOptions& options, const std::string& where) {
-  Greys& g = Process();
-  {
-    std::lock_guard<std::mutex> lock(g.mutex);
-    for (const Held& h : g.greys)
-      if (h.key == key) return h.grey;
-  }
-  // Made outside the lock: two workers may both make a grey first needed at once (the
-  // same bits); the first one kept is the one found from then on.
-  const cv::Mat grey = stereo::IdealGrey(view, options, where);
-  if (Bytes(grey) > kIdealGreysBudgetBytes) return grey;
-  std::lock_guard<std::mutex> lock(g.mutex);
-  for (const Held& h : g.greys)
-    if (h.key == key) return h.grey;
-  g.greys.push_back({key, grey});
-  g.bytes += Bytes(grey);
-  while (g.bytes > kIdealGreysBudgetBytes) {
-    g.bytes -= Bytes(g.greys.front().grey);
-    g.greys.pop_front();
-  }
-  return grey;
+  const cv::Mat kept = Process().Find(key);
+  if (!kept.empty()) return kept;
+  // Made outside the store's lock: two workers may both make a grey first needed at
+  // once (the same bits); the first one kept is the one found from then on.
+  return Process().Put(key, stereo::IdealGrey(view, options, where));
 }
 
-size_t HeldIdealGreys() {
-  Greys& g = Process();
-  std::lock_guard<std::mutex> lock(g.mutex);
-  return g.greys.size();
-}
+size_t HeldIdealGreys() { return Process().size(); }
 
-void DropIdealGreys() {
-  Greys& g = Process();
-  std::lock_guard<std::mutex> lock(g.mutex);
-  g.greys.clear();
-  g.bytes = 0;
-}
+void DropIdealGreys() { Process().Clear(); }
 
 }  // namespace dome::pipeline

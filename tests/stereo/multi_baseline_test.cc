@@ -117,11 +117,17 @@ TEST(MultiBaselineTest, MarksTexturelessSurfaceInvalid) {
 
 // The grey mapping: 255 sqrt(g / 255) of the greys, after the percentile stretch when
 // asked for (greys below its 1st percentile count as 0, above its 99th as 255).
-TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
+// A 200x1 view of greys 20..219.
+StereoView RampView() {
   StereoView view;
   view.camera = PlaneCamera("c", 0, 0, 200, 1);
   view.image = cv::Mat(1, 200, CV_8UC1);
   for (int x = 0; x < 200; ++x) view.image.at<uint8_t>(0, x) = uint8_t(x + 20);
+  return view;
+}
+
+TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
+  const StereoView view = RampView();
   StereoOptions o;
   o.sqrt_greys = true;
   cv::Mat g = GreyImage(view, o, false, "view");
@@ -142,10 +148,7 @@ TEST(GreyImage, SquareRootsOfTheGreysAfterTheStretch) {
 // IdealGrey takes a view's own grey when it carries one (checked for its size), else
 // makes it as GreyImage does with undistortion.
 TEST(GreyImage, IdealGreyTakesTheViewsOwnOrMakesIt) {
-  StereoView view;
-  view.camera = PlaneCamera("c", 0, 0, 200, 1);
-  view.image = cv::Mat(1, 200, CV_8UC1);
-  for (int x = 0; x < 200; ++x) view.image.at<uint8_t>(0, x) = uint8_t(x + 20);
+  StereoView view = RampView();
   StereoOptions o;
   o.sqrt_greys = true;
   const cv::Mat made = IdealGrey(view, o, "view");
