@@ -140,24 +140,6 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
   return s;
 }
 
-bool VisualHull::BallInside(const Eigen::Vector3d& world_mm, double radius_mm,
-                            std::vector<int>* order) const {
-  int seen = 0, background = 0;
-  const int votes = options_.carve_votes;
-  for (size_t m = 0; m < order->size() && background < votes; ++m) {
-    const View& v = views_[size_t((*order)[m])];
-    const Eigen::Vector3d h = v.P.leftCols<3>() * world_mm + v.P.col(3);
-    if (!(h.z() > 0)) continue;
-    const long x = std::lround(h.x() / h.z()), y = std::lround(h.y() / h.z());
-    if (x < 0 || y < 0 || x >= v.width || y >= v.height || !v.seen.at<uint8_t>(y, x)) continue;
-    ++seen;
-    const double mm_per_px = h.z() / v.f_px;  // as Sample computes it: the same verdicts
-    if (v.signed_px.at<float>(y, x) - radius_mm / mm_per_px > 0)
-      std::swap((*order)[m], (*order)[size_t(background++)]);
-  }
-  return seen - background >= 2 && background < votes;
-}
-
 bool VisualHull::BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
                              Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi) const {
   DOME_CHECK(cells >= 1 && (hi - lo).minCoeff() > 0, "VisualHull::BoundingBox: a box and cells");
@@ -169,15 +151,13 @@ bool VisualHull::BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& h
   // Per plane k: the least and greatest cell indices inside (x, y), plus k itself.
   std::vector<Eigen::Vector4i> found(size_t(n.z()), Eigen::Vector4i(n.x(), n.y(), -1, -1));
   core::ParallelFor(0, n.z(), options_.num_threads, [&](int64_t k0, int64_t k1) {
-    // The cameras in the order BallInside asks them: those that carved the last cells
-    // first (neighbouring cells are mostly carved by the same cameras, so an outside
-    // cell costs about carve_votes projections). The verdicts do not depend on it.
-    std::vector<int> order(views_.size());
-    for (size_t c = 0; c < order.size(); ++c) order[c] = int(c);
     for (int64_t k = k0; k < k1; ++k) {
       Eigen::Vector4i& f = found[size_t(k)];
+      // A cell's vote stops once carve_votes cameras carve it (enough_outside_mm 0): the
+      // box needs only the verdict, not the distances.
       auto inside = [&](int i, int j) {
-        return BallInside(lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5), radius, &order);
+        const Eigen::Vector3d p = lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+        return Sample(p, radius, /*skip=*/-1, /*enough_outside_mm=*/0.0).inside;
       };
       for (int j = 0; j < n.y(); ++j) {
         // The box needs only each row's first and last cell inside: the row is scanned

@@ -145,10 +145,6 @@ class VisualHull {
     // around it is background seen by the camera (RayBounds' block test).
     cv::Mat clear_px;
   };
-  // Sample(world_mm, radius_mm).inside, asking the cameras in *order and moving those
-  // that vote background to its front; stops at carve_votes background votes.
-  bool BallInside(const Eigen::Vector3d& world_mm, double radius_mm, std::vector<int>* order) const;
-
   HullOptions options_;
   std::vector<View> views_;
 };
