@@ -49,6 +49,7 @@ struct SessionArgs {
   std::unique_ptr<SettingFlags<stereo::TakeStereoOptions>> stereo;
   std::unique_ptr<SettingFlags<fusion::FusionOptions>> fusion;
   std::unique_ptr<SettingFlags<pipeline::SilhouetteUse>> silhouettes;
+  std::unique_ptr<SettingFlags<pipeline::TemporalUse>> temporal;
 };
 
 void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
@@ -75,6 +76,8 @@ void AddSessionFlags(CLI::App* cmd, SessionArgs* a, bool out_required) {
                 "no silhouettes: --no-volume-masks --no-stereo-masks --no-fusion-masks");
   a->silhouettes = std::make_unique<SettingFlags<pipeline::SilhouetteUse>>(
       cmd, pipeline::SilhouetteSettingFields());
+  a->temporal = std::make_unique<SettingFlags<pipeline::TemporalUse>>(
+      cmd, pipeline::TemporalSettingFields());
   a->stereo = std::make_unique<SettingFlags<stereo::TakeStereoOptions>>(
       cmd, pipeline::StereoSettingFields());
   a->fusion = std::make_unique<SettingFlags<fusion::FusionOptions>>(
@@ -132,6 +135,7 @@ runtime::Session MakeSession(const SessionArgs& a, bool embedded = false) {
   a.stereo->Apply(s.mutable_stereo());
   a.fusion->Apply(s.mutable_fusion());
   a.silhouettes->Apply(s.mutable_silhouettes());
+  a.temporal->Apply(s.mutable_temporal());
   if (a.no_masks) *s.mutable_silhouettes() = pipeline::ToSilhouetteSettings({});
   // Bad options fail here, not remotely, with the messages of the same values in a
   // session file (one place: pipeline::ResolveSessionOptions). A take derived here has

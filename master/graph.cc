@@ -10,6 +10,7 @@ std::vector<GraphStage> GraphStages(const pipeline::StageSet& stages,
   for (const pipeline::StageDescriptor& d : stages.stages) {
     GraphStage g{d.name, d.parts(plan), {}};
     for (const std::string& a : d.after) g.after.push_back(stages.Find(a));
+    g.after_previous_instant = d.after_previous_instant && d.after_previous_instant(plan);
     out.push_back(std::move(g));
   }
   return out;
@@ -37,6 +38,10 @@ JobGraph::JobGraph(const std::vector<std::string>& instants, const std::vector<G
             nodes_[first_[t][a] + q].dependents.push_back(int(nodes_.size()));
             ++n.pending;
           }
+        }
+        if (stage.after_previous_instant && t > 0) {
+          nodes_[first_[t - 1][s] + p].dependents.push_back(int(nodes_.size()));
+          ++n.pending;
         }
         index_[n.key] = int(nodes_.size());
         nodes_.push_back(std::move(n));

@@ -1,10 +1,13 @@
 // The job graph of a session (SPEC.md "Pipeline"), built from its stages
 // (pipeline/stage.h): per instant, each stage's parts, each part waiting for every part
-// of the stages it comes after in that instant. For the default stages:
+// of the stages it comes after in that instant and, for a stage that says so, its own
+// part of the previous instant. For the default stages:
 //
 //   stereo (one per camera) --> fusion (one per slab of planes; each needs every depth
 //   map of the instant) --> surface (the master stitches the slabs in plane order)
 //   --> decimate --> texture
+//
+// and with temporal stereo, stereo of camera c at instant t after stereo of c at t-1.
 //
 // Nodes are numbered instant by instant, stage by stage, part by part, and that number
 // is the dispatch priority: earlier instants first, and within an instant the earlier
@@ -27,6 +30,7 @@ struct GraphStage {
   std::string name;
   std::vector<std::string> parts;
   std::vector<int> after;
+  bool after_previous_instant = false;  // part p at t waits for part p at t-1
 };
 
 // The graph stages of `stages` for `plan`: each descriptor's parts and its `after`.

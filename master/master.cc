@@ -178,6 +178,7 @@ struct StageStats {
 
 struct InstantStats {
   double first_start = -1, done = -1;
+  std::map<std::string, double> job_seconds;  // per stage, summed over the instant's jobs
 };
 
 // A session's outputs in the master's blob store, kept under OUT/.blobs.
@@ -199,7 +200,7 @@ class SessionBlobs : public pipeline::BlobAccess {
 struct SessionRec {
   std::string id;
   pipeline::SessionPlan plan;
-  std::vector<std::string> input_digests;  // per instant: pipeline::InstantInputsDigest
+  std::vector<std::string> input_digests;  // per instant: pipeline::InstantInputsDigests
   std::set<std::string> input_shas;        // the take files it reads (rig and frames)
   std::unique_ptr<JobGraph> graph;
   std::unique_ptr<Journal> journal;
@@ -508,8 +509,8 @@ struct Master::Impl {
     s->stage_stats.resize(stages.stages.size());
     s->instant_stats.resize(s->plan.instants.size());
     s->input_shas.insert(s->plan.rig.sha256());
+    s->input_digests = pipeline::InstantInputsDigests(s->plan);
     for (size_t t = 0; t < s->plan.instants.size(); ++t) {
-      s->input_digests.push_back(pipeline::InstantInputsDigest(s->plan, t));
       for (const auto& f :
            s->plan.frames.size() > t ? s->plan.frames[t] : std::vector<runtime::BlobRef>{}) {
         s->input_shas.insert(f.sha256());
@@ -680,6 +681,11 @@ struct Master::Impl {
         s->plan, n.instant, n.part,
         [&](const std::string& stage, int part) -> const std::vector<runtime::BlobRef>& {
           return s->outputs.at(s->graph->NodeOf(n.instant, stages.Find(stage), part));
+        },
+        [&]() -> const std::vector<runtime::BlobRef>& {
+          DOME_CHECK(n.instant > 0 && s->graph->stages()[n.stage].after_previous_instant,
+                     "a job waits for its previous instant's part");
+          return s->outputs.at(s->graph->NodeOf(n.instant - 1, n.stage, n.part));
         }};
     stages.stages[n.stage].make_job(ctx, &job);
     return job;
@@ -780,6 +786,7 @@ struct Master::Impl {
         job_seconds > 0 ? job_seconds
                         : now - (s->dispatched_at.count(node) ? s->dispatched_at[node] : now);
     st.job_seconds += seconds;
+    s->instant_stats[n.instant].job_seconds[d.name] += seconds;
     st.last_done = now;
     if (auto in = s->input_bytes.find(node); in != s->input_bytes.end()) {
       // At least 1 KiB: jobs of almost no input are timed by the floor alone.
@@ -958,7 +965,8 @@ struct Master::Impl {
       core::Json entry = {
           {"instant", s.plan.instants[t]},
           {"seconds", (is.done >= 0 && is.first_start >= 0 ? is.done - is.first_start : 0)},
-          {"done_at_seconds", (is.done)}};
+          {"done_at_seconds", (is.done)},
+          {"job_seconds", is.job_seconds}};
       if (const int64_t vertices =
               PlyVertexCount(s.out() / s.plan.instants[t] / pipeline::kMeshPly);
           vertices >= 0) {

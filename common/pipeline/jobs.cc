@@ -5,6 +5,8 @@
 #include <deque>
 #include <functional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -23,6 +25,7 @@
 #include "silhouette/hull.h"
 #include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
+#include "stereo/temporal_bounds.h"
 
 namespace dome::pipeline {
 namespace {
@@ -235,18 +238,19 @@ class DecodedFrames {
   size_t bytes_ = 0;
 };
 
-// Blobs `first`.. of `job` decoded in `mode`: those `memo` keeps as they are, then
+// Blobs [first, last) of `job` decoded in `mode`: those `memo` keeps as they are, then
 // those this process decoded before the session ran (frame_handoff.h: `dome run`'s
 // derivation; a worker with a memo only, as the memo keeps what it takes), the rest
 // decoded on the job's threads; all kept.
 std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t first,
-                                io::ImageMode mode, JobMemo* memo) {
+                                size_t last, io::ImageMode mode, JobMemo* memo) {
   DecodedFrames* kept =
       memo ? memo->Get<DecodedFrames>("frames", [] { return std::make_unique<DecodedFrames>(); })
            : nullptr;
-  std::vector<cv::Mat> images(blobs.size() - first);
+  DOME_CHECK(first <= last && last <= blobs.size(), "frame blobs within the job's blobs");
+  std::vector<cv::Mat> images(last - first);
   std::vector<size_t> missing;
-  for (size_t i = first; i < blobs.size(); ++i) {
+  for (size_t i = first; i < last; ++i) {
     const std::string& sha256 = job.blobs(int(i)).sha256();
     cv::Mat found = kept ? kept->Find(sha256, mode) : cv::Mat();
     if (found.empty() && kept) {
@@ -362,11 +366,45 @@ StageDescriptor MaskStage() {
 
 // ---- stereo -----------------------------------------------------------------------------
 
+// What a stereo job's temporal bounds are made from: the previous instant's result for
+// its camera and the reference's ideal greys then and now.
+struct TemporalInput {
+  TemporalUse use;
+  stereo::StereoResult previous;
+  cv::Mat grey_before, grey_now;
+};
+
+// From blobs `at` (the previous "stereo" output) and `at + 1` (the previous frame).
+TemporalInput TemporalBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t at,
+                            const stereo::StereoInput& input,
+                            const stereo::TakeStereoOptions& options, JobMemo* memo) {
+  const auto sj = JobSettings<runtime::StereoJob>(job);
+  TemporalInput t;
+  t.use = FromTemporalSettings(sj.temporal(), JobWhere(job));
+  t.previous = DecodeStereoOutput(*blobs[at], BlobName(job, at));
+  core::Require(t.previous.camera == sj.camera(), BlobName(job, at),
+                "is the previous stereo output of camera '" + t.previous.camera +
+                    "', expected '" + sj.camera() + "'");
+  const stereo::StereoView& ref = input.reference;
+  const stereo::StereoView before{
+      ref.camera, FrameBlobs(job, blobs, at + 1, at + 2, io::ImageMode::kUnchanged, memo)[0]};
+  const std::string where = BlobName(job, at + 1);
+  // Kept for the process: it was this camera's reference grey at the previous instant.
+  t.grey_before = SharedIdealGrey(
+      IdealGreyKey(job.blobs(int(at + 1)).sha256(), job.blobs(0).sha256(), ref.camera.id,
+                   options.stereo),
+      before, options.stereo, where);
+  t.grey_now = ref.ideal_grey.empty() ? stereo::IdealGrey(ref, options.stereo, JobWhere(job))
+                                      : ref.ideal_grey;
+  return t;
+}
+
 StageDescriptor StereoStage() {
   StageDescriptor d = Descriptor("stereo", {"masks"}, [](const SessionPlan& plan) {
     return Reconstructs(plan) ? plan.cameras : std::vector<std::string>{};
   });
   d.send_ahead = true;
+  d.after_previous_instant = [](const SessionPlan& plan) { return plan.options.temporal.stereo; };
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     const SessionPlan& plan = ctx.plan;
     runtime::StereoJob sj;
@@ -379,6 +417,11 @@ StageDescriptor StereoStage() {
       sj.add_neighbours(plan.cameras[j]);
       blobs.push_back(frames[j]);
     }
+    if (plan.options.temporal.stereo && ctx.instant > 0) {
+      *sj.mutable_temporal() = ToTemporalSettings(plan.options.temporal);
+      blobs.push_back(ctx.previous_outputs().at(0));
+      blobs.push_back(plan.frames[ctx.instant - 1][ctx.part]);
+    }
     if (plan.options.silhouettes.stereo) {
       sj.set_hull_bounds(true);
       sj.set_carve_votes(plan.options.silhouettes.carve_votes);
@@ -389,11 +432,14 @@ StageDescriptor StereoStage() {
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto sj = JobSettings<runtime::StereoJob>(job);
     const size_t num_frames = 2 + size_t(sj.neighbours_size());
-    RequireBlobs(job, blobs, num_frames);
+    // Then, with temporal bounds, the previous instant's stereo output and frame.
+    const size_t first_mask = num_frames + (sj.has_temporal() ? 2 : 0);
+    RequireBlobs(job, blobs, first_mask);
     const geometry::Rig rig = RigBlob(job, blobs);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
-    const std::vector<cv::Mat> frames = FrameBlobs(job, blobs, 1, io::ImageMode::kUnchanged, memo);
+    const std::vector<cv::Mat> frames =
+        FrameBlobs(job, blobs, 1, num_frames, io::ImageMode::kUnchanged, memo);
     stereo::StereoInput input;
     input.reference.camera = RigCameraOf(rig, sj.camera(), job);
     input.reference.image = frames[0];
@@ -413,31 +459,50 @@ StageDescriptor StereoStage() {
       for (int n = 0; n < sj.neighbours_size(); ++n)
         grey(&input.neighbours[size_t(n)], 2 + n, "neighbour '");
     }
-    MakeSearchBounds bounds;
+    // The search's level count over [z_min, z_max] (the widest-baseline neighbour's
+    // parallax step): the hull's rays are sampled at the search's own levels, and the
+    // temporal margin is counted in them.
+    auto levels = [&](double z_min, double z_max) {
+      if (options.stereo.num_levels > 0) return options.stereo.num_levels;
+      std::vector<geometry::TsaiCamera> nb;
+      for (const auto& v : input.neighbours) nb.push_back(v.camera);
+      return stereo::CountDepthLevels(input.reference.camera, nb, z_min, z_max,
+                                      options.stereo.level_step_px);
+    };
     std::unique_ptr<silhouette::VisualHull> own_hull;
     const silhouette::VisualHull* hull = nullptr;
     if (sj.hull_bounds()) {
       // Every stereo job of an instant builds the same hull (the masks of all cameras):
       // a worker's memo keeps it, keyed by the masks, the rule and the threads.
       auto build = [&] {
-        return HullBlobs(job, blobs, num_frames, rig, sj.carve_votes(), /*distances=*/false);
+        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), /*distances=*/false);
       };
       std::string key = "stereo hull\n" + std::to_string(job.threads()) + '\n' +
                         std::to_string(sj.carve_votes());
-      for (int b = int(num_frames); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
+      for (int b = int(first_mask); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
       hull = memo ? memo->Get<silhouette::VisualHull>(key, build) : (own_hull = build()).get();
+    }
+    std::optional<TemporalInput> temporal;
+    if (sj.has_temporal()) temporal = TemporalBlobs(job, blobs, num_frames, input, options, memo);
+    MakeSearchBounds bounds;
+    if (hull || temporal) {
       const int index = rig.Find(sj.camera());
-      // The ray sampled at the search's own levels (the widest-baseline neighbour's
-      // parallax step): exact where the search looks.
       bounds = [&, index](double z_min, double z_max) {
-        std::vector<geometry::TsaiCamera> nb;
-        for (const auto& v : input.neighbours) nb.push_back(v.camera);
-        const int levels =
-            options.stereo.num_levels > 0
-                ? options.stereo.num_levels
-                : stereo::CountDepthLevels(input.reference.camera, nb, z_min, z_max,
-                                           options.stereo.level_step_px);
-        return stereo::SearchBounds{hull->RayBounds(index, z_min, z_max, levels)};
+        const int n = levels(z_min, z_max);
+        std::optional<stereo::SearchBounds> b;
+        if (hull) b = stereo::SearchBounds{hull->RayBounds(index, z_min, z_max, n)};
+        if (temporal) {
+          stereo::TemporalBoundsStats st;
+          stereo::SearchBounds t = stereo::TemporalBounds(
+              temporal->previous.range_images, temporal->grey_before, temporal->grey_now, z_min,
+              z_max, n, temporal->use.bounds, JobWhere(job) + ": temporal bounds", &st);
+          spdlog::debug("{}: temporal bounds: {} of {} tiles bounded, {} changed, {} unknown "
+                        "(threshold {:.2f} greys)",
+                        JobWhere(job), st.bounded, st.tiles, st.changed, st.unknown,
+                        st.threshold_grey);
+          b = b ? stereo::IntersectBounds(*b, t) : std::move(t);
+        }
+        return std::move(*b);
       };
     }
     const stereo::StereoResult result = Stereo(input, options, JobWhere(job), bounds);
@@ -651,7 +716,7 @@ StageDescriptor TextureStage() {
     core::Require(blobs.size() == rig.cameras.size() + 2, JobWhere(job),
                   "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +
                       "), got " + std::to_string(blobs.size() - 2));
-    const std::vector<cv::Mat> frames = FrameBlobs(job, blobs, 2, io::ImageMode::kBgr8, memo);
+    const std::vector<cv::Mat> frames = FrameBlobs(job, blobs, 2, blobs.size(), io::ImageMode::kBgr8, memo);
     std::vector<mesh::TextureView> views;
     for (size_t c = 0; c < rig.cameras.size(); ++c)
       views.push_back({rig.cameras[c].model, frames[c], BlobName(job, c + 2)});

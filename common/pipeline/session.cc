@@ -43,6 +43,7 @@ void SessionOptions::Check() const {
                 "must be >= 0 voxels, got " + std::to_string(speck_gap_voxels));
   smooth.Check();
   silhouettes.Check();
+  temporal.Check();
 }
 
 mesh::DecimationOptions DecimationFor(const SessionOptions& options) {
@@ -76,6 +77,7 @@ SessionOptions ResolveSessionOptions(const runtime::Session& s, const std::strin
   if (s.has_speck_diagonal_voxels()) o.speck_diagonal_voxels = s.speck_diagonal_voxels();
   if (s.has_speck_gap_voxels()) o.speck_gap_voxels = s.speck_gap_voxels();
   o.silhouettes = FromSilhouetteSettings(s.silhouettes());
+  o.temporal = FromTemporalSettings(s.temporal(), where);
   try {
     o.Check();
   } catch (const core::InputError& e) {
@@ -167,6 +169,8 @@ SessionPlan PlanSession(
   plan.take = take::OpenTake(spec.take());
   plan.instants = SessionInstants(spec, plan.take);
   core::Require(!plan.instants.empty(), spec.take(), "has no instants");
+  // A one-instant session has no previous instant.
+  if (plan.instants.size() < 2) plan.options.temporal.stereo = false;
   for (const auto& rc : plan.take.rig.cameras) plan.cameras.push_back(rc.model.id);
   plan.num_slabs = SlabCount(plan.options.grid, plan.options.slab_planes);
   for (const auto& c : plan.cameras) {
@@ -245,22 +249,31 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_noop_jobs(plan.spec.noop_jobs());
   // Only when on, so that a session without masks keeps the digest it had before.
   if (o.silhouettes.Any()) *canon.mutable_silhouettes() = ToSilhouetteSettings(o.silhouettes);
+  if (o.temporal.stereo) *canon.mutable_temporal() = ToTemporalSettings(o.temporal);
   return net::Sha256Hex(DeterministicBytes(canon));
 }
 
-std::string InstantInputsDigest(const SessionPlan& plan, size_t instant) {
-  std::string addresses = "rig " + plan.rig.sha256() + "\n";
-  if (instant < plan.frames.size()) {
-    for (size_t c = 0; c < plan.frames[instant].size(); ++c) {
-      addresses += plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
+std::vector<std::string> InstantInputsDigests(const SessionPlan& plan) {
+  std::vector<std::string> digests;
+  for (size_t instant = 0; instant < plan.instants.size(); ++instant) {
+    std::string addresses = "rig " + plan.rig.sha256() + "\n";
+    if (instant < plan.frames.size()) {
+      for (size_t c = 0; c < plan.frames[instant].size(); ++c) {
+        addresses +=
+            plan.frames[instant][c].name() + " " + plan.frames[instant][c].sha256() + "\n";
+      }
     }
-  }
-  if (instant < plan.mask_inputs.size()) {
-    for (const auto& inputs : plan.mask_inputs[instant]) {
-      for (const auto& m : inputs) addresses += "mask input " + m.name() + " " + m.sha256() + "\n";
+    if (instant < plan.mask_inputs.size()) {
+      for (const auto& inputs : plan.mask_inputs[instant]) {
+        for (const auto& m : inputs)
+          addresses += "mask input " + m.name() + " " + m.sha256() + "\n";
+      }
     }
+    if (plan.options.temporal.stereo && instant > 0)
+      addresses += "previous " + digests.back() + "\n";
+    digests.push_back(net::Sha256Hex(addresses));
   }
-  return net::Sha256Hex(addresses);
+  return digests;
 }
 
 }  // namespace dome::pipeline

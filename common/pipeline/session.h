@@ -48,6 +48,12 @@ struct SessionOptions {
   double speck_diagonal_voxels = 20.0;
   double speck_gap_voxels = 2.0;
   SilhouetteUse silhouettes;  // the masks' uses; off unless the session says (derive.h)
+  // Time-aware stereo; off unless the session says, and off for one instant
+  // (PlanSession). Off by default: on the paper take it searched 2.8x longer without
+  // masks (the tiled bounded search's cost over the whole image) and the same with
+  // them (the hull already limits the search to the moving foreground), with no less
+  // flicker (README "Time-aware stereo").
+  TemporalUse temporal;
 
   // Throws core::InputError naming the first bad option ("slab_planes").
   void Check() const;
@@ -106,10 +112,11 @@ std::string SessionDigest(const SessionPlan& plan);
 // bytes, so equal sessions give equal digests.
 std::string GivenSessionDigest(const runtime::Session& given, const std::string& extra);
 
-// What a job of instant `instant` (index into plan.instants) is made from, beyond the
-// options: the SHA-256 of the rig's and that instant's frames' content addresses. The
+// What the jobs of each instant (plan.instants' order) are made from, beyond the
+// options: the SHA-256 of the rig's and that instant's frames' content addresses (with
+// temporal stereo, the previous instant's digest too: its depths bound this one's). The
 // journal keeps it with each record, so that a take whose files changed under the
 // same path redoes exactly the instants whose inputs changed.
-std::string InstantInputsDigest(const SessionPlan& plan, size_t instant);
+std::vector<std::string> InstantInputsDigests(const SessionPlan& plan);
 
 }  // namespace dome::pipeline

@@ -60,6 +60,36 @@ const std::vector<SettingField<TakeStereoOptions>>& StereoSettingFields() {
   return fields;
 }
 
+const std::vector<SettingField<TemporalUse>>& TemporalSettingFields() {
+  using O = TemporalUse;
+  static const std::vector<SettingField<O>> fields = {
+      {"stereo", "--temporal",
+       "search each instant after the first around the previous instant's depths where its "
+       "images are still (default: off; each instant over its whole range)",
+       +[](O& o) -> bool& { return o.stereo; }},
+      {"tile_px", "--temporal-tile-px",
+       "tiles judged still or changed as a whole, px (default 32: the bounded search's)",
+       +[](O& o) -> int& { return o.bounds.tile_px; }},
+      {"margin_levels", "--temporal-margin-levels",
+       "search levels either side of the previous instant's depths (default 8)",
+       +[](O& o) -> double& { return o.bounds.margin_levels; }},
+      {"change_factor", "--temporal-change-factor",
+       "a tile changed above this many times the image's median grey difference (default 3)",
+       +[](O& o) -> double& { return o.bounds.change_factor; }},
+      {"change_floor_grey", "--temporal-change-floor",
+       "... plus this many greys, 0..255 (default 2)",
+       +[](O& o) -> double& { return o.bounds.change_floor_grey; }},
+      {"outlier_fraction", "--temporal-outlier-fraction",
+       "fraction of a tile's previous depths left out at either end of its range (default "
+       "0.02)",
+       +[](O& o) -> double& { return o.bounds.outlier_fraction; }},
+      {"min_depth_fraction", "--temporal-min-depth-fraction",
+       "a still tile is bounded when this fraction of it had a depth (default 0.25)",
+       +[](O& o) -> double& { return o.bounds.min_depth_fraction; }},
+  };
+  return fields;
+}
+
 const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
   using O = SilhouetteUse;
   static const std::vector<SettingField<O>> fields = {
@@ -256,6 +286,19 @@ runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use) {
 SilhouetteUse FromSilhouetteSettings(const runtime::SilhouetteSettings& s) {
   SilhouetteUse use;
   GetSet(SilhouetteSettingFields(), s, &use);
+  return use;
+}
+
+runtime::TemporalSettings ToTemporalSettings(const TemporalUse& use) {
+  runtime::TemporalSettings s;
+  SetAll(TemporalSettingFields(), use, &s);
+  return s;
+}
+
+TemporalUse FromTemporalSettings(const runtime::TemporalSettings& s, const std::string& where) {
+  TemporalUse use;
+  GetSet(TemporalSettingFields(), s, &use);
+  CheckUnder(where, [&] { use.Check(); });
   return use;
 }
 

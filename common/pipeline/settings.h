@@ -26,6 +26,7 @@
 #include "fusion/volume.h"
 #include "runtime.pb.h"
 #include "stereo/take_stereo.h"
+#include "stereo/temporal_bounds.h"
 
 namespace dome::pipeline {
 
@@ -57,7 +58,18 @@ struct SilhouetteUse {
   void Check() const;
 };
 
+// Time-aware reconstruction (proto TemporalSettings): an instant's stereo searches
+// around the previous instant's depths where its images are still
+// (stereo/temporal_bounds.h). Off: each instant on its own, bit for bit.
+struct TemporalUse {
+  bool stereo = false;
+  stereo::TemporalBoundsOptions bounds;
+  // Throws core::InputError naming the field ("temporal.tile_px").
+  void Check() const { bounds.Check(); }
+};
+
 const std::vector<SettingField<stereo::TakeStereoOptions>>& StereoSettingFields();
+const std::vector<SettingField<TemporalUse>>& TemporalSettingFields();
 const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields();
 const std::vector<SettingField<stereo::CoarseToFineOptions>>& CoarseToFineSettingFields();
 const std::vector<SettingField<fusion::FusionOptions>>& FusionSettingFields();
@@ -95,6 +107,12 @@ std::string StereoOptionsToJson(const stereo::TakeStereoOptions& options);
 // Silhouette uses <-> SilhouetteSettings (unset fields: off).
 runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use);
 SilhouetteUse FromSilhouetteSettings(const runtime::SilhouetteSettings& settings);
+
+// Temporal use <-> TemporalSettings (every field set; unset fields: the defaults, stereo
+// off); errors name "where: temporal.<field>".
+runtime::TemporalSettings ToTemporalSettings(const TemporalUse& use);
+TemporalUse FromTemporalSettings(const runtime::TemporalSettings& settings,
+                                 const std::string& where);
 
 // Coarse to fine <-> CoarseToFineSettings; the clip box is set when both corners are.
 runtime::CoarseToFineSettings ToCoarseToFineSettings(const stereo::CoarseToFineOptions& options);

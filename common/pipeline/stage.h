@@ -5,7 +5,9 @@
 //
 // Per instant, a stage has parts (the cameras of stereo, the slabs of fusion, one part
 // for the rest); every part of a stage waits for every part of the stages it comes
-// `after` in the same instant. A worker stage's part is a job (proto/runtime.proto Job:
+// `after` in the same instant, and, when its descriptor says so for the session, for
+// its own part of the previous instant (time-aware stereo: a camera's search at t is
+// bounded by its depths at t-1). A worker stage's part is a job (proto/runtime.proto Job:
 // the stage's name, its settings message serialized, its input blobs): the descriptor
 // makes it on the master, runs it on a worker, and checks and stores its result on the
 // master. A master stage runs in the master, fed the outputs of its one input stage as
@@ -53,6 +55,9 @@ struct JobContext {
   // The outputs of part `part` of stage `stage` of this instant (a stage this one comes
   // after, so done).
   std::function<const std::vector<runtime::BlobRef>&(const std::string& stage, int part)> outputs;
+  // For a stage that waits for its own part of the previous instant (instant > 0): the
+  // outputs of that job.
+  std::function<const std::vector<runtime::BlobRef>&()> previous_outputs;
 };
 
 // Where a finished job's outputs go (beside the master's loop: reads only the plan).
@@ -105,6 +110,9 @@ struct StageDescriptor {
   // part); none: the stage does not run in this session.
   std::function<std::vector<std::string>(const SessionPlan& plan)> parts;
   std::vector<std::string> after;  // stages whose every part of the instant comes first
+  // True for a session where part p of instant t > 0 also waits for part p of this stage
+  // in instant t-1 (parts must then be the same in every instant); unset: never.
+  std::function<bool(const SessionPlan& plan)> after_previous_instant;
 
   // A worker stage: makes a job (settings and blobs; the master sets the rest), runs it
   // (on a worker: pure, no sockets or files), checks and stores its result (on the

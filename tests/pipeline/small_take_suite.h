@@ -1,22 +1,26 @@
-// A test suite over one small synthetic take (`dome synth --preset small --instants 1`),
-// made once per suite in a temporary folder: TakeDir() is TEMP/take.
+// A test suite over one small synthetic take (`dome synth --preset small --instants N`,
+// N = 1 for SmallTakeSuite), made once per suite in a temporary folder: TakeDir() is
+// TEMP/take.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <string>
 
 #include "testing/run_command.h"
 #include "testing/temp_dir.h"
 
 namespace dome::pipeline {
 
-class SmallTakeSuite : public ::testing::Test {
+template <int kInstants>
+class SmallTakeSuiteOf : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new dome::testing::TempDir;
-    const auto synth = dome::testing::RunDomeBinary("synth --preset small --instants 1 --out " +
-                                                    TakeDir().string());
+    const auto synth = dome::testing::RunDomeBinary(
+        "synth --preset small --instants " + std::to_string(kInstants) + " --out " +
+        TakeDir().string());
     ASSERT_EQ(synth.exit_code, 0) << synth.output;
   }
   static void TearDownTestSuite() {
@@ -28,5 +32,7 @@ class SmallTakeSuite : public ::testing::Test {
  private:
   static inline dome::testing::TempDir* dir_ = nullptr;
 };
+
+using SmallTakeSuite = SmallTakeSuiteOf<1>;
 
 }  // namespace dome::pipeline

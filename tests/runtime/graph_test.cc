@@ -103,5 +103,36 @@ TEST(JobGraph, StagesWithoutPartsAreSkipped) {
   EXPECT_EQ(g.node(now[0]).key, "t0/b");
 }
 
+// With temporal stereo a camera's stereo at instant t waits for its own at t-1, and for
+// nothing else of t-1: the other cameras, and t-1's fusion and later stages, stay apart.
+TEST(JobGraph, TemporalStereoWaitsForItsCameraAtThePreviousInstant) {
+  pipeline::SessionPlan plan;
+  plan.cameras = {"c0", "c1"};
+  plan.num_slabs = 1;
+  plan.options.temporal.stereo = true;
+  JobGraph g({"t0", "t1", "t2"}, GraphStages(*pipeline::DefaultStages(), plan));
+  std::vector<std::string> ready;
+  for (int i : g.ready()) ready.push_back(g.node(i).key);
+  EXPECT_EQ(ready, (std::vector<std::string>{"t0/stereo/c0", "t0/stereo/c1"}));
+  const std::vector<int> now = g.MarkDone(g.Find("t0/stereo/c1"));
+  ASSERT_EQ(now.size(), 1u);
+  EXPECT_EQ(g.node(now[0]).key, "t1/stereo/c1");
+  // t1's c1 done before t0's c0: t2's c1 runs, t1's c0 still waits.
+  const std::vector<int> next = g.MarkDone(now[0]);
+  ASSERT_EQ(next.size(), 1u);
+  EXPECT_EQ(g.node(next[0]).key, "t2/stereo/c1");
+  EXPECT_EQ(g.node(g.Find("t1/stereo/c0")).state, JobState::kWaiting);
+  // t0's c0 frees t1's c0 and t0's fusion together.
+  std::vector<std::string> freed;
+  for (int i : g.MarkDone(g.Find("t0/stereo/c0"))) freed.push_back(g.node(i).key);
+  EXPECT_EQ(freed, (std::vector<std::string>{"t0/fusion/0", "t1/stereo/c0"}));
+  // Off (the default), every instant's stereo is ready at once.
+  plan.options.temporal.stereo = false;
+  EXPECT_EQ(JobGraph({"t0", "t1", "t2"}, GraphStages(*pipeline::DefaultStages(), plan))
+                .ready()
+                .size(),
+            6u);
+}
+
 }  // namespace
 }  // namespace dome::scheduler
