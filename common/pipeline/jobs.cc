@@ -18,6 +18,7 @@
 #include "pipeline/frame_handoff.h"
 #include "pipeline/ideal_greys.h"
 #include "pipeline/settings.h"
+#include "pipeline/shared_hulls.h"
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
 #include "pipeline/surface_stream.h"
@@ -469,18 +470,17 @@ StageDescriptor StereoStage() {
       return stereo::CountDepthLevels(input.reference.camera, nb, z_min, z_max,
                                       options.stereo.level_step_px);
     };
-    std::unique_ptr<silhouette::VisualHull> own_hull;
-    const silhouette::VisualHull* hull = nullptr;
+    std::shared_ptr<const silhouette::VisualHull> hull;
     if (sj.hull_bounds()) {
-      // Every stereo job of an instant builds the same hull (the masks of all cameras):
-      // a worker's memo keeps it, keyed by the masks, the rule and the threads.
-      auto build = [&] {
-        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), /*distances=*/false);
-      };
+      // Every stereo job of an instant needs the same hull (the masks of all cameras):
+      // built once for the process's workers (shared_hulls.h), keyed by the masks, the
+      // rule and the threads.
       std::string key = "stereo hull\n" + std::to_string(job.threads()) + '\n' +
                         std::to_string(sj.carve_votes());
       for (int b = int(first_mask); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
-      hull = memo ? memo->Get<silhouette::VisualHull>(key, build) : (own_hull = build()).get();
+      hull = SharedHull(key, [&] {
+        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), /*distances=*/false);
+      });
     }
     std::optional<TemporalInput> temporal;
     if (sj.has_temporal()) temporal = TemporalBlobs(job, blobs, num_frames, input, options, memo);
@@ -595,11 +595,18 @@ StageDescriptor FusionStage() {
       }
       fusion::HullFusionOptions hull_options;
       hull_options.fill_unseen = fj.hull_surface();
-      return PrepareFusion(grid, std::move(images), options,
-                           fj.hull() ? HullBlobs(job, blobs, rig.cameras.size() + 1, rig,
-                                                 fj.carve_votes(), true)
-                                     : nullptr,
-                           hull_options);
+      // The hull with distances: built once for the process's workers (shared_hulls.h).
+      std::shared_ptr<const silhouette::VisualHull> hull;
+      if (fj.hull()) {
+        std::string key = "fusion hull\n" + std::to_string(job.threads()) + '\n' +
+                          std::to_string(fj.carve_votes());
+        for (size_t b = rig.cameras.size() + 1; b < blobs.size(); ++b)
+          key += '\n' + job.blobs(int(b)).sha256();
+        hull = SharedHull(key, [&] {
+          return HullBlobs(job, blobs, rig.cameras.size() + 1, rig, fj.carve_votes(), true);
+        });
+      }
+      return PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);
     };
     runtime::FusionJob shared = fj;
     shared.clear_k0();

@@ -93,7 +93,12 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
                  ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b)
                  : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine, nullptr, b);
   } else if (sb) {
-    result = stereo::ComputeDepthBounded(input, o, *sb);
+    stereo::CoarseToFineStats st;
+    result = stereo::ComputeDepthBounded(input, o, *sb, 32, &st);
+    spdlog::debug("{}: bounded search: {} of {} tiles matched, {:.1f} levels a tile (at most {}), "
+                  "{:.3f} s preparing, {:.3f} s matching",
+                  where, st.tiles_matched, st.tiles, st.mean_tile_levels, result.num_levels,
+                  result.prepare_seconds, result.match_seconds);
   } else {
     result = stereo::ComputeDepth(input, o);
   }
@@ -179,7 +184,7 @@ cv::Rect DepthRect(const cv::Mat& depth_mm) {
 std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
                                               std::vector<fusion::RangeImage> images,
                                               const fusion::FusionOptions& options,
-                                              std::unique_ptr<silhouette::VisualHull> hull,
+                                              std::shared_ptr<const silhouette::VisualHull> hull,
                                               const fusion::HullFusionOptions& hull_options) {
   auto prepared = std::make_unique<PreparedFusion>();
   // The integrator builds per-pixel tables of every image; only the rectangle of an

@@ -67,7 +67,7 @@ struct PreparedFusion {
   std::unique_ptr<fusion::Integrator> integrator;
   fusion::Slab slab;  // the last slab's buffers, reused by the next slab of its size
   // The visual hull that corrects every slab (fusion/hull_fusion.h); null: none.
-  std::unique_ptr<silhouette::VisualHull> hull;
+  std::shared_ptr<const silhouette::VisualHull> hull;
   fusion::HullFusionOptions hull_options;  // how (its num_threads: options')
   fusion::FusionOptions options;
 };
@@ -78,7 +78,7 @@ struct PreparedFusion {
 std::unique_ptr<PreparedFusion> PrepareFusion(
     const fusion::VolumeGrid& grid, std::vector<fusion::RangeImage> images,
     const fusion::FusionOptions& options,
-    std::unique_ptr<silhouette::VisualHull> hull = nullptr,
+    std::shared_ptr<const silhouette::VisualHull> hull = nullptr,
     const fusion::HullFusionOptions& hull_options = {});
 // Fuses planes [k0, k1) into prepared->slab, corrected by the hull when there is one,
 // and returns it (valid until the next call).

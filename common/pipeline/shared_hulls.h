@@ -1,0 +1,24 @@
+// The visual hulls of this process's jobs, built once per key for all its workers
+// (`dome run --workers N` runs N in one process): every stereo job of an instant needs
+// the hull of the instant's masks, every fusion job the same hull with its distances,
+// and each worker built its own copy. A hull is built by the first job that asks; a
+// job asking while it is built waits for it and takes the same one (once_store.h). The
+// latest kSharedHulls are kept: the stereo and fusion hulls of about two instants.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "silhouette/hull.h"
+
+namespace dome::pipeline {
+
+inline constexpr size_t kSharedHulls = 4;
+
+// The hull kept under `key`, or the one `build` makes (kept). `key` must name all
+// `build` makes the hull from (the masks' addresses, the rule, the options).
+std::shared_ptr<const silhouette::VisualHull> SharedHull(
+    const std::string& key, const std::function<std::unique_ptr<silhouette::VisualHull>()>& build);
+
+}  // namespace dome::pipeline

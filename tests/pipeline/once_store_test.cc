@@ -1,0 +1,91 @@
+// The process-wide store of values built once (pipeline/once_store.h): concurrent
+// callers of one key share one build and one value; a failed build's error reaches
+// those that waited and is not kept; the oldest keys go beyond the capacity.
+#include "pipeline/once_store.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+namespace dome::pipeline {
+namespace {
+
+TEST(OnceStore, CallersOfOneKeyShareOneBuild) {
+  OnceStore<int> store(2);
+  std::atomic<int> built{0};
+  std::promise<void> release;
+  std::shared_future<void> go = release.get_future().share();
+  auto slow = [&] {
+    ++built;
+    go.wait();  // the others ask while this build runs
+    return std::make_unique<int>(7);
+  };
+  std::vector<std::shared_ptr<const int>> got(4);
+  std::vector<std::thread> threads;
+  for (size_t i = 0; i < got.size(); ++i)
+    threads.emplace_back([&, i] { got[i] = store.Get("a", slow); });
+  while (store.builds() == 0) std::this_thread::yield();
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  release.set_value();
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(built.load(), 1);
+  for (const auto& v : got) {
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v.get(), got[0].get());
+    EXPECT_EQ(*v, 7);
+  }
+  // Kept: asked again, not built again.
+  EXPECT_EQ(store.Get("a", slow).get(), got[0].get());
+  EXPECT_EQ(built.load(), 1);
+}
+
+TEST(OnceStore, AFailedBuildReachesItsWaitersAndIsNotKept) {
+  OnceStore<int> store(2);
+  std::promise<void> release;
+  std::shared_future<void> go = release.get_future().share();
+  std::thread builder([&] {
+    EXPECT_THROW(store.Get("k",
+                           [&]() -> std::unique_ptr<int> {
+                             go.wait();
+                             throw std::runtime_error("bad mask");
+                           }),
+                 std::runtime_error);
+  });
+  while (store.builds() == 0) std::this_thread::yield();
+  std::string waiter_error;
+  std::thread waiter([&] {
+    try {
+      store.Get("k", [] { return std::make_unique<int>(1); });
+    } catch (const std::runtime_error& e) {
+      waiter_error = e.what();
+    }
+  });
+  // Time for the waiter to reach the store and wait (it would build its own after).
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  release.set_value();
+  builder.join();
+  waiter.join();
+  EXPECT_EQ(waiter_error, "bad mask");
+  // A later call builds again.
+  EXPECT_EQ(*store.Get("k", [] { return std::make_unique<int>(3); }), 3);
+  EXPECT_EQ(store.builds(), 2);
+}
+
+TEST(OnceStore, TheOldestKeysGoBeyondTheCapacity) {
+  OnceStore<int> store(2);
+  int n = 0;
+  auto make = [&] { return std::make_unique<int>(++n); };
+  const auto a = store.Get("a", make);
+  store.Get("b", make);
+  store.Get("c", make);  // drops "a"
+  EXPECT_EQ(*store.Get("b", make), 2);
+  EXPECT_EQ(*store.Get("a", make), 4);  // built again
+  EXPECT_EQ(*a, 1);                     // a holder's value stays
+  EXPECT_EQ(store.builds(), 4);
+}
+
+}  // namespace
+}  // namespace dome::pipeline
