@@ -376,10 +376,9 @@ struct TemporalInput {
 };
 
 // From blobs `at` (the previous "stereo" output) and `at + 1` (the previous frame).
-TemporalInput TemporalBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t at,
-                            const stereo::StereoInput& input,
+TemporalInput TemporalBlobs(const runtime::Job& job, const runtime::StereoJob& sj,
+                            const JobBlobs& blobs, size_t at, const stereo::StereoInput& input,
                             const stereo::TakeStereoOptions& options, JobMemo* memo) {
-  const auto sj = JobSettings<runtime::StereoJob>(job);
   TemporalInput t;
   t.use = FromTemporalSettings(sj.temporal(), JobWhere(job));
   t.previous = DecodeStereoOutput(*blobs[at], BlobName(job, at));
@@ -483,7 +482,7 @@ StageDescriptor StereoStage() {
       });
     }
     std::optional<TemporalInput> temporal;
-    if (sj.has_temporal()) temporal = TemporalBlobs(job, blobs, num_frames, input, options, memo);
+    if (sj.has_temporal()) temporal = TemporalBlobs(job, sj, blobs, num_frames, input, options, memo);
     MakeSearchBounds bounds;
     if (hull || temporal) {
       const int index = rig.Find(sj.camera());

@@ -74,12 +74,15 @@ SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::M
         tile.grey_diff += std::abs(double(b[x]) - double(a[x]));
         ++tile.grey_pixels;
       }
-    }
-    for (const RangeImage& r : previous) {
-      const float* d = r.depth_mm.ptr<float>(y);
-      for (int x = 0; x < size.width; ++x) {
-        if (d[x] > 0) row[x / t].found.push_back(d[x]);
+      // Every window's depth; the pixel counted once when any window has one.
+      bool any = false;
+      for (const RangeImage& r : previous) {
+        const float d = r.depth_mm.ptr<float>(y)[x];
+        if (!(d > 0)) continue;
+        tile.found.push_back(d);
+        any = true;
       }
+      tile.depths += any;
     }
   }
   // A tile's range leaves out its outlying depths (wrong matches in the air, a few in
@@ -94,18 +97,6 @@ SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::M
     std::nth_element(f.begin(), f.begin() + hi, f.end());
     tile.far_mm = f[hi];
     f = {};
-  }
-  // Pixels with a depth in any window, counted once.
-  for (int y = 0; y < size.height; ++y) {
-    Tile* row = &tiles[size_t(y / t) * size_t(tx_n)];
-    for (int x = 0; x < size.width; ++x) {
-      for (const RangeImage& r : previous) {
-        if (r.depth_mm.at<float>(y, x) > 0) {
-          ++row[x / t].depths;
-          break;
-        }
-      }
-    }
   }
   std::vector<double> diffs;
   for (Tile& tile : tiles) {
