@@ -30,7 +30,8 @@ namespace {
 stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
                                        const stereo::StereoOptions& o,
                                        const stereo::CoarseToFineOptions& c2f,
-                                       const stereo::SearchBounds* bounds) {
+                                       const stereo::SearchBounds* bounds,
+                                       stereo::CoarseToFineStats* stats) {
   take::CropBox box;
   box.min_mm = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
   box.max_mm = c2f.clip_max_mm.array() + c2f.clip_pad_mm;
@@ -53,12 +54,12 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
   const bool whole = ref_rect.width == input.reference.camera.width_px &&
                      ref_rect.height == input.reference.camera.height_px;
   if (whole || ref_rect.width < 4 * f || ref_rect.height < 4 * f)
-    return stereo::ComputeDepthCoarseToFine(input, o, c2f, nullptr, bounds);
+    return stereo::ComputeDepthCoarseToFine(input, o, c2f, stats, bounds);
   // The ideal grid of a cut camera is the whole camera's, shifted by the cut's corner.
   std::optional<stereo::SearchBounds> cut_bounds;
   if (bounds) cut_bounds = stereo::SearchBounds{bounds->near_far_mm(ref_rect).clone()};
   stereo::StereoResult cropped = stereo::ComputeDepthCoarseToFine(
-      in, o, c2f, nullptr, cut_bounds ? &*cut_bounds : nullptr);
+      in, o, c2f, stats, cut_bounds ? &*cut_bounds : nullptr);
   const int width = input.reference.camera.width_px, height = input.reference.camera.height_px;
   for (auto& ri : cropped.range_images) {
     cv::Mat depth(height, width, CV_32FC1, cv::Scalar(0));
@@ -89,9 +90,14 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
   if (bounds) sb = bounds(o.z_min_mm, o.z_max_mm);
   if (options.coarse_to_fine) {
     const stereo::SearchBounds* b = sb ? &*sb : nullptr;
+    stereo::CoarseToFineStats st;
     result = options.coarse_to_fine->clip
-                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b)
-                 : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine, nullptr, b);
+                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b, &st)
+                 : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine, &st, b);
+    spdlog::debug("{}: coarse to fine: {} coarse levels, {} of {} tiles matched ({} filled), "
+                  "{:.1f} levels a tile, {:.3f} s coarse, {:.3f} s tiles",
+                  where, st.coarse_levels, st.tiles_matched, st.tiles, st.tiles_filled,
+                  st.mean_tile_levels, st.coarse_seconds, st.fine_seconds);
   } else if (sb) {
     stereo::CoarseToFineStats st;
     result = stereo::ComputeDepthBounded(input, o, *sb, 32, &st);

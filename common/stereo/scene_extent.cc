@@ -275,6 +275,20 @@ SceneExtent EstimateSceneExtent(const take::Take& take, const std::vector<std::s
     return it != piece.end() &&
            double(piece_points[it->second]) >= options.min_piece_fraction * double(largest);
   };
+  if (spdlog::should_log(spdlog::level::debug)) {
+    std::vector<Eigen::Vector3d> plo(piece_points.size(), Eigen::Vector3d::Constant(INFINITY)),
+        phi(piece_points.size(), Eigen::Vector3d::Constant(-INFINITY));
+    for (const auto& [c, id] : piece) {
+      const Eigen::Vector3d corner = e.view_centre_mm + cell * Eigen::Vector3d(c[0], c[1], c[2]);
+      plo[id] = plo[id].cwiseMin(corner);
+      phi[id] = phi[id].cwiseMax(corner + Eigen::Vector3d::Constant(cell));
+    }
+    for (size_t id = 0; id < piece_points.size(); ++id)
+      if (piece_points[id] * 1000 >= largest)
+        spdlog::debug("scene: piece {}: {} points, [{:.1f} {:.1f} {:.1f}] .. [{:.1f} {:.1f} {:.1f}]",
+                      id, piece_points[id], plo[id].x(), plo[id].y(), plo[id].z(), phi[id].x(),
+                      phi[id].y(), phi[id].z());
+  }
   for (const auto& [c, id] : piece) {
     if (double(piece_points[id]) < options.min_piece_fraction * double(largest)) continue;
     const Eigen::Vector3d corner = e.view_centre_mm + cell * Eigen::Vector3d(c[0], c[1], c[2]);
