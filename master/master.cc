@@ -591,8 +591,10 @@ struct Master::Impl {
                     g.nx, g.ny, planes, slab_mb, limit_mb));
   }
 
-  // True when `stage` of `instant` is done and consumed its inputs' outputs.
-  bool Consumed(const SessionRec* s, int instant, int stage, const std::set<std::string>& done) {
+  // True when a stage that consumes `stage`'s outputs (StageDescriptor::consumes_inputs)
+  // is done at `instant` (`done`: whether a node is).
+  bool ConsumerDone(const SessionRec* s, int instant, int stage,
+                    const std::function<bool(int node)>& done) {
     for (size_t c = 0; c < stages.stages.size(); ++c) {
       const StageDescriptor& d = stages.stages[c];
       if (!d.consumes_inputs ||
@@ -601,10 +603,31 @@ struct Master::Impl {
       const auto& parts = s->graph->stages()[c].parts;
       bool all = !parts.empty();
       for (int p = 0; p < int(parts.size()); ++p)
-        all = all && done.count(s->graph->node(s->graph->NodeOf(instant, int(c), p)).key) != 0;
+        all = all && done(s->graph->NodeOf(instant, int(c), p));
       if (all) return true;
     }
     return false;
+  }
+
+  // True when the part's outputs are still needed by the same part at the next instant
+  // (a stage that runs after its previous instant: time-aware fusion adds each slab's
+  // previous evidence), which is not done.
+  bool HeldForNext(const SessionRec* s, int instant, int stage, int part,
+                   const std::function<bool(int node)>& done) {
+    return s->graph->stages()[stage].after_previous_instant &&
+           instant + 1 < int(s->plan.instants.size()) &&
+           !done(s->graph->NodeOf(instant + 1, stage, part));
+  }
+
+  // True when the node's outputs were consumed: its consumer is done and no later job
+  // needs them.
+  bool Consumed(const SessionRec* s, const JobNode& n, const std::function<bool(int node)>& done) {
+    return ConsumerDone(s, n.instant, n.stage, done) &&
+           !HeldForNext(s, n.instant, n.stage, n.part, done);
+  }
+
+  bool DoneNow(const SessionRec* s, int node) const {
+    return s->graph->node(node).state == JobState::kDone;
   }
 
   // Marks the jobs the journal records as done, when their outputs are still there.
@@ -630,13 +653,34 @@ struct Master::Impl {
           "its jobs; redoing them",
           s->id, s->plan.instants[t], (s->out() / "journal.log").string());
     }
+    // A job redone that waits for its previous instant's part needs that part's
+    // outputs: when they are gone (dropped once the next instant's part had them), that
+    // part is redone too, and so on back.
+    const auto in_done = [&](int node) { return done.count(s->graph->node(node).key) != 0; };
+    const auto on_disk = [&](const std::string& key) {
+      std::error_code ec;
+      for (const auto& [name, sha] : s->journal->done().at(key).outputs)
+        if (!std::filesystem::exists(s->out() / ".blobs" / sha, ec)) return false;
+      return true;
+    };
+    for (int t = int(s->plan.instants.size()) - 1; t > 0; --t) {
+      for (int st = 0; st < int(s->graph->stages().size()); ++st) {
+        if (!s->graph->stages()[st].after_previous_instant) continue;
+        for (int p = 0; p < int(s->graph->stages()[st].parts.size()); ++p) {
+          const JobNode& now = s->graph->node(s->graph->NodeOf(t, st, p));
+          const JobNode& before = s->graph->node(s->graph->NodeOf(t - 1, st, p));
+          if (!done.count(now.key) && done.count(before.key) && !on_disk(before.key))
+            done.erase(before.key);
+        }
+      }
+    }
     for (const auto& [key, entry] : s->journal->done()) {
       if (!done.count(key)) continue;
       const int node = s->graph->Find(key);
       const JobNode& n = s->graph->node(node);
       // The outputs of a stage whose consumer is done are gone: its record stands on
       // the consumer's.
-      const bool consumed = Consumed(s, n.instant, n.stage, done);
+      const bool consumed = Consumed(s, n, in_done);
       std::vector<runtime::BlobRef> outs;
       bool ok = true;
       for (const auto& [name, sha] : entry.outputs) {
@@ -798,13 +842,24 @@ struct Master::Impl {
       // Its inputs are in its outputs now; its journal record stands for theirs once it
       // is on disk.
       s->journal->Sync();
+      const auto done = [&](int x) { return DoneNow(s, x); };
       for (const std::string& a : d.after) {
         const int input = stages.Find(a);
         for (int p = 0; p < int(s->graph->stages()[input].parts.size()); ++p) {
+          if (HeldForNext(s, n.instant, input, p, done)) continue;  // dropped after it
           auto& in = s->outputs[s->graph->NodeOf(n.instant, input, p)];
           for (const auto& b : in) blobs.Drop(b.sha256());
           in.clear();
         }
+      }
+    }
+    if (s->graph->stages()[n.stage].after_previous_instant && n.instant > 0) {
+      // The previous instant's part was held for this one.
+      const int before = s->graph->NodeOf(n.instant - 1, n.stage, n.part);
+      if (Consumed(s, s->graph->node(before), [&](int x) { return DoneNow(s, x); })) {
+        auto& in = s->outputs[before];
+        for (const auto& b : in) blobs.Drop(b.sha256());
+        in.clear();
       }
     }
     if (s->graph->InstantDone(n.instant)) {

@@ -543,6 +543,7 @@ StageDescriptor FusionStage() {
     return parts;
   });
   d.send_ahead = true;
+  d.after_previous_instant = [](const SessionPlan& plan) { return plan.options.temporal.fusion; };
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     const SessionOptions& o = ctx.plan.options;
     runtime::FusionJob fj;
@@ -554,6 +555,12 @@ StageDescriptor FusionStage() {
     std::vector<runtime::BlobRef> blobs = {ctx.plan.rig};
     for (int c = 0; c < int(ctx.plan.cameras.size()); ++c) {
       blobs.push_back(ctx.outputs("stereo", c).at(0));
+    }
+    if (o.temporal.fusion && ctx.instant > 0) {
+      *fj.mutable_temporal() = ToTemporalSettings(o.temporal);
+      blobs.push_back(ctx.previous_outputs().at(0));
+      for (int t : {ctx.instant, ctx.instant - 1})
+        for (const auto& frame : ctx.plan.frames[t]) blobs.push_back(frame);
     }
     if (o.silhouettes.fusion) {
       fj.set_hull(true);
@@ -575,12 +582,14 @@ StageDescriptor FusionStage() {
       const geometry::Rig rig = RigBlob(job, blobs);
       fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
       options.num_threads = job.threads();
-      const size_t num_masks = fj.hull() ? rig.cameras.size() : 0;
-      core::Require(blobs.size() == rig.cameras.size() + 1 + num_masks, where,
-                    "expected one stereo output per rig camera (" +
-                        std::to_string(rig.cameras.size()) + ")" +
-                        (num_masks ? " and one mask each" : "") + ", got " +
-                        std::to_string(blobs.size() - 1) + " blobs after the rig");
+      const size_t n = rig.cameras.size();
+      const size_t num_masks = fj.hull() ? n : 0;
+      const size_t num_temporal = fj.has_temporal() ? 1 + 2 * n : 0;
+      core::Require(blobs.size() == n + 1 + num_masks + num_temporal, where,
+                    "expected one stereo output per rig camera (" + std::to_string(n) + ")" +
+                        (num_masks ? ", one mask each" : "") +
+                        (num_temporal ? ", the previous slab and two frames each" : "") +
+                        ", got " + std::to_string(blobs.size() - 1) + " blobs after the rig");
       // Cameras in rig order, windows in the options' order.
       std::vector<fusion::RangeImage> images;
       for (size_t c = 0; c < rig.cameras.size(); ++c) {
@@ -597,27 +606,85 @@ StageDescriptor FusionStage() {
       // The hull with distances: built once for the process's workers (shared_hulls.h).
       std::shared_ptr<const silhouette::VisualHull> hull;
       if (fj.hull()) {
+        const size_t first_mask = n + 1 + num_temporal;
         std::string key = "fusion hull\n" + std::to_string(job.threads()) + '\n' +
                           std::to_string(fj.carve_votes());
-        for (size_t b = rig.cameras.size() + 1; b < blobs.size(); ++b)
-          key += '\n' + job.blobs(int(b)).sha256();
+        for (size_t b = first_mask; b < blobs.size(); ++b) key += '\n' + job.blobs(int(b)).sha256();
         hull = SharedHull(key, [&] {
-          return HullBlobs(job, blobs, rig.cameras.size() + 1, rig, fj.carve_votes(), true);
+          return HullBlobs(job, blobs, first_mask, rig, fj.carve_votes(), true);
         });
       }
-      return PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);
+      auto prepared = PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);
+      if (fj.has_temporal()) {
+        // What changed since the previous instant, per camera on its own pixel grid:
+        // the temporal bounds' rule (stereo/temporal_bounds.h ChangedTiles) on plain
+        // greys (no contrast mapping, no undistortion: the voxels are projected with the
+        // lens).
+        const TemporalUse use = FromTemporalSettings(fj.temporal(), where);
+        const size_t first = n + 2;  // after the rig, the outputs and the slab
+        const std::vector<cv::Mat> now =
+            FrameBlobs(job, blobs, first, first + n, io::ImageMode::kUnchanged, memo);
+        const std::vector<cv::Mat> before =
+            FrameBlobs(job, blobs, first + n, first + 2 * n, io::ImageMode::kUnchanged, memo);
+        prepared->change_views.resize(n);
+        prepared->carry = use.carry;
+        core::ParallelFor(0, int64_t(n), job.threads(), [&](int64_t c0, int64_t c1) {
+          for (int64_t c = c0; c < c1; ++c) {
+            const auto& cam = rig.cameras[size_t(c)].model;
+            auto grey = [&](const cv::Mat& image, size_t blob) {
+              return stereo::GreyImage({cam, image}, stereo::StereoOptions{}, false,
+                                       BlobName(job, blob));
+            };
+            prepared->change_views[size_t(c)] = {
+                cam,
+                stereo::ChangedTiles(grey(before[size_t(c)], first + n + size_t(c)),
+                                     grey(now[size_t(c)], first + size_t(c)), use.bounds.tile_px,
+                                     use.bounds.change_factor, use.bounds.change_floor_grey,
+                                     BlobName(job, first + size_t(c))),
+                use.bounds.tile_px};
+            spdlog::debug("{}: camera {}: {} of {} tiles changed", where, cam.id,
+                          cv::countNonZero(prepared->change_views[size_t(c)].changed_tiles),
+                          prepared->change_views[size_t(c)].changed_tiles.total());
+          }
+        });
+      }
+      return prepared;
     };
     runtime::FusionJob shared = fj;
     shared.clear_k0();
     shared.clear_k1();
     std::string key =
         "fusion\n" + shared.SerializeAsString() + '\n' + std::to_string(job.threads());
-    for (const auto& b : job.blobs()) key += '\n' + b.sha256();
+    // Every blob but the previous instant's slab, which is this slab's own. The blobs
+    // are the rig, n outputs, the slab, 2 n frames and, with the hull, n masks.
+    int previous_slab = -1;
+    if (fj.has_temporal()) {
+      const int per_camera = 3 + (fj.hull() ? 1 : 0);
+      const int cameras = (job.blobs_size() - 2) / per_camera;
+      core::Require(cameras >= 1 && job.blobs_size() == 2 + per_camera * cameras, where,
+                    "expected the rig, then per camera a stereo output, the previous slab, "
+                    "two frames per camera" +
+                        std::string(fj.hull() ? " and a mask per camera" : "") + ", got " +
+                        std::to_string(job.blobs_size()) + " blobs");
+      previous_slab = 1 + cameras;
+    }
+    for (int b = 0; b < job.blobs_size(); ++b)
+      if (b != previous_slab) key += '\n' + job.blobs(b).sha256();
     std::unique_ptr<PreparedFusion> own;
     PreparedFusion* prepared = memo ? memo->Get<PreparedFusion>(key, build) : (own = build()).get();
+    std::optional<fusion::Slab> previous;
+    fusion::TemporalCarryStats carried;
+    if (fj.has_temporal()) {
+      previous = fusion::DecodeSlab(*blobs[size_t(previous_slab)], BlobName(job, size_t(previous_slab)));
+    }
     runtime::Output out;
     out.set_name(kSlabOutput);
-    out.set_data(fusion::EncodeSlab(FuseSlab(prepared, fj.k0(), fj.k1())));
+    out.set_data(fusion::EncodeSlab(
+        FuseSlab(prepared, fj.k0(), fj.k1(), previous ? &*previous : nullptr, where, &carried)));
+    if (previous) {
+      spdlog::debug("{}: {} of {} blocks still, {} voxels carried from the previous instant",
+                    where, carried.still_blocks, carried.blocks, carried.voxels_carried);
+    }
     return std::vector<runtime::Output>{out};
   };
   d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {

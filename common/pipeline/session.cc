@@ -170,7 +170,7 @@ SessionPlan PlanSession(
   plan.instants = SessionInstants(spec, plan.take);
   core::Require(!plan.instants.empty(), spec.take(), "has no instants");
   // A one-instant session has no previous instant.
-  if (plan.instants.size() < 2) plan.options.temporal.stereo = false;
+  if (plan.instants.size() < 2) plan.options.temporal.stereo = plan.options.temporal.fusion = false;
   for (const auto& rc : plan.take.rig.cameras) plan.cameras.push_back(rc.model.id);
   plan.num_slabs = SlabCount(plan.options.grid, plan.options.slab_planes);
   for (const auto& c : plan.cameras) {
@@ -249,7 +249,7 @@ std::string SessionDigest(const SessionPlan& plan) {
   canon.set_noop_jobs(plan.spec.noop_jobs());
   // Only when on, so that a session without masks keeps the digest it had before.
   if (o.silhouettes.Any()) *canon.mutable_silhouettes() = ToSilhouetteSettings(o.silhouettes);
-  if (o.temporal.stereo) *canon.mutable_temporal() = ToTemporalSettings(o.temporal);
+  if (o.temporal.Any()) *canon.mutable_temporal() = ToTemporalSettings(o.temporal);
   return net::Sha256Hex(DeterministicBytes(canon));
 }
 
@@ -269,7 +269,7 @@ std::vector<std::string> InstantInputsDigests(const SessionPlan& plan) {
           addresses += "mask input " + m.name() + " " + m.sha256() + "\n";
       }
     }
-    if (plan.options.temporal.stereo && instant > 0)
+    if (plan.options.temporal.Any() && instant > 0)
       addresses += "previous " + digests.back() + "\n";
     digests.push_back(net::Sha256Hex(addresses));
   }

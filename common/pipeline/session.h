@@ -114,7 +114,8 @@ std::string GivenSessionDigest(const runtime::Session& given, const std::string&
 
 // What the jobs of each instant (plan.instants' order) are made from, beyond the
 // options: the SHA-256 of the rig's and that instant's frames' content addresses (with
-// temporal stereo, the previous instant's digest too: its depths bound this one's). The
+// temporal stereo or fusion, the previous instant's digest too: its depths bound this
+// one's search, its fused evidence is in this one's slabs). The
 // journal keeps it with each record, so that a take whose files changed under the
 // same path redoes exactly the instants whose inputs changed.
 std::vector<std::string> InstantInputsDigests(const SessionPlan& plan);

@@ -86,6 +86,20 @@ const std::vector<SettingField<TemporalUse>>& TemporalSettingFields() {
       {"min_depth_fraction", "--temporal-min-depth-fraction",
        "a still tile is bounded when this fraction of it had a depth (default 0.25)",
        +[](O& o) -> double& { return o.bounds.min_depth_fraction; }},
+      {"fusion", "--temporal-fusion",
+       "add the previous instant's fused evidence to each instant after the first where no "
+       "camera's image changed (default: off)",
+       +[](O& o) -> bool& { return o.fusion; }},
+      {"fusion_decay", "--temporal-fusion-decay",
+       "the previous instant's evidence weighted by this factor, (0, 1] (default 1)",
+       +[](O& o) -> double& { return o.carry.decay; }},
+      {"fusion_block_voxels", "--temporal-fusion-block",
+       "blocks judged still or changed as a whole, voxels a side (default 8)",
+       +[](O& o) -> int& { return o.carry.block_voxels; }},
+      {"fusion_changed_fraction", "--temporal-fusion-changed-fraction",
+       "a block changed when this fraction of the cameras that see it see a change, (0, 1] "
+       "(default 0.5)",
+       +[](O& o) -> double& { return o.carry.changed_fraction; }},
   };
   return fields;
 }

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "fusion/integrate.h"
+#include "fusion/temporal_carry.h"
 #include "fusion/volume.h"
 #include "runtime.pb.h"
 #include "stereo/take_stereo.h"
@@ -60,12 +61,20 @@ struct SilhouetteUse {
 
 // Time-aware reconstruction (proto TemporalSettings): an instant's stereo searches
 // around the previous instant's depths where its images are still
-// (stereo/temporal_bounds.h). Off: each instant on its own, bit for bit.
+// (stereo/temporal_bounds.h), and its fusion adds the previous instant's fused evidence
+// there (fusion/temporal_carry.h; the change rule is the bounds'). Off: each instant on
+// its own, bit for bit.
 struct TemporalUse {
   bool stereo = false;
+  bool fusion = false;
   stereo::TemporalBoundsOptions bounds;
+  fusion::TemporalCarryOptions carry;
+  bool Any() const { return stereo || fusion; }
   // Throws core::InputError naming the field ("temporal.tile_px").
-  void Check() const { bounds.Check(); }
+  void Check() const {
+    bounds.Check();
+    carry.Check();
+  }
 };
 
 const std::vector<SettingField<stereo::TakeStereoOptions>>& StereoSettingFields();

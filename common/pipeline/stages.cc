@@ -215,8 +215,16 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
   return prepared;
 }
 
-const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1) {
+const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1,
+                             const fusion::Slab* previous, const std::string& where,
+                             fusion::TemporalCarryStats* carried) {
   prepared->integrator->IntegrateSlab(k0, k1, &prepared->slab);
+  // The previous evidence before the hull: where this instant's silhouettes say free
+  // space, the hull's rule overrides what an earlier instant saw there.
+  if (previous && !prepared->change_views.empty()) {
+    fusion::CarryStill(prepared->integrator->grid(), *previous, prepared->change_views,
+                       prepared->carry, where, &prepared->slab, carried);
+  }
   if (prepared->hull) {
     fusion::ApplyHull(prepared->integrator->grid(), *prepared->hull, prepared->options,
                       prepared->hull_options, &prepared->slab);

@@ -22,6 +22,7 @@
 
 #include "fusion/hull_fusion.h"
 #include "fusion/integrate.h"
+#include "fusion/temporal_carry.h"
 #include "fusion/volume.h"
 #include "io/mesh.h"
 #include "mesh/decimate.h"
@@ -70,6 +71,10 @@ struct PreparedFusion {
   std::shared_ptr<const silhouette::VisualHull> hull;
   fusion::HullFusionOptions hull_options;  // how (its num_threads: options')
   fusion::FusionOptions options;
+  // Time-aware fusion (fusion/temporal_carry.h): each camera's changed tiles since the
+  // previous instant; empty: off.
+  std::vector<fusion::ChangeView> change_views;
+  fusion::TemporalCarryOptions carry;
 };
 
 // Range images in the order given: the accumulation order is fixed by it, so every run
@@ -81,8 +86,13 @@ std::unique_ptr<PreparedFusion> PrepareFusion(
     std::shared_ptr<const silhouette::VisualHull> hull = nullptr,
     const fusion::HullFusionOptions& hull_options = {});
 // Fuses planes [k0, k1) into prepared->slab, corrected by the hull when there is one,
-// and returns it (valid until the next call).
-const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1);
+// then, with `previous` (the same planes at the previous instant, as this function
+// returned them then) and change views, steadied by its evidence where nothing changed
+// (fusion/temporal_carry.h); returns it (valid until the next call). Errors name `where`.
+const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1,
+                             const fusion::Slab* previous = nullptr,
+                             const std::string& where = "fusion",
+                             fusion::TemporalCarryStats* carried = nullptr);
 
 // The slabs of a volume of `slab_planes` planes each: how many, and slab s's planes.
 int SlabCount(const fusion::VolumeGrid& grid, int slab_planes);

@@ -28,8 +28,6 @@ void TemporalBoundsOptions::Check() const {
 namespace {
 
 struct Tile {
-  double grey_diff = 0.0;  // mean |now - before| over the pixels with both greys
-  int grey_pixels = 0;
   int depths = 0;  // pixels with a previous depth (any window)
   int pixels = 0;
   std::vector<float> found;                 // the previous depths, every window's
@@ -38,6 +36,49 @@ struct Tile {
 
 }  // namespace
 
+cv::Mat ChangedTiles(const cv::Mat& grey_before, const cv::Mat& grey_now, int tile_px,
+                     double change_factor, double change_floor_grey, const std::string& where,
+                     double* threshold_grey) {
+  const cv::Size size = grey_now.size();
+  core::Require(grey_now.type() == CV_32FC1 && grey_before.type() == CV_32FC1 &&
+                    grey_before.size() == size && !size.empty(),
+                where,
+                "the greys of the two instants must be one float per pixel of one size, got " +
+                    std::to_string(grey_before.cols) + "x" + std::to_string(grey_before.rows) +
+                    " and " + std::to_string(size.width) + "x" + std::to_string(size.height));
+  core::Require(tile_px >= 1, where, "tiles of at least 1 px, got " + std::to_string(tile_px));
+  const int t = tile_px;
+  const int tx_n = (size.width + t - 1) / t, ty_n = (size.height + t - 1) / t;
+  std::vector<double> diff(size_t(tx_n) * size_t(ty_n), 0.0);
+  std::vector<int> count(diff.size(), 0);
+  for (int y = 0; y < size.height; ++y) {
+    const float* a = grey_before.ptr<float>(y);
+    const float* b = grey_now.ptr<float>(y);
+    const size_t row = size_t(y / t) * size_t(tx_n);
+    for (int x = 0; x < size.width; ++x) {
+      if (std::isfinite(a[x]) && std::isfinite(b[x])) {
+        diff[row + size_t(x / t)] += std::abs(double(b[x]) - double(a[x]));
+        ++count[row + size_t(x / t)];
+      }
+    }
+  }
+  std::vector<double> diffs;
+  for (size_t i = 0; i < diff.size(); ++i) {
+    if (count[i] > 0) diffs.push_back(diff[i] /= count[i]);
+  }
+  double median = 0.0;
+  if (!diffs.empty()) {
+    std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+    median = diffs[diffs.size() / 2];
+  }
+  const double threshold = change_factor * median + change_floor_grey;
+  cv::Mat changed(ty_n, tx_n, CV_8UC1);
+  for (size_t i = 0; i < diff.size(); ++i)
+    changed.data[i] = count[i] == 0 || diff[i] > threshold;
+  if (threshold_grey) *threshold_grey = threshold;
+  return changed;
+}
+
 SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::Mat& grey_before,
                             const cv::Mat& grey_now, double z_min_mm, double z_max_mm,
                             int num_levels, const TemporalBoundsOptions& options,
@@ -45,13 +86,11 @@ SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::M
   options.Check();
   core::Require(z_min_mm > 0 && z_min_mm < z_max_mm && num_levels >= 2, where,
                 "temporal bounds need 0 < z_min < z_max and at least 2 levels");
+  TemporalBoundsStats st;
+  const cv::Mat changed =
+      ChangedTiles(grey_before, grey_now, options.tile_px, options.change_factor,
+                   options.change_floor_grey, where, &st.threshold_grey);
   const cv::Size size = grey_now.size();
-  core::Require(grey_now.type() == CV_32FC1 && grey_before.type() == CV_32FC1 &&
-                    grey_before.size() == size,
-                where,
-                "the greys of the two instants must be one float per pixel of one size, got " +
-                    std::to_string(grey_before.cols) + "x" + std::to_string(grey_before.rows) +
-                    " and " + std::to_string(size.width) + "x" + std::to_string(size.height));
   for (const RangeImage& r : previous) {
     core::Require(r.depth_mm.type() == CV_32FC1 && r.depth_mm.size() == size, where,
                   "the previous instant's range image (window " + std::to_string(r.window_px) +
@@ -61,19 +100,13 @@ SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::M
                       " floats");
   }
   const int t = options.tile_px;
-  const int tx_n = (size.width + t - 1) / t, ty_n = (size.height + t - 1) / t;
+  const int tx_n = changed.cols, ty_n = changed.rows;
   std::vector<Tile> tiles(size_t(tx_n) * size_t(ty_n));
   for (int y = 0; y < size.height; ++y) {
-    const float* a = grey_before.ptr<float>(y);
-    const float* b = grey_now.ptr<float>(y);
     Tile* row = &tiles[size_t(y / t) * size_t(tx_n)];
     for (int x = 0; x < size.width; ++x) {
       Tile& tile = row[x / t];
       ++tile.pixels;
-      if (std::isfinite(a[x]) && std::isfinite(b[x])) {
-        tile.grey_diff += std::abs(double(b[x]) - double(a[x]));
-        ++tile.grey_pixels;
-      }
       // Every window's depth; the pixel counted once when any window has one.
       bool any = false;
       for (const RangeImage& r : previous) {
@@ -98,28 +131,17 @@ SearchBounds TemporalBounds(const std::vector<RangeImage>& previous, const cv::M
     tile.far_mm = f[hi];
     f = {};
   }
-  std::vector<double> diffs;
-  for (Tile& tile : tiles) {
-    if (tile.grey_pixels > 0) diffs.push_back(tile.grey_diff /= tile.grey_pixels);
-  }
-  double median = 0.0;
-  if (!diffs.empty()) {
-    std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
-    median = diffs[diffs.size() / 2];
-  }
-  TemporalBoundsStats st;
   st.tiles = int(tiles.size());
-  st.threshold_grey = options.change_factor * median + options.change_floor_grey;
   // A still tile with enough previous depths is known.
   std::vector<char> known(tiles.size(), 0);
   for (size_t i = 0; i < tiles.size(); ++i) {
     const Tile& tile = tiles[i];
-    const bool changed = tile.grey_pixels == 0 || tile.grey_diff > st.threshold_grey;
+    const bool is_changed = changed.data[i] != 0;
     const bool enough = tile.depths >= options.min_depth_fraction * tile.pixels;
-    known[i] = !changed && enough;
+    known[i] = !is_changed && enough;
     st.bounded += known[i];
-    st.changed += changed;
-    st.unknown += !changed && !enough;
+    st.changed += is_changed;
+    st.unknown += !is_changed && !enough;
   }
   // The margin in inverse depth: margin_levels steps of the search.
   const double inv_near = 1.0 / z_min_mm, inv_far = 1.0 / z_max_mm;

@@ -57,6 +57,17 @@ struct TemporalBoundsStats {
   double threshold_grey = 0.0;  // the change threshold the rule gave
 };
 
+// The change rule alone, for any two greys of one image grid (CV_32FC1, NaN: no data):
+// per square tile of `tile_px`, 1 where the tile changed -- its mean |now - before| over
+// the pixels with both greys exceeds change_factor x the median over the image's tiles
+// plus change_floor_grey (greys), or no pixel has both -- and 0 where it is still.
+// CV_8UC1 of ceil(rows / tile_px) x ceil(cols / tile_px). *threshold_grey: the
+// threshold the rule gave. Throws core::InputError naming `where` when the greys differ
+// in size or type.
+cv::Mat ChangedTiles(const cv::Mat& grey_before, const cv::Mat& grey_now, int tile_px,
+                     double change_factor, double change_floor_grey, const std::string& where,
+                     double* threshold_grey = nullptr);
+
 // Per-pixel bounds for the reference camera of this instant from its range images of
 // the previous instant (`previous`, every window's, union) and its greys then and now
 // (`grey_before`, `grey_now`, the ideal grid). A bounded tile's range is the least to

@@ -389,6 +389,45 @@ std::string ErrorLine(const std::string& output) {
 // file (one place checks both: pipeline::ResolveSessionOptions), with the same message,
 // exit code 1, and no output folder made. A voxel too fine for the volume names the
 // volume derived from the take, not the seed's cube, which does not apply to it.
+// Time-aware fusion adds each slab's previous evidence: when the middle instant of three
+// changes, the first instant's slabs (dropped once the second had them) are made again
+// for it, and every mesh is the one a fresh run makes.
+TEST(Cli, TemporalFusionRunAgainRemakesThePreviousSlabsItNeeds) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", out = tmp / "out", fresh = tmp / "fresh";
+  ASSERT_EQ(RunDomeBinary("synth --preset small --instants 3 --out " + take.string()).exit_code, 0);
+  const std::string flags = " --workers 2 --no-texture --no-preview --temporal-fusion";
+  const Result first = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  std::vector<std::string> instants;
+  for (const auto& e : fs::directory_iterator(take / "frames")) {
+    instants.push_back(e.path().filename().string());
+  }
+  std::sort(instants.begin(), instants.end());
+  ASSERT_EQ(instants.size(), 3u);
+  for (const auto& e : fs::directory_iterator(take / "frames" / instants[0])) {
+    fs::copy_file(e.path(), take / "frames" / instants[1] / e.path().filename(),
+                  fs::copy_options::overwrite_existing);
+  }
+  const Result again = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  // The second instant changed, and the third with it (its slabs hold the second's).
+  EXPECT_NE(again.output.find("instant " + instants[1] + ": the take's rig or frames changed"),
+            std::string::npos)
+      << again.output;
+  EXPECT_NE(again.output.find("instant " + instants[2] + ": the take's rig or frames changed"),
+            std::string::npos)
+      << again.output;
+  const Result scratch =
+      RunDomeBinary("run " + (out / "session.json").string() + " --out " + fresh.string() + flags);
+  ASSERT_EQ(scratch.exit_code, 0) << scratch.output;
+  for (const auto& instant : instants) {
+    EXPECT_EQ(io::ReadFileBytes(out / instant / "mesh.ply"),
+              io::ReadFileBytes(fresh / instant / "mesh.ply"))
+        << instant;
+  }
+}
+
 TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out";

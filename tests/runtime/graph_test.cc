@@ -134,5 +134,26 @@ TEST(JobGraph, TemporalStereoWaitsForItsCameraAtThePreviousInstant) {
             6u);
 }
 
+// With temporal fusion a slab at instant t waits for its own slab at t-1 (whose evidence
+// it adds) as well as for t's stereo; t-1's other slabs and t's stereo stay apart.
+TEST(JobGraph, TemporalFusionWaitsForItsSlabAtThePreviousInstant) {
+  pipeline::SessionPlan plan;
+  plan.cameras = {"c0"};
+  plan.num_slabs = 2;
+  plan.options.temporal.fusion = true;
+  JobGraph g({"t0", "t1"}, GraphStages(*pipeline::DefaultStages(), plan));
+  std::vector<std::string> ready;
+  for (int i : g.ready()) ready.push_back(g.node(i).key);
+  EXPECT_EQ(ready, (std::vector<std::string>{"t0/stereo/c0", "t1/stereo/c0"}));
+  std::vector<std::string> freed;
+  for (int i : g.MarkDone(g.Find("t0/stereo/c0"))) freed.push_back(g.node(i).key);
+  EXPECT_EQ(freed, (std::vector<std::string>{"t0/fusion/0", "t0/fusion/1"}));
+  EXPECT_TRUE(g.MarkDone(g.Find("t1/stereo/c0")).empty());  // each waits for its slab
+  freed.clear();
+  for (int i : g.MarkDone(g.Find("t0/fusion/1"))) freed.push_back(g.node(i).key);
+  EXPECT_EQ(freed, (std::vector<std::string>{"t1/fusion/1"}));
+  EXPECT_EQ(g.node(g.Find("t1/fusion/0")).state, JobState::kWaiting);
+}
+
 }  // namespace
 }  // namespace dome::scheduler

@@ -139,5 +139,26 @@ TEST(TemporalBounds, BadInputsAreNamed) {
   testing::ExpectInputError([&] { o.Check(); }, {"temporal.change_factor"});
 }
 
+// The change rule alone: a tile changed when its mean difference exceeds factor x the
+// median tile's plus the floor; a tile without a pixel of both greys counts as changed.
+TEST(TemporalBounds, ChangedTilesFollowTheRuleAndNameBadGreys) {
+  cv::Mat before(64, 96, CV_32FC1, cv::Scalar(100)), now = before.clone();
+  // Noise of mean 1 grey everywhere (alternating +-1), a change of 10 greys in tile (1, 0).
+  for (int y = 0; y < now.rows; ++y)
+    for (int x = 0; x < now.cols; ++x) now.at<float>(y, x) += (x + y) % 2 ? 1.0f : -1.0f;
+  now(cv::Rect(32, 0, 32, 32)) += 9.0;
+  now(cv::Rect(64, 32, 32, 32)).setTo(NAN);
+  double threshold = 0;
+  const cv::Mat changed = ChangedTiles(before, now, 32, 3.0, 2.0, "test", &threshold);
+  ASSERT_EQ(changed.size(), cv::Size(3, 2));
+  EXPECT_DOUBLE_EQ(threshold, 3.0 * 1.0 + 2.0);
+  EXPECT_EQ(changed.at<uint8_t>(0, 1), 1);
+  EXPECT_EQ(changed.at<uint8_t>(1, 2), 1);  // no pixel with both greys
+  EXPECT_EQ(cv::countNonZero(changed), 2);
+  dome::testing::ExpectInputError(
+      [&] { ChangedTiles(before, now(cv::Rect(0, 0, 10, 10)), 32, 3.0, 2.0, "camera x"); },
+      {"camera x", "one float per pixel of one size", "96x64", "10x10"});
+}
+
 }  // namespace
 }  // namespace dome::stereo
