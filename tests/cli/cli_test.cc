@@ -295,6 +295,24 @@ TEST(Cli, ImportPanopticWholeDomeCalibrationIsARigOnlyTake) {
   EXPECT_NE(r.output.find("520 camera(s), rig only (no images)"), std::string::npos) << r.output;
 }
 
+// A take's instants (its frames/ folders), in order.
+std::vector<std::string> SortedInstants(const fs::path& take) {
+  std::vector<std::string> instants;
+  for (const auto& e : fs::directory_iterator(take / "frames")) {
+    instants.push_back(e.path().filename().string());
+  }
+  std::sort(instants.begin(), instants.end());
+  return instants;
+}
+
+// Every camera's frame of instant `to` rewritten with the bytes of instant `from`'s.
+void CopyFrames(const fs::path& take, const std::string& from, const std::string& to) {
+  for (const auto& e : fs::directory_iterator(take / "frames" / from)) {
+    fs::copy_file(e.path(), take / "frames" / to / e.path().filename(),
+                  fs::copy_options::overwrite_existing);
+  }
+}
+
 // Resume keys on the inputs' contents, not the take's path: a frame rewritten with
 // other bytes redoes exactly its instant, and the outputs are those of a fresh run of
 // the same session. With silhouettes (the synthetic take's plates): the derived volume
@@ -313,17 +331,10 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
   EXPECT_NE(first.output.find("shrunk to the bounding box of the masks' visual hull"),
             std::string::npos)
       << first.output;
-  std::vector<std::string> instants;
-  for (const auto& e : fs::directory_iterator(take / "frames")) {
-    instants.push_back(e.path().filename().string());
-  }
-  std::sort(instants.begin(), instants.end());
+  const std::vector<std::string> instants = SortedInstants(take);
   ASSERT_EQ(instants.size(), 2u);
   // The second instant's frames become the first's: other bytes, same paths.
-  for (const auto& e : fs::directory_iterator(take / "frames" / instants[0])) {
-    fs::copy_file(e.path(), take / "frames" / instants[1] / e.path().filename(),
-                  fs::copy_options::overwrite_existing);
-  }
+  CopyFrames(take, instants[0], instants[1]);
   const Result again = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find((out / "session.json").string() +
@@ -399,16 +410,9 @@ TEST(Cli, TemporalFusionRunAgainRemakesThePreviousSlabsItNeeds) {
   const std::string flags = " --workers 2 --no-texture --no-preview --temporal-fusion";
   const Result first = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(first.exit_code, 0) << first.output;
-  std::vector<std::string> instants;
-  for (const auto& e : fs::directory_iterator(take / "frames")) {
-    instants.push_back(e.path().filename().string());
-  }
-  std::sort(instants.begin(), instants.end());
+  const std::vector<std::string> instants = SortedInstants(take);
   ASSERT_EQ(instants.size(), 3u);
-  for (const auto& e : fs::directory_iterator(take / "frames" / instants[0])) {
-    fs::copy_file(e.path(), take / "frames" / instants[1] / e.path().filename(),
-                  fs::copy_options::overwrite_existing);
-  }
+  CopyFrames(take, instants[0], instants[1]);
   const Result again = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(again.exit_code, 0) << again.output;
   // The second instant changed, and the third with it (its slabs hold the second's).
