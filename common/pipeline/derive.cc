@@ -111,8 +111,10 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
 // the scene extent's 3 (bat barrel completeness within 20 mm 0). The margin (the scene
 // extent's) covers some motion between the instants looked at, not all: a longer take
 // whose scene moves far between them needs --no-volume-masks or --box.
+// With `offer`, each mask is also handed to the masks stage's jobs of this process
+// (frame_handoff.h), keyed by the content of the files it was made from.
 void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
-                double margin, int carve_votes, int num_threads, Eigen::Vector3d* lo,
+                double margin, int carve_votes, int num_threads, bool offer, Eigen::Vector3d* lo,
                 Eigen::Vector3d* hi, Derivation* d) {
   const take::Take& take = masks.take();
   std::vector<geometry::TsaiCamera> cameras;
@@ -127,7 +129,16 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
                  instants.size());
     std::vector<cv::Mat> m(cameras.size());
     core::ParallelFor(0, int64_t(cameras.size()), num_threads, [&](int64_t c0, int64_t c1) {
-      for (int64_t c = c0; c < c1; ++c) m[size_t(c)] = masks.Mask(instants[i], cameras[size_t(c)].id);
+      for (int64_t c = c0; c < c1; ++c) {
+        const std::string& id = cameras[size_t(c)].id;
+        m[size_t(c)] = masks.Mask(instants[i], id);
+        if (!offer) continue;
+        std::vector<std::string> shas;
+        for (const auto& path : masks.InputPaths(instants[i], id))
+          shas.push_back(net::Sha256Hex(io::ReadFileBytes(path)));
+        OfferMask(MaskHandoffKey(id, silhouette::MaskSourceName(masks.Source(id)), shas),
+                  m[size_t(c)]);
+      }
     });
     const silhouette::VisualHull hull(cameras, m, ho);
     Eigen::Vector3d h_lo, h_hi;
@@ -290,7 +301,8 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     if (si->volume() && masks)
       HullVolume(*masks,
                  silhouette::MedianInstants(instants, silhouette::MaskOptions{}.median_max_instants),
-                 eo.margin_fraction, si->carve_votes(), request.num_threads, &lo, &hi, &d);
+                 eo.margin_fraction, si->carve_votes(), request.num_threads,
+                 request.offer_frames, &lo, &hi, &d);
   }
   greys.frames.clear();  // read once for both; not held through the rest
   const Eigen::Vector3d centre = 0.5 * (lo + hi);

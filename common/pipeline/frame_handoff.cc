@@ -21,4 +21,24 @@ cv::Mat TakeDecodedFrame(const std::string& sha256) { return Process().Take(sha2
 
 size_t HeldDecodedFrames() { return Process().size(); }
 
+namespace {
+
+MatStore& Masks() {
+  static MatStore* store = new MatStore(kMaskHandoffBudgetBytes);  // as Process()
+  return *store;
+}
+
+}  // namespace
+
+std::string MaskHandoffKey(const std::string& camera, const std::string& source,
+                           const std::vector<std::string>& input_sha256) {
+  std::string key = camera + '\n' + source;
+  for (const auto& sha : input_sha256) key += '\n' + sha;
+  return key;
+}
+
+void OfferMask(const std::string& key, const cv::Mat& mask) { Masks().Put(key, mask); }
+
+cv::Mat TakeMask(const std::string& key) { return Masks().Take(key); }
+
 }  // namespace dome::pipeline

@@ -15,6 +15,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace dome::pipeline {
 
@@ -28,5 +29,18 @@ cv::Mat TakeDecodedFrame(const std::string& sha256);
 
 // Frames held now (for tests).
 size_t HeldDecodedFrames();
+
+// Masks the derivation made for the masks' hull volume (pipeline/derive.h), handed to
+// the masks stage's jobs of this process, which would make the same masks again (the
+// paper take: every mask of every instant, a sixth of the session's job seconds). The
+// key names what a job makes its mask from: its camera, its source (MaskJob.source) and
+// the content addresses of its blobs after the rig, in order. At most
+// kMaskHandoffBudgetBytes are held, the oldest dropped first; a mask is handed over once.
+constexpr size_t kMaskHandoffBudgetBytes = size_t(128) << 20;
+std::string MaskHandoffKey(const std::string& camera, const std::string& source,
+                           const std::vector<std::string>& input_sha256);
+void OfferMask(const std::string& key, const cv::Mat& mask);
+// The mask offered under `key`, removed from the handoff; empty when none is held.
+cv::Mat TakeMask(const std::string& key);
 
 }  // namespace dome::pipeline

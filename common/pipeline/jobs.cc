@@ -304,43 +304,49 @@ StageDescriptor MaskStage() {
     const geometry::TsaiCamera& camera = RigCameraOf(rig, mj.camera(), job);
     const cv::Size size(camera.width_px, camera.height_px);
     auto unchanged = [&](size_t i) { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); };
-    cv::Mat mask;
-    if (mj.source() == "given") {
-      mask = silhouette::MaskImage(unchanged(1), size, mj.camera(), BlobName(job, 1));
-    } else if (mj.source() == "plate" || mj.source() == "median") {
-      const bool median = mj.source() == "median";
-      const size_t needed = median ? 1 + silhouette::MaskOptions::kMinMedianInstants : 2;
-      core::Require(median ? blobs.size() >= 1 + needed : blobs.size() == 1 + needed,
-                    JobWhere(job),
-                    median ? "a median mask needs the frame and at least " +
-                                 std::to_string(needed - 1) + " frames for the median, got " +
-                                 std::to_string(blobs.size() - 1) + " blobs after the rig"
-                           : "a plate's mask needs the frame and the plate, got " +
-                                 std::to_string(blobs.size() - 1) + " blobs after the rig");
-      const silhouette::Frame frame =
-          silhouette::SplitFrame(unchanged(1), size, mj.camera(), BlobName(job, 1));
-      cv::Mat background;
-      if (median) {
-        std::vector<cv::Mat> colours(blobs.size() - 2);
-        core::ParallelFor(0, int64_t(colours.size()), job.threads(), [&](int64_t b, int64_t e) {
-          for (int64_t i = b; i < e; ++i) {
-            colours[size_t(i)] = silhouette::SplitFrame(unchanged(size_t(i) + 2), size,
-                                                        mj.camera(), BlobName(job, size_t(i) + 2))
-                                     .colour;
-          }
-        });
-        background = silhouette::MedianBackground(colours, frame.colour.channels());
+    // Made already by this process's derivation (frame_handoff.h): the same inputs.
+    std::vector<std::string> inputs;
+    for (int b = 1; b < job.blobs_size(); ++b) inputs.push_back(job.blobs(b).sha256());
+    cv::Mat mask = TakeMask(MaskHandoffKey(mj.camera(), mj.source(), inputs));
+    auto make = [&]() -> cv::Mat {
+      if (mj.source() == "given") {
+        return silhouette::MaskImage(unchanged(1), size, mj.camera(), BlobName(job, 1));
+      } else if (mj.source() == "plate" || mj.source() == "median") {
+        const bool median = mj.source() == "median";
+        const size_t needed = median ? 1 + silhouette::MaskOptions::kMinMedianInstants : 2;
+        core::Require(median ? blobs.size() >= 1 + needed : blobs.size() == 1 + needed,
+                      JobWhere(job),
+                      median ? "a median mask needs the frame and at least " +
+                                   std::to_string(needed - 1) + " frames for the median, got " +
+                                   std::to_string(blobs.size() - 1) + " blobs after the rig"
+                             : "a plate's mask needs the frame and the plate, got " +
+                                   std::to_string(blobs.size() - 1) + " blobs after the rig");
+        const silhouette::Frame frame =
+            silhouette::SplitFrame(unchanged(1), size, mj.camera(), BlobName(job, 1));
+        cv::Mat background;
+        if (median) {
+          std::vector<cv::Mat> colours(blobs.size() - 2);
+          core::ParallelFor(0, int64_t(colours.size()), job.threads(), [&](int64_t b, int64_t e) {
+            for (int64_t i = b; i < e; ++i) {
+              colours[size_t(i)] = silhouette::SplitFrame(unchanged(size_t(i) + 2), size,
+                                                          mj.camera(), BlobName(job, size_t(i) + 2))
+                                       .colour;
+            }
+          });
+          background = silhouette::MedianBackground(colours, frame.colour.channels());
+        } else {
+          background = silhouette::SplitFrame(unchanged(2), size, mj.camera(), BlobName(job, 2)).colour;
+        }
+        return silhouette::MaskAgainst(
+            frame, background,
+            median ? silhouette::MaskSource::kMedian : silhouette::MaskSource::kPlate,
+            silhouette::MaskOptions{});
       } else {
-        background = silhouette::SplitFrame(unchanged(2), size, mj.camera(), BlobName(job, 2)).colour;
+        throw core::InputError(JobWhere(job), "unknown mask source '" + mj.source() +
+                                                  "' (expected given, plate or median)");
       }
-      mask = silhouette::MaskAgainst(
-          frame, background,
-          median ? silhouette::MaskSource::kMedian : silhouette::MaskSource::kPlate,
-          silhouette::MaskOptions{});
-    } else {
-      throw core::InputError(JobWhere(job), "unknown mask source '" + mj.source() +
-                                                "' (expected given, plate or median)");
-    }
+    };
+    if (mask.size() != size) mask = make();
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kMaskOutput);
     outputs[0].set_data(io::EncodePng(mask));

@@ -120,6 +120,23 @@ fs::path TakeMasks::PlatePath(const std::string& camera) const {
   return take_.dir / "background" / (camera + ".png");
 }
 
+std::vector<fs::path> TakeMasks::InputPaths(const std::string& instant,
+                                            const std::string& camera) const {
+  switch (Source(camera)) {
+    case MaskSource::kGiven:
+      return {GivenMaskPath(instant, camera)};
+    case MaskSource::kPlate:
+      return {take_.FramePath(instant, camera), PlatePath(camera)};
+    case MaskSource::kMedian: {
+      std::vector<fs::path> paths = {take_.FramePath(instant, camera)};
+      for (const auto& m : MedianInstants(take_.instants, options_.median_max_instants))
+        paths.push_back(take_.FramePath(m, camera));
+      return paths;
+    }
+  }
+  return {};
+}
+
 std::map<std::string, MaskSource> DecideMaskSources(const take::Take& take) {
   std::error_code ec;
   std::map<std::string, MaskSource> sources;

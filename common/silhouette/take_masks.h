@@ -79,6 +79,11 @@ class TakeMasks {
 
   std::filesystem::path GivenMaskPath(const std::string& instant, const std::string& camera) const;
   std::filesystem::path PlatePath(const std::string& camera) const;
+  // The files Mask(instant, camera) is made from, in the order the masks stage's job
+  // takes them (pipeline/session.cc PlanMasks): the given mask; or the frame and the
+  // plate; or the frame and the camera's frames at the median's instants.
+  std::vector<std::filesystem::path> InputPaths(const std::string& instant,
+                                                const std::string& camera) const;
 
  private:
   // The background of `camera` (plate or median), in the frames' colour (gray or BGR).
