@@ -113,8 +113,11 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
 // whose scene moves far between them needs --no-volume-masks or --box.
 // With `offer`, each mask is also handed to the masks stage's jobs of this process
 // (frame_handoff.h), keyed by the content of the files it was made from.
+// `made`: the masks of one instant made already (rig order), used instead of making
+// them again.
 void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
-                double margin, int carve_votes, int num_threads, bool offer, Eigen::Vector3d* lo,
+                const std::pair<std::string, std::vector<cv::Mat>>& made, double margin,
+                int carve_votes, int num_threads, bool offer, Eigen::Vector3d* lo,
                 Eigen::Vector3d* hi, Derivation* d) {
   const take::Take& take = masks.take();
   std::vector<geometry::TsaiCamera> cameras;
@@ -131,7 +134,9 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
     core::ParallelFor(0, int64_t(cameras.size()), num_threads, [&](int64_t c0, int64_t c1) {
       for (int64_t c = c0; c < c1; ++c) {
         const std::string& id = cameras[size_t(c)].id;
-        m[size_t(c)] = masks.Mask(instants[i], id);
+        m[size_t(c)] = instants[i] == made.first && size_t(c) < made.second.size()
+                           ? made.second[size_t(c)]
+                           : masks.Mask(instants[i], id);
         if (!offer) continue;
         std::vector<std::string> shas;
         for (const auto& path : masks.InputPaths(instants[i], id))
@@ -218,17 +223,24 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
   // the surface to where the cameras saw the people.
   runtime::SilhouetteSettings* si = s->mutable_silhouettes();
   std::optional<silhouette::TakeMasks> masks;
+  std::vector<cv::Mat> middle_masks;  // rig order: the masks' hull needs them again
   if (!si->has_volume() || !si->has_stereo() || !si->has_fusion() || si->volume()) {
     std::string why;
     try {
       masks.emplace(take, silhouette::MaskOptions{});
       const std::string& middle = instants[instants.size() / 2];
+      const auto& cams = take.rig.cameras;
+      std::vector<double> fraction(cams.size());
+      middle_masks.assign(cams.size(), cv::Mat());
+      core::ParallelFor(0, int64_t(cams.size()), request.num_threads, [&](int64_t c0, int64_t c1) {
+        for (int64_t c = c0; c < c1; ++c) {
+          silhouette::MaskInfo info;
+          middle_masks[size_t(c)] = masks->Mask(middle, cams[size_t(c)].model.id, &info);
+          fraction[size_t(c)] = info.fraction;
+        }
+      });
       int with_foreground = 0;
-      for (const auto& rc : take.rig.cameras) {
-        silhouette::MaskInfo info;
-        masks->Mask(middle, rc.model.id, &info);
-        with_foreground += info.fraction >= kMinForegroundFraction;
-      }
+      for (double f : fraction) with_foreground += f >= kMinForegroundFraction;
       if (with_foreground < 2) {
         why = fmt::format("{} camera(s) with a foreground of >= {} of the image at {}",
                           with_foreground, kMinForegroundFraction, middle);
@@ -301,8 +313,8 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     if (si->volume() && masks)
       HullVolume(*masks,
                  silhouette::MedianInstants(instants, silhouette::MaskOptions{}.median_max_instants),
-                 eo.margin_fraction, si->carve_votes(), request.num_threads,
-                 request.offer_frames, &lo, &hi, &d);
+                 {instants[instants.size() / 2], middle_masks}, eo.margin_fraction,
+                 si->carve_votes(), request.num_threads, request.offer_frames, &lo, &hi, &d);
   }
   greys.frames.clear();  // read once for both; not held through the rest
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
