@@ -410,6 +410,9 @@ TEST(Cli, TemporalFusionRunAgainRemakesThePreviousSlabsItNeeds) {
   const std::string flags = " --workers 2 --no-texture --no-preview --temporal-fusion";
   const Result first = RunDomeBinary("run " + take.string() + " --out " + out.string() + flags);
   ASSERT_EQ(first.exit_code, 0) << first.output;
+  // The take has plates: the masks are on, and the run says what that does to the carry.
+  EXPECT_NE(first.output.find("temporal.fusion with silhouettes.fusion"), std::string::npos)
+      << first.output;
   const std::vector<std::string> instants = SortedInstants(take);
   ASSERT_EQ(instants.size(), 3u);
   CopyFrames(take, instants[0], instants[1]);
