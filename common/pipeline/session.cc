@@ -114,8 +114,6 @@ void PlanMasks(const std::function<runtime::BlobRef(const fs::path&, const std::
     if (it == added.end()) it = added.emplace(path, add_file(path, name)).first;
     return it->second;
   };
-  const std::vector<std::string> median =
-      silhouette::MedianInstants(plan->take.instants, silhouette::MaskOptions{}.median_max_instants);
   for (const auto& cam : plan->cameras)
     plan->mask_sources.push_back(silhouette::MaskSourceName(masks.Source(cam)));
   for (size_t t = 0; t < plan->instants.size(); ++t) {
@@ -123,21 +121,13 @@ void PlanMasks(const std::function<runtime::BlobRef(const fs::path&, const std::
     std::vector<std::vector<runtime::BlobRef>> row;
     for (size_t c = 0; c < plan->cameras.size(); ++c) {
       const std::string& cam = plan->cameras[c];
+      // The files the mask is made from (the derivation's masks are keyed by them too,
+      // frame_handoff.h); the instant's own frame is the plan's.
       std::vector<runtime::BlobRef> inputs;
-      switch (masks.Source(cam)) {
-        case silhouette::MaskSource::kGiven:
-          inputs.push_back(add(masks.GivenMaskPath(in, cam), "masks/" + in + "/" + cam + ".png"));
-          break;
-        case silhouette::MaskSource::kPlate:
-          inputs.push_back(plan->frames[t][c]);
-          inputs.push_back(add(masks.PlatePath(cam), "background/" + cam + ".png"));
-          break;
-        case silhouette::MaskSource::kMedian:
-          inputs.push_back(plan->frames[t][c]);
-          for (const auto& m : median)
-            inputs.push_back(
-                add(plan->take.FramePath(m, cam), "frames/" + m + "/" + cam + ".png"));
-          break;
+      for (const auto& path : masks.InputPaths(in, cam)) {
+        inputs.push_back(path == plan->take.FramePath(in, cam)
+                             ? plan->frames[t][c]
+                             : add(path, fs::relative(path, plan->take.dir).generic_string()));
       }
       row.push_back(std::move(inputs));
     }
