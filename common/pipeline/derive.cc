@@ -472,7 +472,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     d.notes.push_back("smooth_iterations: 10 (large images)");
   }
   for (const auto& n : d.notes) spdlog::info("derived {}", n);
-  if (s->temporal().fusion() && si->fusion()) {
+  if (s->temporal().fusion() && si->fusion() && instants.size() > 1) {
     // Allowed, but said: the masks carve the still parts away as free space, so the
     // carried evidence lands on the moving people (paper take: accuracy p90 19.43 mm
     // with it, 18.98 without; README "Time-aware fusion").

@@ -180,6 +180,15 @@ TEST(TemporalCarry, BadInputIsNamed) {
   o.decay = 1.5;
   EXPECT_NE(message(sc.Filled(0, 40, 1, 1), sc.Still(), o).find("temporal.fusion_decay"),
             std::string::npos);
+  o = {};
+  o.block_voxels = 0;
+  EXPECT_NE(message(sc.Filled(0, 40, 1, 1), sc.Still(), o).find("temporal.fusion_block_voxels"),
+            std::string::npos);
+  o = {};
+  o.changed_fraction = 0;
+  EXPECT_NE(
+      message(sc.Filled(0, 40, 1, 1), sc.Still(), o).find("temporal.fusion_changed_fraction"),
+      std::string::npos);
 }
 
 }  // namespace

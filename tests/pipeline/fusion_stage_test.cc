@@ -65,8 +65,9 @@ class FusionStage : public SmallTakeSuite {
     return options;
   }
 
-  // The fusion job of planes [k0, k1) over `blobs`.
-  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1) {
+  // The fusion job of planes [k0, k1) over `blobs`; `temporal`: time-aware (its blobs
+  // then go on with the previous slab and two frames per camera).
+  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1, bool temporal = false) {
     const fusion::VolumeGrid grid = Grid();
     const fusion::FusionOptions options = Options();
     runtime::Job job;
@@ -78,13 +79,19 @@ class FusionStage : public SmallTakeSuite {
     fj.set_k1(k1);
     *fj.mutable_volume() = ToVolume(grid);
     *fj.mutable_fusion() = ToFusionSettings(options);
+    if (temporal) {
+      TemporalUse use;
+      use.fusion = true;
+      *fj.mutable_temporal() = ToTemporalSettings(use);
+    }
     job.set_settings(fj.SerializeAsString());
     for (const auto& b : blobs) job.add_blobs()->set_sha256(net::Sha256Hex(*b));
     return job;
   }
 
-  static std::string Slab(const JobBlobs& blobs, int k0, int k1, JobMemo* memo) {
-    const auto outputs = RunJob(*DefaultStages(), Job(blobs, k0, k1), blobs, memo);
+  static std::string Slab(const JobBlobs& blobs, int k0, int k1, JobMemo* memo,
+                          bool temporal = false) {
+    const auto outputs = RunJob(*DefaultStages(), Job(blobs, k0, k1, temporal), blobs, memo);
     EXPECT_EQ(outputs.size(), 1u);
     return outputs.at(0).data();
   }
@@ -105,6 +112,57 @@ TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
     EXPECT_GT(weighted, 1000) << "slab " << s;
   }
   EXPECT_EQ(memo.builds(), 1);
+}
+
+// A time-aware slab job (FusionJob.temporal) adds its previous slab's evidence where the
+// frames did not change (here the same frames at both instants); the instant's slabs
+// share their tables whatever their previous slabs; a previous slab of other planes and
+// a missing frame are named.
+TEST_F(FusionStage, ATimeAwareSlabJobAddsItsPreviousSlabAndNamesWrongInputs) {
+  const JobBlobs blobs = Blobs(1.0);
+  const take::Take take = take::OpenTake(TakeDir());
+  JobBlobs frames;
+  for (const auto& rc : take.rig.cameras) {
+    frames.push_back(std::make_shared<const std::string>(
+        io::ReadFileBytes(take.FramePath(take.instants.front(), rc.model.id))));
+  }
+  auto with = [&](const std::string& previous, size_t drop_frames) {
+    JobBlobs b = blobs;
+    b.push_back(std::make_shared<const std::string>(previous));
+    for (int t = 0; t < 2; ++t) b.insert(b.end(), frames.begin(), frames.end());
+    b.resize(b.size() - drop_frames);
+    return b;
+  };
+  const std::string before0 = Slab(blobs, 0, 30, nullptr), before1 = Slab(blobs, 30, 60, nullptr);
+  JobMemo memo;
+  const fusion::Slab plain = fusion::DecodeSlab(before0, "plain");
+  const fusion::Slab carried =
+      fusion::DecodeSlab(Slab(with(before0, 0), 0, 30, &memo, true), "carried");
+  ASSERT_EQ(carried.weight.size(), plain.weight.size());
+  int64_t observed = 0, doubled = 0;
+  for (size_t i = 0; i < plain.weight.size(); ++i) {
+    const float w = plain.weight[i];
+    if (!(w > 0)) {
+      EXPECT_EQ(carried.weight[i], 0.0f);  // unobserved stays unobserved
+      continue;
+    }
+    ++observed;
+    // Decay 1: W doubles where carried, the distance stays (the same evidence twice).
+    if (carried.weight[i] == 2 * w) {
+      ++doubled;
+      EXPECT_NEAR(carried.distance_mm[i], plain.distance_mm[i], 1e-3f);
+    } else {
+      ASSERT_EQ(carried.weight[i], w) << i;
+    }
+  }
+  EXPECT_GT(doubled, observed / 2) << doubled << " of " << observed;
+  Slab(with(before1, 0), 30, 60, &memo, true);
+  EXPECT_EQ(memo.builds(), 2);  // the tables once for both slabs, the decoded frames once
+  dome::testing::ExpectInputError([&] { Slab(with(before1, 0), 0, 30, nullptr, true); },
+                                  {"the previous instant's slab is planes 30..60"});
+  dome::testing::ExpectInputError(
+      [&] { Slab(with(before0, 1), 0, 30, nullptr, true); },
+      {"the previous slab, two frames per camera", "got " + std::to_string(with(before0, 1).size())});
 }
 
 // An entry of another kind (a stereo job's frames, between two slab jobs on one

@@ -137,7 +137,14 @@ TEST_F(TemporalStereo, ASequenceIsPlannedTemporalWhenToldAndOneInstantNever) {
   const take::Take take = take::OpenTake(TakeDir());
   spec.add_instants(take.instants.at(1));
   EXPECT_FALSE(plan().options.temporal.stereo);
+  spec.mutable_temporal()->set_fusion(true);
+  EXPECT_FALSE(plan().options.temporal.fusion);  // one instant: nothing before it
+  spec.clear_instants();
+  EXPECT_TRUE(plan().options.temporal.fusion);
   // A bad field is named as the session file names it.
+  spec.mutable_temporal()->set_fusion_decay(0);
+  dome::testing::ExpectInputError([&] { plan(); }, {"session", "temporal.fusion_decay"});
+  spec.mutable_temporal()->clear_fusion_decay();
   spec.mutable_temporal()->set_margin_levels(0.5);
   dome::testing::ExpectInputError([&] { plan(); }, {"session", "temporal.margin_levels"});
 }
