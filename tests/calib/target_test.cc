@@ -1,25 +1,18 @@
 #include "calib/target.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::calib {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("dome_calib_target_" + std::to_string(::getpid()) + "_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 void Write(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
 
@@ -37,7 +30,8 @@ std::string GridTargetJson(int n, double pitch, const std::string& extra_point =
 }
 
 TEST(Target, ReadsAndInfersOneGrid) {
-  const fs::path dir = TempDir("grid");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   Write(dir / "target.json", GridTargetJson(5, 300));
   const Target t = ReadTarget(dir / "target.json");
   ASSERT_EQ(t.points.size(), 25u);
@@ -48,7 +42,8 @@ TEST(Target, ReadsAndInfersOneGrid) {
 }
 
 TEST(Target, NanCoordinateIsAnError) {
-  const fs::path dir = TempDir("nan");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   Write(dir / "target.json",
         GridTargetJson(3, 100, R"(,{"id": 99, "x_mm": "NaN", "y_mm": 0, "z_mm": 0})"));
   testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); },
@@ -56,7 +51,8 @@ TEST(Target, NanCoordinateIsAnError) {
 }
 
 TEST(Target, DuplicateIdIsAnError) {
-  const fs::path dir = TempDir("dup");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   Write(dir / "target.json",
         GridTargetJson(3, 100, R"(,{"id": 4, "x_mm": 5, "y_mm": 0, "z_mm": 0})"));
   testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); },
@@ -64,7 +60,8 @@ TEST(Target, DuplicateIdIsAnError) {
 }
 
 TEST(Target, UnknownFieldAndMissingFile) {
-  const fs::path dir = TempDir("bad");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   Write(dir / "target.json", R"({"format_version": 1, "bogus": 3})");
   testing::ExpectInputError([&] { ReadTarget(dir / "target.json"); }, {"target.json", "bogus"});
   testing::ExpectInputError([&] { ReadTarget(dir / "absent.json"); }, {"absent.json"});
@@ -73,7 +70,8 @@ TEST(Target, UnknownFieldAndMissingFile) {
 // A grid and, after it, plain marks in its plane (grid_points = 9): the layout lists
 // them apart; a plain mark off the plane, or more grid points than points, is an error.
 TEST(Target, GridWithPlainMarks) {
-  const fs::path dir = TempDir("plain");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   std::string json = GridTargetJson(3, 100,
                                     R"(,{"id": 20, "x_mm": 900, "y_mm": -50, "z_mm": 0},
                                        {"id": 11, "x_mm": -700, "y_mm": 420, "z_mm": 0})");
@@ -101,7 +99,8 @@ TEST(Target, GridWithPlainMarks) {
 }
 
 TEST(Target, NotAGridIsAnError) {
-  const fs::path dir = TempDir("nogrid");
+  const dome::testing::TempDir tmp;
+  const fs::path dir = tmp.path();
   Write(dir / "target.json",
         R"({"format_version": 1, "marker_radius_mm": 1, "key_marker_radius_mm": 2,
       "points": [{"id": 0, "x_mm": 0}, {"id": 1, "x_mm": 7}, {"id": 2, "y_mm": 3}]})");

@@ -25,6 +25,7 @@
 #include "take/take.h"
 #include "take/validate.h"
 #include "testing/expect_error.h"
+#include "testing/temp_dir.h"
 
 namespace dome::synth {
 namespace {
@@ -33,16 +34,10 @@ namespace fs = std::filesystem;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("dome_synth_test_" + std::to_string(::getpid()) + "_" + name);
-  fs::remove_all(dir);
-  return dir;
-}
-
 // The small preset, generated once for all tests (seed 1, two threads).
 struct SmallTake {
-  fs::path dir = TempDir("small");
+  dome::testing::TempDir tmp;  // in a static: removed when the test program exits
+  fs::path dir = tmp / "small";
   SynthSummary summary;
   SmallTake() {
     SynthOptions options;
@@ -110,7 +105,8 @@ TEST(Synth, SameOptionsGiveByteIdenticalTakesWhateverTheThreads) {
   SynthOptions options;
   options.preset = "small";
   options.threads = 1;
-  const fs::path dir = TempDir("single");
+  const dome::testing::TempDir tmp_dir;
+  const fs::path dir = tmp_dir / "single";
   GenerateTake(options, dir);
   const auto a = ReadTree(Small().dir), b = ReadTree(dir);
   ASSERT_EQ(a.size(), b.size());
@@ -125,7 +121,8 @@ TEST(Synth, AnotherSeedChangesTheNoiseOnly) {
   SynthOptions options;
   options.preset = "small";
   options.seed = 2;
-  const fs::path dir = TempDir("seed2");
+  const dome::testing::TempDir tmp_dir;
+  const fs::path dir = tmp_dir / "seed2";
   GenerateTake(options, dir);
   const auto a = ReadTree(Small().dir), b = ReadTree(dir);
   ASSERT_EQ(a.size(), b.size());
@@ -395,14 +392,16 @@ TEST(Synth, BadOptionsAndFoldersGiveClearErrors) {
   options.threads = -1;
   testing::ExpectInputError([&] { options.Resolve(); }, {"--threads"});
   // Bad options fail before anything is written.
-  const fs::path untouched = TempDir("untouched");
+  const dome::testing::TempDir tmp_untouched;
+  const fs::path untouched = tmp_untouched / "untouched";
   options = SynthOptions();
   options.cameras = 0;
   testing::ExpectInputError([&] { GenerateTake(options, untouched); }, {"--cameras"});
   EXPECT_FALSE(fs::exists(untouched));
 
   // An output folder that cannot be created: under a regular file.
-  const fs::path file = TempDir("file");
+  const dome::testing::TempDir tmp_file;
+  const fs::path file = tmp_file / "file";
   io::WriteFileAtomically(file, "not a folder");
   options = SynthOptions();
   options.preset = "small";
@@ -415,7 +414,8 @@ TEST(Synth, BadOptionsAndFoldersGiveClearErrors) {
 }
 
 TEST(Synth, OverwriteReplacesAnOlderTake) {
-  const fs::path dir = TempDir("overwrite");
+  const dome::testing::TempDir tmp_dir;
+  const fs::path dir = tmp_dir / "overwrite";
   SynthOptions options;
   options.preset = "small";
   options.cameras = 3;
