@@ -121,7 +121,7 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
     const View& v = views_[c];
     const Eigen::Vector3d h = v.P.leftCols<3>() * world_mm + v.P.col(3);
     if (!(h.z() > 0)) continue;
-    const long x = std::lround(h.x() / h.z()), y = std::lround(h.y() / h.z());
+    const long x = RoundPx(h.x() / h.z()), y = RoundPx(h.y() / h.z());
     if (x < 0 || y < 0 || x >= v.width || y >= v.height || !v.seen.at<uint8_t>(y, x)) continue;
     ++s.seen;
     const double mm_per_px = h.z() / v.f_px;
@@ -192,10 +192,16 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
   // Per other camera, the ray of reference pixel x at inverse depth w projects to
   // h ~ A x + w b (A = K_n R K_r^-1, b = K_n (t_n - R t_r), R = R_n R_r^T); h.z has the
   // sign of the point's depth in camera n.
+  // With what the block test reads of the camera in one place: its principal point,
+  // reciprocal focal lengths, larger focal length (px) and clear_px rows (floats).
   struct Other {
     Eigen::Matrix3d A;
     Eigen::Vector3d b;
     const View* view;
+    double cx, cy, inv_fx, inv_fy, f_max;
+    int width, height;
+    const float* clear;
+    size_t clear_step;
   };
   std::vector<Other> others;
   const Eigen::Matrix3d K_inv = ref.K.inverse();
@@ -203,7 +209,11 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
     if (c == index) continue;
     const View& v = views_[c];
     const Eigen::Matrix3d R = v.R * ref.R.transpose();
-    others.push_back({v.K * R * K_inv, v.K * (v.t - R * ref.t), &v});
+    const bool blocks = !v.clear_px.empty();
+    others.push_back({v.K * R * K_inv, v.K * (v.t - R * ref.t), &v, v.K(0, 2), v.K(1, 2),
+                      1.0 / v.K(0, 0), 1.0 / v.K(1, 1), std::max(v.K(0, 0), v.K(1, 1)),
+                      v.width, v.height, blocks ? v.clear_px.ptr<float>(0) : nullptr,
+                      blocks ? v.clear_px.step1() : 0});
   }
   const double w_near = 1.0 / z_min_mm, w_far = 1.0 / z_max_mm;
   // Samples: the longest projection of the ray's range into another camera, over a
@@ -296,18 +306,20 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           const Eigen::Vector3d h = p[n] + w * others[n].b;
           const double depth = h.z() * z;  // the centre's depth in camera n, mm
           if (!(depth - r_mm > 0)) continue;
-          const View& v = *others[n].view;
-          const double u = h.x() / h.z(), t = h.y() / h.z();
-          const long cu = RoundPx(u), cv_ = RoundPx(t);
-          if (cu < 0 || cv_ < 0 || cu >= v.width || cv_ >= v.height) continue;
+          const Other& o = others[n];
+          // The centre's pixel, rounded to the nearest (one reciprocal: a test near the
+          // hull asks every camera, so this is the hot path; the test's slack below holds
+          // the rounding either way).
+          const double inv = 1.0 / h.z(), u = h.x() * inv, t = h.y() * inv;
+          if (!(u > -0.5 && t > -0.5 && u < o.width - 0.5 && t < o.height - 0.5)) continue;
+          const int cu = int(u + 0.5), cv_ = int(t + 0.5);
           // A point P of the ball, |P - C| <= r, projects within f r (1 + |C_xy| / C_z) /
           // (C_z - r) pixels of C's projection; the roundings to pixels add sqrt(2).
-          const double nu = (u - v.K(0, 2)) / v.K(0, 0), nv = (t - v.K(1, 2)) / v.K(1, 1);
+          const double nu = (u - o.cx) * o.inv_fx, nv = (t - o.cy) * o.inv_fy;
           const double rho = std::sqrt(nu * nu + nv * nv);
           const double reach_px =
-              std::max(v.K(0, 0), v.K(1, 1)) * r_mm * (1.0 + rho) / (depth - r_mm) +
-              std::sqrt(2.0) + 1e-3;
-          if (v.clear_px.at<float>(int(cv_), int(cu)) > reach_px) {
+              o.f_max * r_mm * (1.0 + rho) / (depth - r_mm) + std::sqrt(2.0) + 1e-3;
+          if (o.clear[size_t(cv_) * o.clear_step + size_t(cu)] > reach_px) {
             std::swap(order[m], order[size_t(bg)]);
             if (++bg >= votes) return true;
           }
