@@ -378,7 +378,7 @@ void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& dept
 std::string EncodeDepthPreviewPng(const cv::Mat& depth_mm, const std::string& where,
                                   const DepthPreviewOptions& options) {
   CheckDepthMap(depth_mm, where);
-  return EncodePng(DepthPreview(depth_mm, options), /*level=*/1);  // a picture to look at
+  return EncodePngFast(DepthPreview(depth_mm, options));  // a picture to look at
 }
 
 }  // namespace dome::io

@@ -124,8 +124,15 @@ void RequireBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t n) {
       "expected " + std::to_string(n) + " input blobs, got " + std::to_string(blobs.size()));
 }
 
-geometry::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs) {
-  return schema::ParseRigJson(*blobs[0], BlobName(job, 0));
+// The rig of blob 0: parsed once per worker while its bytes stay the same (every job
+// of a session sends the same rig; parsing 51 cameras' JSON was a few percent of a
+// masked stereo job).
+geometry::Rig RigBlob(const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
+  auto parse = [&] {
+    return std::make_unique<geometry::Rig>(schema::ParseRigJson(*blobs[0], BlobName(job, 0)));
+  };
+  if (!memo) return *parse();
+  return *memo->Get<geometry::Rig>(job.blobs(0).sha256(), parse);
 }
 
 cv::Mat FrameBlob(const runtime::Job& job, const JobBlobs& blobs, size_t i, io::ImageMode mode) {
@@ -297,10 +304,10 @@ StageDescriptor MaskStage() {
     for (const auto& b : ctx.plan.mask_inputs.at(ctx.instant).at(ctx.part)) blobs.push_back(b);
     SetJob(mj, std::move(blobs), job);
   };
-  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo*) {
+  d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto mj = JobSettings<runtime::MaskJob>(job);
     RequireBlobs(job, blobs, 2);
-    const geometry::Rig rig = RigBlob(job, blobs);
+    const geometry::Rig rig = RigBlob(job, blobs, memo);
     const geometry::TsaiCamera& camera = RigCameraOf(rig, mj.camera(), job);
     const cv::Size size(camera.width_px, camera.height_px);
     auto unchanged = [&](size_t i) { return FrameBlob(job, blobs, i, io::ImageMode::kUnchanged); };
@@ -349,7 +356,7 @@ StageDescriptor MaskStage() {
     if (mask.size() != size) mask = make();
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kMaskOutput);
-    outputs[0].set_data(io::EncodePng(mask));
+    outputs[0].set_data(io::EncodePngFast(mask));  // as `dome masks` writes them
     return outputs;
   };
   d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
@@ -441,7 +448,7 @@ StageDescriptor StereoStage() {
     // Then, with temporal bounds, the previous instant's stereo output and frame.
     const size_t first_mask = num_frames + (sj.has_temporal() ? 2 : 0);
     RequireBlobs(job, blobs, first_mask);
-    const geometry::Rig rig = RigBlob(job, blobs);
+    const geometry::Rig rig = RigBlob(job, blobs, memo);
     stereo::TakeStereoOptions options = FromStereoSettings(sj.stereo(), JobWhere(job));
     options.stereo.num_threads = job.threads();
     const std::vector<cv::Mat> frames =
@@ -585,7 +592,7 @@ StageDescriptor FusionStage() {
     // Every slab job of an instant shares its decoded range images and tables: the
     // memo keeps them, keyed by everything in the job but its planes.
     auto build = [&]() {
-      const geometry::Rig rig = RigBlob(job, blobs);
+      const geometry::Rig rig = RigBlob(job, blobs, memo);
       fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
       options.num_threads = job.threads();
       const size_t n = rig.cameras.size();
@@ -790,7 +797,7 @@ StageDescriptor TextureStage() {
   d.run = [](const runtime::Job& job, const JobBlobs& blobs, JobMemo* memo) {
     const auto tj = JobSettings<runtime::TextureJob>(job);
     RequireBlobs(job, blobs, 2);
-    const geometry::Rig rig = RigBlob(job, blobs);
+    const geometry::Rig rig = RigBlob(job, blobs, memo);
     io::Mesh decimated = io::ParsePly(*blobs[1], BlobName(job, 1));
     core::Require(blobs.size() == rig.cameras.size() + 2, JobWhere(job),
                   "expected one frame per rig camera (" + std::to_string(rig.cameras.size()) +
