@@ -18,13 +18,15 @@ using core::Require;
 
 namespace {
 
-// std::lround's value (half away from zero) without the library call: the fraction
-// v - trunc(v) is exact. Far values (no pixel of any image) give -1.
-inline long RoundPx(double v) {
-  if (!(std::abs(v) < 1e9)) return -1;
-  double t = std::trunc(v);
-  if (std::abs(v - t) >= 0.5) t += v > 0 ? 1.0 : -1.0;
-  return long(t);
+// The pixel column (or row) of coordinate v in an image `size` pixels wide: std::lround's
+// value (half away from zero) when that is in 0..size-1, else false. Branch-free past
+// the range test (u - trunc(u) is exact; the tests of the hull's loops are this): a
+// branch on the fraction, or the library call, cost more than the test around it.
+inline bool PixelOf(double v, int size, int* px) {
+  if (!(v > -0.5 && v < size - 0.5)) return false;  // lround(-0.5) is -1, lround(size - 0.5) size
+  const int t = int(v);  // truncation: v's floor for v >= 0, 0 for v in (-0.5, 0)
+  *px = t + int(v - t >= 0.5);
+  return true;
 }
 
 }  // namespace
@@ -121,8 +123,10 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
     const View& v = views_[c];
     const Eigen::Vector3d h = v.P.leftCols<3>() * world_mm + v.P.col(3);
     if (!(h.z() > 0)) continue;
-    const long x = RoundPx(h.x() / h.z()), y = RoundPx(h.y() / h.z());
-    if (x < 0 || y < 0 || x >= v.width || y >= v.height || !v.seen.at<uint8_t>(y, x)) continue;
+    int x, y;
+    if (!PixelOf(h.x() / h.z(), v.width, &x) || !PixelOf(h.y() / h.z(), v.height, &y) ||
+        !v.seen.at<uint8_t>(y, x))
+      continue;
     ++s.seen;
     const double mm_per_px = h.z() / v.f_px;
     const double d_px = v.signed_px.empty() ? (v.fg.at<uint8_t>(y, x) ? 0.0 : 1.0)
@@ -261,8 +265,9 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           const Eigen::Vector3d h = p[n] + w * others[n].b;
           if (!(h.z() > 0)) continue;
           const View& v = *others[n].view;
-          const long u = RoundPx(h.x() / h.z()), r = RoundPx(h.y() / h.z());
-          if (u < 0 || r < 0 || u >= v.width || r >= v.height || !v.seen.at<uint8_t>(r, u))
+          int u, r;
+          if (!PixelOf(h.x() / h.z(), v.width, &u) || !PixelOf(h.y() / h.z(), v.height, &r) ||
+              !v.seen.at<uint8_t>(r, u))
             continue;
           ++s;
           if (!v.fg.at<uint8_t>(r, u)) std::swap(order[m], order[size_t(bg++)]);
@@ -307,12 +312,11 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           const double depth = h.z() * z;  // the centre's depth in camera n, mm
           if (!(depth - r_mm > 0)) continue;
           const Other& o = others[n];
-          // The centre's pixel, rounded to the nearest (one reciprocal: a test near the
-          // hull asks every camera, so this is the hot path; the test's slack below holds
-          // the rounding either way).
+          // The centre's pixel (one reciprocal: a test near the hull asks every camera,
+          // so this is the hot path; the test's slack below holds the rounding).
           const double inv = 1.0 / h.z(), u = h.x() * inv, t = h.y() * inv;
-          if (!(u > -0.5 && t > -0.5 && u < o.width - 0.5 && t < o.height - 0.5)) continue;
-          const int cu = int(u + 0.5), cv_ = int(t + 0.5);
+          int cu, cv_;
+          if (!PixelOf(u, o.width, &cu) || !PixelOf(t, o.height, &cv_)) continue;
           // A point P of the ball, |P - C| <= r, projects within f r (1 + |C_xy| / C_z) /
           // (C_z - r) pixels of C's projection; the roundings to pixels add sqrt(2).
           const double nu = (u - o.cx) * o.inv_fx, nv = (t - o.cy) * o.inv_fy;
