@@ -60,7 +60,7 @@ void AddMasksCommand(CLI::App* app, int* exit_code) {
           silhouette::MaskInfo info;
           const cv::Mat mask = masks.Mask(instant, id, &info);
           fs::create_directories(out / instant, ec);
-          io::WriteImage(out / instant / (id + ".png"), mask);
+          io::WriteImage(out / instant / (id + ".png"), mask, io::PngEncoding::kFast);
           if (a->previews) {
             const cv::Mat frame =
                 silhouette::ReadFrame(take.FramePath(instant, id), mask.size(), id).colour;

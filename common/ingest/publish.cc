@@ -400,7 +400,7 @@ std::string FrameIngest::Handle(const std::string& peer, const std::string& byte
   }
   fs::create_directories(path.parent_path());
   const cv::Mat image(f.height_px(), f.width_px(), CV_8UC1, const_cast<char*>(f.pixels().data()));
-  io::WriteFileAtomically(path, io::EncodePngFast(image));  // a frame: as imports write them
+  io::WriteFileAtomically(path, io::EncodePng(image));  // a photograph: kSmall
   ++stored_;
   ++progress_[f.camera_id()].stored;
   progress_[f.camera_id()].camera_id = f.camera_id();

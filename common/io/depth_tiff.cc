@@ -372,13 +372,13 @@ cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options
 void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& depth_mm,
                           const DepthPreviewOptions& options) {
   CheckDepthMap(depth_mm, path.string());
-  WriteImage(path, DepthPreview(depth_mm, options));
+  WriteImage(path, DepthPreview(depth_mm, options), PngEncoding::kFast);
 }
 
 std::string EncodeDepthPreviewPng(const cv::Mat& depth_mm, const std::string& where,
                                   const DepthPreviewOptions& options) {
   CheckDepthMap(depth_mm, where);
-  return EncodePngFast(DepthPreview(depth_mm, options));  // a picture to look at
+  return EncodePng(DepthPreview(depth_mm, options), PngEncoding::kFast);  // a picture to look at
 }
 
 }  // namespace dome::io

@@ -148,42 +148,30 @@ PngHeader ReadPngHeader(std::string_view bytes, const std::string& where) {
   return h;
 }
 
-namespace {
-
-std::string Encode(const cv::Mat& image, const std::vector<int>& params) {
+std::string EncodePng(const cv::Mat& image, PngEncoding encoding) {
   DOME_CHECK(!image.empty(), "EncodePng: empty image");
   DOME_CHECK(image.depth() == CV_8U || image.depth() == CV_16U,
              "EncodePng: PNG holds 8- or 16-bit samples, got " + Describe(image));
   DOME_CHECK(image.channels() == 1 || image.channels() == 3 || image.channels() == 4,
              "EncodePng: PNG holds 1, 3 or 4 channels, got " + Describe(image));
+  // A level given to OpenCV turns on libpng's per-row filter choice and zlib's default
+  // strategy; level 3 costs a fraction of the time of the 9-ish levels for ~5 % larger
+  // files. No level: OpenCV's encoding tuned for speed (see PngEncoding).
+  const std::vector<int> params = encoding == PngEncoding::kSmall
+                                      ? std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 3}
+                                      : std::vector<int>{};
   std::vector<uchar> encoded;
   DOME_CHECK(cv::imencode(".png", image, encoded, params), "EncodePng: encoder failed");
   return std::string(encoded.begin(), encoded.end());
 }
 
-}  // namespace
-
-std::string EncodePng(const cv::Mat& image) {
-  // A level given to OpenCV turns on libpng's per-row filter choice and zlib's default
-  // strategy. Level 3: a fraction of the time of the default 9-ish levels for ~5% larger
-  // files.
-  return Encode(image, {cv::IMWRITE_PNG_COMPRESSION, 3});
-}
-
-std::string EncodePngFast(const cv::Mat& image) {
-  // No level given: OpenCV's encoding tuned for speed (the Sub filter, zlib's fastest
-  // level, run-length strategy). The filter choice, not zlib, was most of the time:
-  // level 0 with it took as long as level 1.
-  return Encode(image, {});
-}
-
-void WriteImage(const std::filesystem::path& path, const cv::Mat& image) {
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image, PngEncoding encoding) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   core::Require(ext == ".png", path.string(), "images are written as PNG; expected a .png path");
   RequireParentFolder(path);
-  WriteFileAtomically(path, EncodePngFast(image));
+  WriteFileAtomically(path, EncodePng(image, encoding));
 }
 
 }  // namespace dome::io

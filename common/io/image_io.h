@@ -53,20 +53,25 @@ struct PngHeader {
 };
 PngHeader ReadPngHeader(std::string_view bytes, const std::string& where);
 
-// PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
-// types are a programmer error (DOME_CHECK). Each row's best of the five PNG filters and
-// zlib level 3: for images delivered to users (texture atlases), where the bytes matter.
-std::string EncodePng(const cv::Mat& image);
-// The same picture encoded for speed: every row with the Sub filter, zlib level 1 with
-// run-length matches only. On images with flat areas (masks, depth previews, camera
-// frames) 3-4x faster than EncodePng for about the same bytes (a paper take's frame
-// 2 % larger, its masks and depth previews smaller); on a photographic colour atlas
-// 60-90 % larger.
-std::string EncodePngFast(const cv::Mat& image);
+// How a PNG is encoded.
+//  kSmall: each row's best of the five PNG filters, zlib level 3. For photographs
+//    (frames of real cameras, imported or captured) and images delivered to users
+//    (texture atlases), where the bytes matter.
+//  kFast: every row with the Sub filter, zlib level 1 with run-length matches only
+//    (OpenCV's speed settings; the filter search, not zlib, was kSmall's time). For
+//    pictures with flat areas (masks, depth previews, rendered previews, synthetic
+//    frames): 3-4x faster for about the same bytes (a paper take's frame 2 % larger, its
+//    masks and depth previews smaller); a photograph is 35-70 % larger (a Panoptic HD
+//    frame 3.0 against 2.2 MB, a Robovision frame 1.0 against 0.6 MB).
+enum class PngEncoding { kSmall, kFast };
 
-// Writes `image` as PNG to `path` (which must end in .png) with EncodePngFast,
-// atomically. Throws core::InputError naming the file when the folder is missing or not
-// writable.
-void WriteImage(const std::filesystem::path& path, const cv::Mat& image);
+// PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
+// types are a programmer error (DOME_CHECK).
+std::string EncodePng(const cv::Mat& image, PngEncoding encoding = PngEncoding::kSmall);
+
+// Writes `image` as PNG to `path` (which must end in .png), atomically. Throws
+// core::InputError naming the file when the folder is missing or not writable.
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image,
+                PngEncoding encoding = PngEncoding::kSmall);
 
 }  // namespace dome::io

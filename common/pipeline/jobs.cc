@@ -356,7 +356,7 @@ StageDescriptor MaskStage() {
     if (mask.size() != size) mask = make();
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kMaskOutput);
-    outputs[0].set_data(io::EncodePngFast(mask));  // as `dome masks` writes them
+    outputs[0].set_data(io::EncodePng(mask, io::PngEncoding::kFast));  // as `dome masks`
     return outputs;
   };
   d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {

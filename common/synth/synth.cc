@@ -334,12 +334,15 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         request.noise_key = NoiseKey(options.seed, kTakeView, job.instant, job.camera);
         request.person_mask = true;
         const RenderedView view = RenderView(request);
-        io::WriteImage(out_dir / "frames" / instant / (id + ".png"), view.image);
+        io::WriteImage(out_dir / "frames" / instant / (id + ".png"), view.image,
+                       io::PngEncoding::kFast);
         io::WriteDepthTiff(out_dir / "truth" / instant / "depth" / (id + ".tiff"), view.depth_mm);
-        io::WriteImage(out_dir / "truth" / instant / "mask" / (id + ".png"), view.person);
+        io::WriteImage(out_dir / "truth" / instant / "mask" / (id + ".png"), view.person,
+                       io::PngEncoding::kFast);
         files += 3;
         if (options.write_tape) {
-          io::WriteImage(out_dir / "tape" / instant / (id + ".png"), view.frame);
+          io::WriteImage(out_dir / "tape" / instant / (id + ".png"), view.frame,
+                         io::PngEncoding::kFast);
           ++files;
         }
         // Figures: the bat's width in pixels, and how far its tip moves between fields.
@@ -401,14 +404,16 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
         const fs::path dir = out_dir / "calib" / "stage1";
         // pose 0: <camera>.json; the object moved: <camera>.<pose>.json
         const std::string name = pose == 0 ? id : id + "." + std::to_string(pose);
-        io::WriteImage(dir / (name + ".png"), view.image);
+        io::WriteImage(dir / (name + ".png"), view.image,
+                       io::PngEncoding::kFast);
         io::WriteFileAtomically(dir / (name + ".json"), ViewJson(id, name, r, t, truth));
         files += 2;
         break;
       }
       case Job::kPlate: {
         io::WriteImage(out_dir / "background" / (cam->rig.model.id + ".png"),
-                       render_static(*cam, job.camera, room_caster, kPlateView).image);
+                       render_static(*cam, job.camera, room_caster, kPlateView).image,
+                       io::PngEncoding::kFast);
         ++files;
         break;
       }
@@ -419,7 +424,8 @@ SynthSummary GenerateTake(const SynthOptions& options, const fs::path& out_dir) 
                                            kFloorMarkDotRadiusMm, floor_caster);
         stage2_points[job.camera] = static_cast<int>(truth.size());
         const fs::path dir = out_dir / "calib" / "stage2";
-        io::WriteImage(dir / (id + ".png"), view.image);
+        io::WriteImage(dir / (id + ".png"), view.image,
+                       io::PngEncoding::kFast);
         io::WriteFileAtomically(
             dir / (id + ".json"),
             ViewJson(id, id, cam->rig.model.rotation, cam->rig.model.translation_mm, truth));

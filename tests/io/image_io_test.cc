@@ -94,7 +94,7 @@ TEST(EncodePng, BothEncodingsRoundTripAndTheFastOneKeepsAMaskSmall) {
   for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_16UC3}) {
     cv::Mat image(37, 53, type);
     cv::RNG(int64_t(type) + 5).fill(image, cv::RNG::UNIFORM, 0, CV_MAT_DEPTH(type) == CV_8U ? 256 : 65536);
-    for (const std::string& bytes : {EncodePng(image), EncodePngFast(image)}) {
+    for (const std::string& bytes : {EncodePng(image), EncodePng(image, PngEncoding::kFast)}) {
       const cv::Mat back = DecodeImage(bytes, ImageMode::kUnchanged, "round trip");
       ASSERT_EQ(back.type(), type);
       EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0.0) << "type " << type;
@@ -102,7 +102,7 @@ TEST(EncodePng, BothEncodingsRoundTripAndTheFastOneKeepsAMaskSmall) {
   }
   cv::Mat mask(245, 320, CV_8UC1, cv::Scalar(0));
   cv::circle(mask, cv::Point(160, 120), 60, cv::Scalar(255), cv::FILLED);
-  const std::string fast = EncodePngFast(mask), small = EncodePng(mask);
+  const std::string fast = EncodePng(mask, PngEncoding::kFast), small = EncodePng(mask);
   EXPECT_LE(double(fast.size()), 1.1 * double(small.size()));
   EXPECT_EQ(cv::norm(DecodeImage(fast, ImageMode::kUnchanged, "fast"), mask, cv::NORM_INF), 0.0);
 }
