@@ -20,7 +20,7 @@ namespace {
 
 // The pixel column (or row) of coordinate v in an image `size` pixels wide: std::lround's
 // value (half away from zero) when that is in 0..size-1, else false. Branch-free past
-// the range test (u - trunc(u) is exact; the tests of the hull's loops are this): a
+// the range test (v - trunc(v) is exact; the tests of the hull's loops are this): a
 // branch on the fraction, or the library call, cost more than the test around it.
 inline bool PixelOf(double v, int size, int* px) {
   if (!(v > -0.5 && v < size - 0.5)) return false;  // lround(-0.5) is -1, lround(size - 0.5) size
