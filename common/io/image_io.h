@@ -59,10 +59,10 @@ PngHeader ReadPngHeader(std::string_view bytes, const std::string& where);
 //    (texture atlases), where the bytes matter.
 //  kFast: every row with the Sub filter, zlib level 1 with run-length matches only
 //    (OpenCV's speed settings; the filter search, not zlib, was kSmall's time). For
-//    pictures with flat areas (masks, depth previews, rendered previews, synthetic
-//    frames): 3-4x faster for about the same bytes (a paper take's frame 2 % larger, its
-//    masks and depth previews smaller); a photograph is 35-70 % larger (a Panoptic HD
-//    frame 3.0 against 2.2 MB, a Robovision frame 1.0 against 0.6 MB).
+//    pictures with flat areas (masks, depth previews, synthetic frames): 2-4x faster
+//    for about the same bytes (a paper take's frame 2 % larger, its masks and depth
+//    previews smaller); a photograph is 35-70 % larger (a Panoptic HD frame 3.0 against
+//    2.2 MB, a Robovision frame 1.0 against 0.6 MB). bench/io/png_bench.cc measures both.
 enum class PngEncoding { kSmall, kFast };
 
 // PNG encoding of an 8- or 16-bit image with 1, 3 or 4 channels (BGR order). Other
