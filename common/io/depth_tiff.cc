@@ -187,10 +187,12 @@ std::string EncodeFloatTiffWith(const cv::Mat& m, bool deflate, const char* desc
 
 }  // namespace
 
-std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where) {
+std::string EncodeDepthTiff(const cv::Mat& depth_mm, const std::string& where,
+                            DepthTiffEncoding encoding) {
   CheckDepthMap(depth_mm, where);
   core::Require(!depth_mm.empty(), where, "refusing to write an empty depth map");
-  return EncodeFloatTiffWith(depth_mm, /*deflate=*/true, kDescription, where);
+  return EncodeFloatTiffWith(depth_mm, /*deflate=*/encoding == DepthTiffEncoding::kSmall,
+                             kDescription, where);
 }
 
 std::string EncodeRunLengthFloatTiff(const cv::Mat& image, const std::string& description,
@@ -200,8 +202,9 @@ std::string EncodeRunLengthFloatTiff(const cv::Mat& image, const std::string& de
   return EncodeFloatTiffWith(image, /*deflate=*/false, description.c_str(), where);
 }
 
-void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm) {
-  const std::string bytes = EncodeDepthTiff(depth_mm, path.string());
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth_mm,
+                    DepthTiffEncoding encoding) {
+  const std::string bytes = EncodeDepthTiff(depth_mm, path.string(), encoding);
   RequireParentFolder(path);
   WriteFileAtomically(path, bytes);
 }
@@ -360,7 +363,11 @@ cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options
     uint8_t* out = level.ptr<uint8_t>(y);
     for (int x = 0; x < depth_mm.cols; ++x) {
       const double t = span > 0.0 ? (far_mm - in[x]) / span : 1.0;  // near -> 1
-      out[x] = static_cast<uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0));
+      // lround's value for v >= 0 without the library call (most of this loop's time):
+      // v - trunc(v) is exact.
+      const double v = std::clamp(t, 0.0, 1.0) * 255.0;
+      const int whole = static_cast<int>(v);
+      out[x] = static_cast<uint8_t>(whole + int(v - whole >= 0.5));
     }
   }
   cv::Mat preview;

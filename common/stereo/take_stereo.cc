@@ -75,7 +75,8 @@ std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write
     const std::string name =
         result.camera + (k == 0 ? "" : " window " + std::to_string(r.window_px));
     files.push_back({"depth" + sfx + "/" + result.camera + ".tiff",
-                     io::EncodeDepthTiff(r.depth_mm, "depth map of " + name)});
+                     io::EncodeDepthTiff(r.depth_mm, "depth map of " + name,
+                                         io::DepthTiffEncoding::kFast)});
     // PackBits: Deflate or LZW cost more CPU than the stereo job's decoding of its
     // frames for a map of noisy floats, whose zeros (no depth) run lengths hold.
     files.push_back({"reliability" + sfx + "/" + result.camera + ".tiff",

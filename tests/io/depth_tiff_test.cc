@@ -112,6 +112,43 @@ TEST(DepthTiff, InteroperatesWithOpenCv) {
   EXPECT_EQ(cv::norm(back, depth, cv::NORM_INF), 0.0);
 }
 
+// Both encodings of a depth map: the compression each promises, the same values bit for
+// bit through ours and OpenCV's readers, the description kept; a smooth map (a truth
+// depth's kind) is smaller with kSmall's predictor.
+TEST(DepthTiff, BothEncodingsRoundTripAndTheSmallOneKeepsASmoothMapSmall) {
+  TempDir dir;
+  cv::Mat smooth(90, 120, CV_32FC1);
+  for (int y = 0; y < smooth.rows; ++y)
+    for (int x = 0; x < smooth.cols; ++x) smooth.at<float>(y, x) = 2000.0f + 3.1f * x + 1.7f * y;
+  for (const cv::Mat& depth : {SampleDepth(), smooth}) {
+    size_t bytes[2] = {0, 0};
+    for (const auto encoding : {DepthTiffEncoding::kSmall, DepthTiffEncoding::kFast}) {
+      const bool fast = encoding == DepthTiffEncoding::kFast;
+      const auto path = dir / (fast ? "fast.tif" : "small.tif");
+      WriteDepthTiff(path, depth, encoding);
+      EXPECT_EQ(ReadFileBytes(path), EncodeDepthTiff(depth, "map", encoding));
+      bytes[fast] = ReadFileBytes(path).size();
+      TIFF* t = TIFFOpen(path.c_str(), "r");
+      ASSERT_NE(t, nullptr);
+      uint16_t compression = 0;
+      char* description = nullptr;
+      TIFFGetFieldDefaulted(t, TIFFTAG_COMPRESSION, &compression);
+      ASSERT_EQ(TIFFGetField(t, TIFFTAG_IMAGEDESCRIPTION, &description), 1);
+      EXPECT_EQ(std::string(description),
+                "dome depth map: z along the optical axis in mm, 0 = invalid");
+      TIFFClose(t);
+      EXPECT_EQ(compression, fast ? COMPRESSION_PACKBITS : COMPRESSION_ADOBE_DEFLATE);
+      EXPECT_EQ(cv::norm(ReadDepthTiff(path), depth, cv::NORM_INF), 0.0);
+      const cv::Mat by_opencv = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(by_opencv.type(), CV_32FC1);
+      EXPECT_EQ(cv::norm(by_opencv, depth, cv::NORM_INF), 0.0);
+    }
+    if (depth.data == smooth.data) {
+      EXPECT_LT(2 * bytes[0], bytes[1]);
+    }
+  }
+}
+
 // The run-length float TIFF (reliability maps): PackBits, the same values bit for bit
 // through OpenCV, a mostly-zero map in a fraction of its raw size; an empty or
 // non-float image is refused naming where.
