@@ -8,6 +8,7 @@
 #include <deque>
 #include <future>
 #include <map>
+#include <optional>
 #include <set>
 #include <thread>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "net/blob_cache.h"
 #include "net/content_hash.h"
 #include "net/security.h"
+#include "pipeline/shared_hulls.h"
 
 namespace dome::worker {
 using Clock = std::chrono::steady_clock;
@@ -58,6 +60,7 @@ struct Worker::Impl {
   // (Job.max_result_bytes) and this worker's own.
   int64_t running_cap = 0;
   pipeline::JobMemo memo;              // used by the running job only; outlives it
+  std::optional<pipeline::WorkerThreads> counted;  // this worker's threads, for the process
   std::future<runtime::JobResult> running;
   Clock::time_point master_expiry, next_heartbeat;
   int backoff_ms;
@@ -66,6 +69,7 @@ struct Worker::Impl {
       : context(ctx), options(o), cache(o.cache_mb << 20), backoff_ms(o.heartbeat_interval_ms) {
     options.Check();
     if (options.threads <= 0) options.threads = core::HardwareThreads();
+    counted.emplace(options.threads);
     if (options.name.empty()) {
       char host[256] = {0};
       gethostname(host, sizeof host - 1);

@@ -37,6 +37,7 @@ RemapTables BuildTables(const TsaiCamera& camera, const SourceOf& source_of) {
       }
     }
   });
+  tables.covered = Remap(cv::Mat(tables.map_x.size(), CV_8UC1, cv::Scalar(255)), tables);
   return tables;
 }
 

@@ -30,6 +30,11 @@ namespace dome::geometry {
 struct RemapTables {
   cv::Mat map_x;
   cv::Mat map_y;
+  // Remap of an all-255 8-bit image through these tables (CV_8UC1): 255 where every
+  // bilinear tap of an output pixel has data, less where some fall outside the input, 0
+  // where none do. Where a resampled image has data, made once with the tables (a
+  // hull's "seen", an image without alpha's validity) instead of per image.
+  cv::Mat covered;
 };
 
 // For every pixel p of the ideal image: DistortPixel(p) in the distorted image.

@@ -154,14 +154,19 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
                     ") after blob " + std::to_string(first) + ", got " +
                     std::to_string(blobs.size() - std::min(blobs.size(), first)));
-  std::vector<geometry::TsaiCamera> cameras;
-  std::vector<cv::Mat> masks;
-  for (size_t c = 0; c < rig.cameras.size(); ++c) {
-    cameras.push_back(rig.cameras[c].model);
-    masks.push_back(FrameBlob(job, blobs, first + c, io::ImageMode::kGray8));
-  }
+  // Built once for every worker of the process (shared_hulls.h), so with all their
+  // threads: a worker that would wait for another's build builds part of it.
+  const int threads = std::max(job.threads(), ProcessWorkerThreads());
+  std::vector<geometry::TsaiCamera> cameras(rig.cameras.size());
+  std::vector<cv::Mat> masks(rig.cameras.size());
+  core::ParallelFor(0, int64_t(rig.cameras.size()), threads, [&](int64_t b, int64_t e) {
+    for (int64_t c = b; c < e; ++c) {
+      cameras[size_t(c)] = rig.cameras[size_t(c)].model;
+      masks[size_t(c)] = FrameBlob(job, blobs, first + size_t(c), io::ImageMode::kGray8);
+    }
+  });
   silhouette::HullOptions options;
-  options.num_threads = job.threads();
+  options.num_threads = threads;
   options.distances = distances;
   options.carve_votes = carve_votes;  // checked by the hull
   // Fusion's hull (the one with distances) is never asked for ray bounds.

@@ -16,6 +16,25 @@ namespace dome::pipeline {
 
 inline constexpr size_t kSharedHulls = 4;
 
+// The job threads of the workers running in this process, each counted while a
+// WorkerThreads object of its lifetime exists (0 when none). A shared hull is asked for
+// by every worker of the process at about the same time (the stereo jobs of an instant,
+// then its fusion jobs), and those that find it being built wait: its builder takes all
+// their threads (jobs.cc HullBlobs). In `dome run --workers 2` of one thread each, the
+// second worker's wait becomes the first's second thread. A lone worker process counts
+// only its own threads, so a worker limited to fewer threads than the machine's stays so.
+int ProcessWorkerThreads();
+class WorkerThreads {
+ public:
+  explicit WorkerThreads(int threads);
+  ~WorkerThreads();
+  WorkerThreads(const WorkerThreads&) = delete;
+  WorkerThreads& operator=(const WorkerThreads&) = delete;
+
+ private:
+  int threads_;
+};
+
 // The hull kept under `key`, or the one `build` makes (kept). `key` must name all
 // `build` makes the hull from (the masks' addresses, the rule, the options).
 std::shared_ptr<const silhouette::VisualHull> SharedHull(

@@ -78,7 +78,7 @@ VisualHull::VisualHull(const std::vector<geometry::TsaiCamera>& cameras,
         // The tables come from the process-wide cache: a worker builds a hull per job.
         const auto tables = geometry::SharedUndistortTables(cam);
         fg = geometry::Remap(fg, *tables) >= 128;
-        v.seen = geometry::Remap(cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255)), *tables) > 0;
+        v.seen = tables->covered > 0;
       } else {
         v.seen = cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255));
       }

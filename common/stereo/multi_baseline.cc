@@ -116,11 +116,13 @@ cv::Mat GreyImage(const StereoView& view, const StereoOptions& options, bool und
   } else {
     throw core::InputError(where + ": image", "must be 8-bit gray, BGR, BGRA or 32-bit float grey");
   }
-  if (valid.empty()) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
+  const bool all_valid = valid.empty();  // no alpha, no NaN: every pixel has data
+  if (all_valid) valid = cv::Mat(grey.size(), CV_8UC1, cv::Scalar(255));
   if (undistort && cam.HasDistortion()) {
     const auto tables = geometry::SharedUndistortTables(cam);
     grey = geometry::Remap(grey, *tables);
-    valid = geometry::Remap(valid, *tables);
+    // All valid: where the tables reach, kept with them (read only here).
+    valid = all_valid ? tables->covered : geometry::Remap(valid, *tables);
   }
   const cv::Mat invalid = valid < 255;
   if (options.normalize_contrast) {

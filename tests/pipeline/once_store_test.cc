@@ -2,6 +2,7 @@
 // callers of one key share one build and one value; a failed build's error reaches
 // those that waited and is not kept; the oldest keys go beyond the capacity.
 #include "pipeline/once_store.h"
+#include "pipeline/shared_hulls.h"
 
 #include <gtest/gtest.h>
 
@@ -85,6 +86,23 @@ TEST(OnceStore, TheOldestKeysGoBeyondTheCapacity) {
   EXPECT_EQ(*store.Get("a", make), 4);  // built again
   EXPECT_EQ(*a, 1);                     // a holder's value stays
   EXPECT_EQ(store.builds(), 4);
+}
+
+// The process's worker threads (shared_hulls.h), which a shared hull is built with: each
+// worker's own while it lives, none below zero.
+TEST(WorkerThreads, CountTheWorkersThreadsWhileTheyLive) {
+  const int before = ProcessWorkerThreads();
+  {
+    WorkerThreads a(1);
+    EXPECT_EQ(ProcessWorkerThreads(), before + 1);
+    {
+      WorkerThreads b(3);
+      WorkerThreads none(-2);  // a worker's threads are never negative
+      EXPECT_EQ(ProcessWorkerThreads(), before + 4);
+    }
+    EXPECT_EQ(ProcessWorkerThreads(), before + 1);
+  }
+  EXPECT_EQ(ProcessWorkerThreads(), before);
 }
 
 }  // namespace
