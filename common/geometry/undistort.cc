@@ -88,7 +88,10 @@ std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camer
   }
   // Built outside the lock; two threads building the same tables keep the first.
   auto tables = std::make_shared<const RemapTables>(BuildUndistortTables(camera));
-  const size_t size = 2 * tables->map_x.total() * tables->map_x.elemSize();
+  const auto held = [](const RemapTables& t) {
+    return 2 * t.map_x.total() * t.map_x.elemSize() + t.covered.total();
+  };
+  const size_t size = held(*tables);
   std::lock_guard<std::mutex> lock(mutex);
   auto [it, fresh] = cache.try_emplace(key, tables);
   if (!fresh) return it->second;
@@ -96,7 +99,7 @@ std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camer
   bytes += size;
   while (bytes > kMaxBytes && order.size() > 1) {
     const auto& old = cache.at(order.front());
-    bytes -= 2 * old->map_x.total() * old->map_x.elemSize();
+    bytes -= held(*old);
     cache.erase(order.front());
     order.pop_front();
   }

@@ -114,6 +114,12 @@ TEST(Undistort, TablesHoldTheExactMapping) {
   ASSERT_EQ(undistort.map_x.type(), CV_32FC1);
   ASSERT_EQ(undistort.map_x.rows, camera.height_px);
   ASSERT_EQ(undistort.map_x.cols, camera.width_px);
+  // What the tables cover: an all-255 image through them, kept with them.
+  const cv::Mat all(camera.height_px, camera.width_px, CV_8UC1, cv::Scalar(255));
+  ASSERT_EQ(undistort.covered.type(), CV_8UC1);
+  EXPECT_EQ(cv::norm(undistort.covered, Remap(all, undistort), cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(distort.covered, Remap(all, distort), cv::NORM_INF), 0.0);
+  EXPECT_EQ(undistort.covered.at<uint8_t>(camera.height_px / 2, camera.width_px / 2), 255);
   for (int y = 0; y < camera.height_px; y += 17) {
     for (int x = 0; x < camera.width_px; x += 13) {
       const Eigen::Vector2d d = camera.DistortPixel(Eigen::Vector2d(x, y));

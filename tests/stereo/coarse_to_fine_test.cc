@@ -265,6 +265,41 @@ TEST(CoarseToFine, CoarseDepthsOutsideTheClipBoxSeedNoTile) {
   EXPECT_GT(inside_with, 0.97 * inside);
 }
 
+// The depths of a box a camera sees part of (ClipDepthRangeToVisibleBox): the samples
+// in the image, widened by half a sample's diagonal; asked again, the same range (kept
+// per camera and box); the same camera moved sideways sees more of the box, nearer (the
+// pose is part of what is kept); a box behind it is named.
+TEST(CoarseToFine, VisibleBoxDepthsFollowTheCameraAndAreKeptPerCameraAndBox) {
+  geometry::TsaiCamera cam = PlaneCamera("c", 0, 0, kWidth, kHeight, kFocalPx);
+  // The image's right edge (x = 319.5 px) is x = z 160 / 400 mm at depth z. The box's
+  // samples are 2000 / 24 mm apart in depth: its near side, x = 1010 mm, first comes into
+  // view at sample 19 (z = 2583 mm; at sample 18, 2500 mm, it is at 321.1 px).
+  const Eigen::Vector3d lo(1010, -100, 1000), hi(1910, 100, 3000);
+  auto clip = [&](const geometry::TsaiCamera& c) {
+    StereoOptions o = Options();
+    o.z_min_mm = 100;
+    o.z_max_mm = 10000;
+    ClipDepthRangeToVisibleBox(lo, hi, 0.0, c, "box", &o);
+    return std::make_pair(o.z_min_mm, o.z_max_mm);
+  };
+  const double slack = 0.5 * (hi - lo).norm() / 24;
+  const auto first = clip(cam);
+  EXPECT_NEAR(first.first, 1000 + 19 * 2000.0 / 24 - slack, 1e-6);
+  EXPECT_NEAR(first.second, 3000 + slack, 1e-6);
+  EXPECT_EQ(clip(cam), first);
+  // 300 mm to the right: x = 710 mm comes into view at sample 10 (z = 1833 mm).
+  cam.translation_mm.x() -= 300;
+  const auto moved = clip(cam);
+  EXPECT_NEAR(moved.first, 1000 + 10 * 2000.0 / 24 - slack, 1e-6);
+  EXPECT_NEAR(moved.second, 3000 + slack, 1e-6);
+  StereoOptions o = Options();
+  o.z_min_mm = 100;
+  o.z_max_mm = 10000;
+  dome::testing::ExpectInputError(
+      [&] { ClipDepthRangeToVisibleBox(-hi, -lo, 0.0, cam, "box", &o); },
+      {"box", "camera 'c' sees no depth of the clip box"});
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});
