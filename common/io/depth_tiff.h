@@ -40,10 +40,11 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where);
 //    smooth maps (a synthetic take's truth depths: 110 KB against 317 KB for 320 x 245
 //    pixels).
 //  kFast: PackBits (run lengths). For stereo's maps, whose depths are noisy in their low
-//    bytes, so the predictor gains little, and whose empty pixels are runs: a Robovision
-//    camera's map (1280 x 1024) is encoded in 2.3 against 25 ms and read in 0.5 against
-//    22 ms, 345 against 226 KB; a paper camera's, mostly empty, 0.2 against 1.5 ms, 19
-//    against 16 KB (one machine, best of 5).
+//    bytes, so the predictor gains little, and whose empty pixels are runs: Robovision
+//    cameras' maps (1280 x 1024) are encoded in 3.1-4.7 against 26-28 ms and read in
+//    0.9-1.3 against 21-23 ms, 1.5x the bytes (346 against 226 KB, 1106 against 745 KB);
+//    a paper camera's, mostly empty, 0.19 against 1.43 ms and 0.06 against 1.11 ms, 19
+//    against 16 KB (bench/io/depth_tiff_bench.cc, medians of 20).
 enum class DepthTiffEncoding { kSmall, kFast };
 
 // Float TIFF. The writer throws core::InputError naming the file when the map is

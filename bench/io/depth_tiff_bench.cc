@@ -1,0 +1,83 @@
+// depth_tiff_bench: the two float-TIFF encodings of a depth map (io/depth_tiff.h
+// DepthTiffEncoding::kSmall and kFast) on the maps given, side by side: milliseconds to
+// encode and to decode (the median of --repeats timed runs each, the encodings
+// alternating) and bytes. Each decoded map is checked against the input, bit for bit.
+//
+//   depth_tiff_bench DEPTH.tiff... [--repeats N]
+//
+// Maps are read with io::ReadDepthTiff (a run's OUT/<instant>/depth/<camera>.tiff, a
+// synthetic take's truth depths). Prints one line per map.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "io/depth_tiff.h"
+
+namespace {
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int Run(int argc, char** argv) {
+  using dome::io::DepthTiffEncoding;
+  std::vector<std::string> paths;
+  int repeats = 20;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--repeats" && i + 1 < argc) {
+      repeats = std::max(1, std::atoi(argv[++i]));
+    } else {
+      paths.push_back(a);
+    }
+  }
+  if (paths.empty()) {
+    std::fprintf(stderr, "usage: depth_tiff_bench DEPTH.tiff... [--repeats N]\n");
+    return 1;
+  }
+  const DepthTiffEncoding encodings[2] = {DepthTiffEncoding::kSmall, DepthTiffEncoding::kFast};
+  for (const std::string& path : paths) {
+    const cv::Mat depth = dome::io::ReadDepthTiff(path);
+    std::vector<double> encode_ms[2], decode_ms[2];
+    size_t bytes[2] = {0, 0};
+    for (int r = 0; r < repeats; ++r) {
+      for (int e = 0; e < 2; ++e) {
+        auto t0 = std::chrono::steady_clock::now();
+        const std::string tiff = dome::io::EncodeDepthTiff(depth, path, encodings[e]);
+        encode_ms[e].push_back(MsSince(t0));
+        bytes[e] = tiff.size();
+        t0 = std::chrono::steady_clock::now();
+        const cv::Mat back = dome::io::DecodeDepthTiff(tiff, path);
+        decode_ms[e].push_back(MsSince(t0));
+        if (back.size() != depth.size() || cv::norm(back, depth, cv::NORM_INF) != 0.0) {
+          std::fprintf(stderr, "%s: the decoded map differs from the input\n", path.c_str());
+          return 1;
+        }
+      }
+    }
+    std::printf("%s (%dx%d): kSmall encode %.2f ms decode %.2f ms %zu bytes, kFast encode "
+                "%.2f ms decode %.2f ms %zu bytes\n",
+                path.c_str(), depth.cols, depth.rows, Median(encode_ms[0]), Median(decode_ms[0]),
+                bytes[0], Median(encode_ms[1]), Median(decode_ms[1]), bytes[1]);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "depth_tiff_bench: %s\n", e.what());
+    return 1;
+  }
+}
