@@ -7,7 +7,6 @@
 //
 // Maps are read with io::ReadDepthTiff (a run's OUT/<instant>/depth/<camera>.tiff, a
 // synthetic take's truth depths). Prints one line per map.
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
@@ -15,40 +14,24 @@
 #include <vector>
 
 #include "io/depth_tiff.h"
+#include "timed_files.h"
 
 namespace {
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 int Run(int argc, char** argv) {
+  using dome::bench::MedianMs;
+  using dome::bench::MsSince;
   using dome::io::DepthTiffEncoding;
-  std::vector<std::string> paths;
-  int repeats = 20;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--repeats" && i + 1 < argc) {
-      repeats = std::max(1, std::atoi(argv[++i]));
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.empty()) {
-    std::fprintf(stderr, "usage: depth_tiff_bench DEPTH.tiff... [--repeats N]\n");
+  dome::bench::TimedFiles args;
+  if (!dome::bench::ParseTimedFiles(argc, argv, 20,
+                                    "usage: depth_tiff_bench DEPTH.tiff... [--repeats N]", &args))
     return 1;
-  }
   const DepthTiffEncoding encodings[2] = {DepthTiffEncoding::kSmall, DepthTiffEncoding::kFast};
-  for (const std::string& path : paths) {
+  for (const std::string& path : args.paths) {
     const cv::Mat depth = dome::io::ReadDepthTiff(path);
     std::vector<double> encode_ms[2], decode_ms[2];
     size_t bytes[2] = {0, 0};
-    for (int r = 0; r < repeats; ++r) {
+    for (int r = 0; r < args.repeats; ++r) {
       for (int e = 0; e < 2; ++e) {
         auto t0 = std::chrono::steady_clock::now();
         const std::string tiff = dome::io::EncodeDepthTiff(depth, path, encodings[e]);
@@ -65,8 +48,9 @@ int Run(int argc, char** argv) {
     }
     std::printf("%s (%dx%d): kSmall encode %.2f ms decode %.2f ms %zu bytes, kFast encode "
                 "%.2f ms decode %.2f ms %zu bytes\n",
-                path.c_str(), depth.cols, depth.rows, Median(encode_ms[0]), Median(decode_ms[0]),
-                bytes[0], Median(encode_ms[1]), Median(decode_ms[1]), bytes[1]);
+                path.c_str(), depth.cols, depth.rows, MedianMs(encode_ms[0]),
+                MedianMs(decode_ms[0]), bytes[0], MedianMs(encode_ms[1]), MedianMs(decode_ms[1]),
+                bytes[1]);
   }
   return 0;
 }

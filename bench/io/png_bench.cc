@@ -6,7 +6,6 @@
 //
 // Images are read as they are (any format OpenCV decodes: a take's frames, masks,
 // depth previews, an atlas). Prints one line per image and encoding.
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -15,33 +14,16 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "io/image_io.h"
-
-namespace {
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-}  // namespace
+#include "timed_files.h"
 
 int main(int argc, char** argv) {
   using dome::io::PngEncoding;
-  std::vector<std::string> paths;
-  int repeats = 50;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--repeats" && i + 1 < argc) {
-      repeats = std::max(1, std::atoi(argv[++i]));
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.empty()) {
-    std::fprintf(stderr, "usage: png_bench IMAGE... [--repeats N]\n");
+  dome::bench::TimedFiles args;
+  if (!dome::bench::ParseTimedFiles(argc, argv, 50, "usage: png_bench IMAGE... [--repeats N]",
+                                    &args))
     return 1;
-  }
-  for (const std::string& path : paths) {
+  const int repeats = args.repeats;
+  for (const std::string& path : args.paths) {
     const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
     if (image.empty()) {
       std::fprintf(stderr, "%s: not an image OpenCV decodes\n", path.c_str());
@@ -54,14 +36,13 @@ int main(int argc, char** argv) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::string png =
             dome::io::EncodePng(image, e == 0 ? PngEncoding::kSmall : PngEncoding::kFast);
-        ms[e].push_back(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        ms[e].push_back(dome::bench::MsSince(t0));
         bytes[e] = png.size();
       }
     }
     std::printf("%s (%dx%d, %d channel(s)): kSmall %.2f ms %zu bytes, kFast %.2f ms %zu bytes\n",
-                path.c_str(), image.cols, image.rows, image.channels(), Median(ms[0]), bytes[0],
-                Median(ms[1]), bytes[1]);
+                path.c_str(), image.cols, image.rows, image.channels(),
+                dome::bench::MedianMs(ms[0]), bytes[0], dome::bench::MedianMs(ms[1]), bytes[1]);
   }
   return 0;
 }

@@ -7,6 +7,21 @@
 #include "geometry/parse_util.h"
 
 namespace dome::geometry {
+
+std::string TsaiCamera::IntrinsicsKey() const {
+  const double numbers[] = {double(width_px), double(height_px), sensor.ncx, sensor.nfx,
+                            sensor.dx_mm,     sensor.dy_mm,      focal_mm,   kappa1_per_mm2,
+                            lens.k1,          lens.k2,           lens.p1,    lens.p2,
+                            lens.k3,          cx_px,             cy_px,      sx};
+  return std::string(reinterpret_cast<const char*>(numbers), sizeof numbers);
+}
+
+std::string TsaiCamera::Key() const {
+  const double pose[] = {rotation(0, 0), rotation(0, 1),    rotation(0, 2),    rotation(1, 0),
+                         rotation(1, 1), rotation(1, 2),    rotation(2, 0),    rotation(2, 1),
+                         rotation(2, 2), translation_mm(0), translation_mm(1), translation_mm(2)};
+  return IntrinsicsKey() + std::string(reinterpret_cast<const char*>(pose), sizeof pose);
+}
 namespace {
 
 using internal::FormatDouble;

@@ -132,6 +132,14 @@ struct TsaiCamera {
 
   // Any lens distortion (kappa1 or the OpenCV lens).
   bool HasDistortion() const { return kappa1_per_mm2 != 0.0 || lens.Any(); }
+  // The exact bytes of every number that maps the ideal image to the recorded one (size,
+  // sensor, focal length, kappa1, the OpenCV lens, centre, sx), for keys of what is
+  // computed from a camera and kept: equal keys, equal cameras but for the id and pose.
+  // A field added to the camera's model must be added here.
+  std::string IntrinsicsKey() const;
+  // IntrinsicsKey and the pose (rotation, translation): equal keys, equal cameras but
+  // for the id.
+  std::string Key() const;
   // The same camera without lens distortion (neither kappa1 nor the OpenCV lens): the
   // camera of an undistorted (ideal) image, as geometry/undistort.h makes them.
   TsaiCamera Ideal() const {

@@ -59,23 +59,7 @@ RemapTables BuildUndistortTables(const TsaiCamera& camera) {
 }
 
 std::shared_ptr<const RemapTables> SharedUndistortTables(const TsaiCamera& camera) {
-  const double intrinsics[] = {double(camera.width_px),
-                               double(camera.height_px),
-                               camera.sensor.ncx,
-                               camera.sensor.nfx,
-                               camera.sensor.dx_mm,
-                               camera.sensor.dy_mm,
-                               camera.focal_mm,
-                               camera.kappa1_per_mm2,
-                               camera.lens.k1,
-                               camera.lens.k2,
-                               camera.lens.p1,
-                               camera.lens.p2,
-                               camera.lens.k3,
-                               camera.cx_px,
-                               camera.cy_px,
-                               camera.sx};
-  const std::string key(reinterpret_cast<const char*>(intrinsics), sizeof intrinsics);
+  const std::string key = camera.IntrinsicsKey();
   static std::mutex mutex;
   static std::map<std::string, std::shared_ptr<const RemapTables>> cache;
   static std::deque<std::string> order;  // oldest first

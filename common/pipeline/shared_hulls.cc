@@ -1,7 +1,6 @@
 #include "pipeline/shared_hulls.h"
 
 #include <algorithm>
-
 #include <atomic>
 
 #include "pipeline/once_store.h"

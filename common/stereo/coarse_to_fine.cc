@@ -150,25 +150,16 @@ namespace {
 // projected through the lens. Every stereo job of a camera asks with the session's one
 // box (the paper take: each of 51 cameras at 11 instants), and the projections were 4 %
 // of a masked paper job: kept for the process, keyed by the camera's every number
-// (geometry/tsai_camera.h: size, sensor, focal length, lens, centre, sx, pose) and the
-// box; the same result as computing it.
+// (TsaiCamera::Key) and the box; the same result as computing it.
 constexpr int kSamples = 24;  // per box edge
 
 std::pair<double, double> VisibleDepths(const Eigen::Vector3d& box_min_mm,
                                         const Eigen::Vector3d& box_max_mm,
                                         const geometry::TsaiCamera& camera) {
-  const double numbers[] = {double(camera.width_px), double(camera.height_px),
-                            camera.sensor.ncx, camera.sensor.nfx, camera.sensor.dx_mm,
-                            camera.sensor.dy_mm, camera.focal_mm, camera.kappa1_per_mm2,
-                            camera.lens.k1, camera.lens.k2, camera.lens.p1, camera.lens.p2,
-                            camera.lens.k3, camera.cx_px, camera.cy_px, camera.sx,
-                            camera.rotation(0, 0), camera.rotation(0, 1), camera.rotation(0, 2),
-                            camera.rotation(1, 0), camera.rotation(1, 1), camera.rotation(1, 2),
-                            camera.rotation(2, 0), camera.rotation(2, 1), camera.rotation(2, 2),
-                            camera.translation_mm(0), camera.translation_mm(1),
-                            camera.translation_mm(2), box_min_mm(0), box_min_mm(1),
-                            box_min_mm(2), box_max_mm(0), box_max_mm(1), box_max_mm(2)};
-  const std::string key(reinterpret_cast<const char*>(numbers), sizeof numbers);
+  const double box[] = {box_min_mm(0), box_min_mm(1), box_min_mm(2),
+                        box_max_mm(0), box_max_mm(1), box_max_mm(2)};
+  const std::string key =
+      camera.Key() + std::string(reinterpret_cast<const char*>(box), sizeof box);
   static std::mutex mutex;
   static std::map<std::string, std::pair<double, double>> kept;
   constexpr size_t kMaxKept = 4096;  // cameras x boxes; 1024 cameras of 4 sessions

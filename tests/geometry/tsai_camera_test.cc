@@ -4,8 +4,10 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include "geometry_test_util.h"
 #include "testing/expect_error.h"
@@ -145,6 +147,35 @@ TEST(TsaiCamera, PointsBehindTheCameraDoNotProject) {
   EXPECT_FALSE(camera.Project(Eigen::Vector3d(0, 0, -2000), &pixel));  // Zc < 0
   EXPECT_FALSE(camera.ProjectCamera(Eigen::Vector3d(0, 0, std::nan("")), &pixel));
   EXPECT_EQ(pixel, Eigen::Vector2d(-7.0, -7.0));
+}
+
+// The keys of what is kept per camera: the id never counts; every number of the model
+// counts in IntrinsicsKey, and the pose too in Key.
+TEST(TsaiCamera, KeysHoldEveryNumberButTheId) {
+  const TsaiCamera camera = TypicalCamera(5e-4);
+  TsaiCamera renamed = camera;
+  renamed.id = "another";
+  EXPECT_EQ(renamed.IntrinsicsKey(), camera.IntrinsicsKey());
+  EXPECT_EQ(renamed.Key(), camera.Key());
+  const std::vector<std::function<void(TsaiCamera*)>> intrinsic = {
+      [](TsaiCamera* c) { c->width_px += 1; },       [](TsaiCamera* c) { c->sensor.nfx += 1; },
+      [](TsaiCamera* c) { c->focal_mm *= 1.001; },   [](TsaiCamera* c) { c->kappa1_per_mm2 = 0; },
+      [](TsaiCamera* c) { c->lens.k3 = 1e-3; },      [](TsaiCamera* c) { c->lens.p2 = 1e-4; },
+      [](TsaiCamera* c) { c->cy_px += 0.25; },       [](TsaiCamera* c) { c->sx *= 1.0001; }};
+  for (size_t i = 0; i < intrinsic.size(); ++i) {
+    TsaiCamera other = camera;
+    intrinsic[i](&other);
+    EXPECT_NE(other.IntrinsicsKey(), camera.IntrinsicsKey()) << "change " << i;
+    EXPECT_NE(other.Key(), camera.Key()) << "change " << i;
+  }
+  TsaiCamera moved = camera;
+  moved.translation_mm.z() += 1;
+  EXPECT_EQ(moved.IntrinsicsKey(), camera.IntrinsicsKey());
+  EXPECT_NE(moved.Key(), camera.Key());
+  TsaiCamera turned = camera;
+  turned.rotation =
+      Eigen::Matrix3d(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY())) * camera.rotation;
+  EXPECT_NE(turned.Key(), camera.Key());
 }
 
 TEST(TsaiCamera, CentreIsWhereTheCameraFrameStarts) {
