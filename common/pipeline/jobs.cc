@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <deque>
 #include <functional>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -206,71 +205,24 @@ std::vector<std::string> OnePart(const SessionPlan& plan) {
 
 // ---- stereo ---------------------------------------------------------------------------
 
-// Decoded frames kept by a worker between jobs, by the digest of their bytes: each
-// frame of an instant is the reference of one stereo job, a neighbour in others' (2-4
-// jobs), and one of the texture job's views. At most kBudgetBytes of pixels: past it
-// the oldest go first (an instant's frames come in camera order, and a stereo job's
-// neighbours are its nearest cameras).
-class DecodedFrames {
- public:
-  static constexpr size_t kBudgetBytes = size_t(512) << 20;
-
-  // The frame decoded in `mode`, or an empty image. A frame kept as decoded unchanged
-  // serves a BGR request when it is 8-bit BGR, or 8-bit BGRA whose colour channels are
-  // what decoding it as BGR gives (PNG's alpha is dropped, not composited).
-  cv::Mat Find(const std::string& sha256, io::ImageMode mode) const {
-    for (const Frame& f : frames_) {
-      if (f.sha256 != sha256) continue;
-      if (f.mode == mode) return f.image;
-      if (mode != io::ImageMode::kBgr8 || f.mode != io::ImageMode::kUnchanged) continue;
-      if (f.image.type() == CV_8UC3) return f.image;
-      if (f.image.type() == CV_8UC4) {
-        cv::Mat bgr;
-        cv::cvtColor(f.image, bgr, cv::COLOR_BGRA2BGR);
-        return bgr;
-      }
-    }
-    return cv::Mat();
-  }
-  void Add(const std::string& sha256, io::ImageMode mode, const cv::Mat& image) {
-    bytes_ += image.total() * image.elemSize();
-    frames_.push_back({sha256, mode, image});
-    while (bytes_ > kBudgetBytes && frames_.size() > 1) {
-      bytes_ -= frames_.front().image.total() * frames_.front().image.elemSize();
-      frames_.pop_front();
-    }
-  }
-
- private:
-  struct Frame {
-    std::string sha256;
-    io::ImageMode mode;
-    cv::Mat image;
-  };
-  std::deque<Frame> frames_;
-  size_t bytes_ = 0;
-};
-
-// Blobs [first, last) of `job` decoded in `mode`: those `memo` keeps as they are, then
-// those this process decoded before the session ran (frame_handoff.h: `dome run`'s
-// derivation; a worker with a memo only, as the memo keeps what it takes), the rest
-// decoded on the job's threads; all kept.
+// Blobs [first, last) of `job` decoded in `mode`. A worker's job (one with a memo) first
+// looks among the frames this process's jobs kept (frame_handoff.h), then among those it
+// decoded before the session ran (`dome run`'s derivation), and keeps what it decodes on
+// its threads; a job without one decodes every blob.
 std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, size_t first,
                                 size_t last, io::ImageMode mode, JobMemo* memo) {
-  DecodedFrames* kept =
-      memo ? memo->Get<DecodedFrames>("frames", [] { return std::make_unique<DecodedFrames>(); })
-           : nullptr;
+  const bool keep = memo != nullptr;
   DOME_CHECK(first <= last && last <= blobs.size(), "frame blobs within the job's blobs");
   std::vector<cv::Mat> images(last - first);
   std::vector<size_t> missing;
   for (size_t i = first; i < last; ++i) {
     const std::string& sha256 = job.blobs(int(i)).sha256();
-    cv::Mat found = kept ? kept->Find(sha256, mode) : cv::Mat();
-    if (found.empty() && kept) {
+    cv::Mat found = keep ? FindKeptFrame(sha256, mode) : cv::Mat();
+    if (found.empty() && keep) {
       const cv::Mat handed = TakeDecodedFrame(sha256);
       if (!handed.empty()) {
-        kept->Add(sha256, io::ImageMode::kUnchanged, handed);
-        found = kept->Find(sha256, mode);
+        KeepFrame(sha256, io::ImageMode::kUnchanged, handed);
+        found = FindKeptFrame(sha256, mode);
       }
     }
     if (!found.empty()) {
@@ -283,8 +235,9 @@ std::vector<cv::Mat> FrameBlobs(const runtime::Job& job, const JobBlobs& blobs, 
     for (int64_t k = b; k < e; ++k)
       images[missing[k] - first] = FrameBlob(job, blobs, missing[k], mode);
   });
-  if (kept) {
-    for (size_t i : missing) kept->Add(job.blobs(int(i)).sha256(), mode, images[i - first]);
+  if (keep) {
+    for (size_t i : missing)
+      images[i - first] = KeepFrame(job.blobs(int(i)).sha256(), mode, images[i - first]);
   }
   return images;
 }

@@ -89,6 +89,7 @@ class StereoStage : public SmallTakeSuite {
 // a job that decodes it, a different image under its address is what the job uses (so
 // the handoff is not bypassed), and a job without a memo leaves the frame held.
 TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
+  DropKeptFrames();  // else a frame kept by an earlier test's job is found first
   const runtime::StereoSettings settings = DefaultSettings();
   const take::Take take = take::OpenTake(TakeDir());
   const std::string bytes = io::ReadFileBytes(take.FramePath(take.instants.front(), "c00"));
@@ -108,9 +109,11 @@ TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
 
   OfferDecodedFrame(sha256, cv::Mat(frame.size(), frame.type(), cv::Scalar::all(255)));
   DropIdealGreys();  // else the real frame's grey, kept under its address, is used
+  DropKeptFrames();  // else the real frame, kept for the process, is used
   JobMemo fresh;
   RunStereoJob("c00", settings, &fresh, &poisoned);
-  DropIdealGreys();  // the poisoned grey must not reach other tests
+  DropIdealGreys();  // the poisoned grey and frame must not reach other tests
+  DropKeptFrames();
   EXPECT_EQ(HeldDecodedFrames(), 0u);
   EXPECT_NE(poisoned, plain);
 }
@@ -135,12 +138,14 @@ TEST_F(StereoStage, IdealGreysKeptForTheProcessGiveTheSameOutputs) {
   EXPECT_EQ(first, alone);
 }
 
-// A worker keeps the decoded frames of an instant for its next stereo jobs (a frame is
-// the reference of one and a neighbour of others): the outputs are the bytes of jobs
-// run without it, and the memo's entries (the frames, the parsed rig) are built once for
-// all the jobs.
+// A worker's jobs keep the decoded frames of an instant for the process's next jobs (a
+// frame is the reference of one stereo job and a neighbour of others; another worker's
+// jobs find them too): the outputs are the bytes of jobs run without them, a second
+// worker's job of the same cluster decodes nothing new, and the memo's own entry (the
+// parsed rig) is built once for all the jobs.
 TEST_F(StereoStage, FramesKeptBetweenJobsGiveTheSameOutputs) {
   const runtime::StereoSettings settings = DefaultSettings();
+  DropKeptFrames();
   JobMemo memo;
   for (const std::string id : {"c00", "c01", "c00"}) {
     std::string with, without;
@@ -148,7 +153,16 @@ TEST_F(StereoStage, FramesKeptBetweenJobsGiveTheSameOutputs) {
     RunStereoJob(id, settings, nullptr, &without);
     EXPECT_EQ(with, without) << id;
   }
-  EXPECT_EQ(memo.builds(), 2);
+  EXPECT_EQ(memo.builds(), 1);
+  const size_t kept = KeptFrames();
+  EXPECT_GE(kept, 3u);  // c00 and its neighbours at least
+  JobMemo other_worker;
+  std::string again, alone;
+  RunStereoJob("c01", settings, &other_worker, &again);
+  RunStereoJob("c01", settings, nullptr, &alone);
+  EXPECT_EQ(again, alone);
+  EXPECT_EQ(KeptFrames(), kept) << "c01's frames were kept by the first worker's jobs";
+  DropKeptFrames();
 }
 
 TEST_F(StereoStage, CoarseToFineDepthsMatchTheFullRangeSearch) {
