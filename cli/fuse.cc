@@ -156,12 +156,13 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       const double t_setup = t_fusion;
       w.Restart();
       const int num_slabs = pipeline::SlabCount(o.grid, o.slab_planes);
+      fusion::Slab buffer;  // each slab's, reused
       const io::Mesh surface = pipeline::Surface(
           o.grid, num_slabs,
           [&](int s) {
             core::Stopwatch f;
             const auto [k0, k1] = pipeline::SlabPlanes(o.grid, o.slab_planes, s);
-            const fusion::Slab& slab = pipeline::FuseSlab(prepared.get(), k0, k1);
+            const fusion::Slab& slab = pipeline::FuseSlab(*prepared, &buffer, k0, k1);
             t_fusion += f.ElapsedSeconds();
             return std::shared_ptr<const fusion::Slab>(&slab, [](const fusion::Slab*) {});
           },

@@ -104,6 +104,7 @@ int main(int argc, char** argv) {
       best_setup_cpu = std::min(best_setup_cpu, setup_cpu);
       double t_fusion = 0;
       std::clock_t cpu_fusion = 0;
+      fusion::Slab buffer;  // each slab's, reused
       core::Stopwatch surface;
       mesh = pipeline::Surface(
           grid, num_slabs,
@@ -111,7 +112,7 @@ int main(int argc, char** argv) {
             const std::clock_t c0 = std::clock();
             core::Stopwatch w;
             const auto [k0, k1] = pipeline::SlabPlanes(grid, slab_planes, s);
-            const fusion::Slab& slab = pipeline::FuseSlab(prepared.get(), k0, k1);
+            const fusion::Slab& slab = pipeline::FuseSlab(*prepared, &buffer, k0, k1);
             t_fusion += w.ElapsedSeconds();
             cpu_fusion += std::clock() - c0;
             return std::shared_ptr<const fusion::Slab>(&slab, [](const fusion::Slab*) {});

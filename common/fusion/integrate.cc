@@ -1407,7 +1407,7 @@ Slab Integrator::IntegrateSlab(int k0, int k1) const {
   return slab;
 }
 
-void Integrator::IntegrateSlab(int k0, int k1, Slab* slab) const {
+void Integrator::IntegrateSlab(int k0, int k1, Slab* slab, int num_threads) const {
   grid_.CheckSlab(k0, k1);
   slab->k0 = k0;
   slab->k1 = k1;
@@ -1424,9 +1424,9 @@ void Integrator::IntegrateSlab(int k0, int k1, Slab* slab) const {
   const int sjn = (grid_.ny + kSuperXY - 1) / kSuperXY;
   const int64_t per_layer = int64_t(sin) * sjn;
   const int64_t items = int64_t(sk1 - sk0) * per_layer;
+  if (num_threads <= 0) num_threads = options_.num_threads;
   const int threads = static_cast<int>(std::max<int64_t>(
-      1, std::min<int64_t>(
-             options_.num_threads > 0 ? options_.num_threads : core::HardwareThreads(), items)));
+      1, std::min<int64_t>(num_threads > 0 ? num_threads : core::HardwareThreads(), items)));
   std::atomic<int64_t> next{0};
   core::ParallelFor(0, threads, threads, [&](int64_t, int64_t) {
     auto scratch = std::make_unique<Scratch>();

@@ -122,8 +122,9 @@ class Integrator {
   // Fuses every image into planes [k0, k1); throws core::InputError when the slab is
   // not inside the volume. Memory: the slab (8 bytes per voxel) plus ~100 KB per thread.
   Slab IntegrateSlab(int k0, int k1) const;
-  // The same into `slab`, reusing its buffers (no allocation when the size repeats).
-  void IntegrateSlab(int k0, int k1, Slab* slab) const;
+  // The same into `slab`, reusing its buffers (no allocation when the size repeats), on
+  // `num_threads` threads (<= 0: the options'); the result is the same on any number.
+  void IntegrateSlab(int k0, int k1, Slab* slab, int num_threads = 0) const;
 
   const VolumeGrid& grid() const { return grid_; }
 

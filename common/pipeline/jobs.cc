@@ -17,6 +17,7 @@
 #include "pipeline/frame_handoff.h"
 #include "pipeline/ideal_greys.h"
 #include "pipeline/settings.h"
+#include "pipeline/shared_fusion.h"
 #include "pipeline/shared_hulls.h"
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
@@ -547,12 +548,14 @@ StageDescriptor FusionStage() {
     const std::string where = JobWhere(job);
     const fusion::VolumeGrid grid = FromVolume(fj.volume(), where);
     grid.CheckSlab(fj.k0(), fj.k1(), where);
-    // Every slab job of an instant shares its decoded range images and tables: the
-    // memo keeps them, keyed by everything in the job but its planes.
+    // Every slab job of an instant shares its decoded range images and tables: built
+    // once for the process's workers (shared_fusion.h), keyed by everything in the job
+    // but its planes, with all their threads (a worker that would wait builds part).
+    const int build_threads = std::max(job.threads(), ProcessWorkerThreads());
     auto build = [&]() {
       const geometry::Rig rig = RigBlob(job, blobs, memo);
       fusion::FusionOptions options = FromFusionSettings(fj.fusion(), grid.voxel_size_mm, where);
-      options.num_threads = job.threads();
+      options.num_threads = build_threads;  // the tables; each slab runs on job.threads()
       const size_t n = rig.cameras.size();
       const size_t num_masks = fj.hull() ? n : 0;
       const size_t num_temporal = fj.has_temporal() ? 1 + 2 * n : 0;
@@ -562,16 +565,23 @@ StageDescriptor FusionStage() {
                         (num_temporal ? ", the previous slab and two frames each" : "") +
                         ", got " + std::to_string(blobs.size() - 1) + " blobs after the rig");
       // Cameras in rig order, windows in the options' order.
-      std::vector<fusion::RangeImage> images;
-      for (size_t c = 0; c < rig.cameras.size(); ++c) {
-        const stereo::StereoResult r = DecodeStereoOutput(*blobs[c + 1], BlobName(job, c + 1));
-        core::Require(r.camera == rig.cameras[c].model.id, BlobName(job, c + 1),
-                      "expected the stereo output of camera '" + rig.cameras[c].model.id +
-                          "', got '" + r.camera + "'");
-        for (const auto& ri : r.range_images) {
-          images.push_back({rig.cameras[c].model, ri.depth_mm, cv::Mat(), BlobName(job, c + 1)});
+      std::vector<std::vector<fusion::RangeImage>> per_camera(n);
+      core::ParallelFor(0, int64_t(n), build_threads, [&](int64_t c0, int64_t c1) {
+        for (int64_t c = c0; c < c1; ++c) {
+          const size_t b = size_t(c) + 1;
+          const stereo::StereoResult r = DecodeStereoOutput(*blobs[b], BlobName(job, b));
+          core::Require(r.camera == rig.cameras[size_t(c)].model.id, BlobName(job, b),
+                        "expected the stereo output of camera '" +
+                            rig.cameras[size_t(c)].model.id + "', got '" + r.camera + "'");
+          for (const auto& ri : r.range_images) {
+            per_camera[size_t(c)].push_back(
+                {rig.cameras[size_t(c)].model, ri.depth_mm, cv::Mat(), BlobName(job, b)});
+          }
         }
-      }
+      });
+      std::vector<fusion::RangeImage> images;
+      for (auto& v : per_camera)
+        for (auto& ri : v) images.push_back(std::move(ri));
       fusion::HullFusionOptions hull_options;
       hull_options.fill_unseen = fj.hull_surface();
       // The hull with distances: built once for the process's workers (shared_hulls.h).
@@ -599,7 +609,7 @@ StageDescriptor FusionStage() {
             FrameBlobs(job, blobs, first + n, first + 2 * n, io::ImageMode::kUnchanged, memo);
         prepared->change_views.resize(n);
         prepared->carry = use.carry;
-        core::ParallelFor(0, int64_t(n), job.threads(), [&](int64_t c0, int64_t c1) {
+        core::ParallelFor(0, int64_t(n), build_threads, [&](int64_t c0, int64_t c1) {
           for (int64_t c = c0; c < c1; ++c) {
             const auto& cam = rig.cameras[size_t(c)].model;
             auto grey = [&](const cv::Mat& image, size_t blob) {
@@ -624,8 +634,8 @@ StageDescriptor FusionStage() {
     runtime::FusionJob shared = fj;
     shared.clear_k0();
     shared.clear_k1();
-    std::string key =
-        "fusion\n" + shared.SerializeAsString() + '\n' + std::to_string(job.threads());
+    // Not the threads: the tables and every slab are the same bits on any number.
+    std::string key = "fusion\n" + shared.SerializeAsString();
     // Every blob but the previous instant's slab, which is this slab's own. The blobs
     // are the rig, n outputs, the slab, 2 n frames and, with the hull, n masks.
     int previous_slab = -1;
@@ -641,8 +651,14 @@ StageDescriptor FusionStage() {
     }
     for (int b = 0; b < job.blobs_size(); ++b)
       if (b != previous_slab) key += '\n' + job.blobs(b).sha256();
-    std::unique_ptr<PreparedFusion> own;
-    PreparedFusion* prepared = memo ? memo->Get<PreparedFusion>(key, build) : (own = build()).get();
+    // A worker's job (one with a memo) shares the process's; its slab buffers stay in
+    // its memo for its next slab of the size.
+    const std::shared_ptr<const PreparedFusion> prepared =
+        memo ? SharedPreparedFusion(key, build) : std::shared_ptr<const PreparedFusion>(build());
+    fusion::Slab own_buffer;
+    fusion::Slab* buffer =
+        memo ? memo->Get<fusion::Slab>("slab buffer", [] { return std::make_unique<fusion::Slab>(); })
+             : &own_buffer;
     std::optional<fusion::Slab> previous;
     fusion::TemporalCarryStats carried;
     if (fj.has_temporal()) {
@@ -651,7 +667,8 @@ StageDescriptor FusionStage() {
     runtime::Output out;
     out.set_name(kSlabOutput);
     out.set_data(fusion::EncodeSlab(
-        FuseSlab(prepared, fj.k0(), fj.k1(), previous ? &*previous : nullptr, where, &carried)));
+        FuseSlab(*prepared, buffer, fj.k0(), fj.k1(), previous ? &*previous : nullptr, where,
+                 &carried, job.threads())));
     if (previous) {
       spdlog::debug("{}: {} of {} blocks still, {} voxels carried from the previous instant",
                     where, carried.still_blocks, carried.blocks, carried.voxels_carried);

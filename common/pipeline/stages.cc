@@ -215,21 +215,24 @@ std::unique_ptr<PreparedFusion> PrepareFusion(const fusion::VolumeGrid& grid,
   return prepared;
 }
 
-const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1,
+const fusion::Slab& FuseSlab(const PreparedFusion& prepared, fusion::Slab* slab, int k0, int k1,
                              const fusion::Slab* previous, const std::string& where,
-                             fusion::TemporalCarryStats* carried) {
-  prepared->integrator->IntegrateSlab(k0, k1, &prepared->slab);
+                             fusion::TemporalCarryStats* carried, int num_threads) {
+  if (num_threads <= 0) num_threads = prepared.options.num_threads;
+  prepared.integrator->IntegrateSlab(k0, k1, slab, num_threads);
   // The previous evidence before the hull: where this instant's silhouettes say free
   // space, the hull's rule overrides what an earlier instant saw there.
-  if (previous && !prepared->change_views.empty()) {
-    fusion::CarryStill(prepared->integrator->grid(), *previous, prepared->change_views,
-                       prepared->carry, where, &prepared->slab, carried);
+  if (previous && !prepared.change_views.empty()) {
+    fusion::CarryStill(prepared.integrator->grid(), *previous, prepared.change_views,
+                       prepared.carry, where, slab, carried);
   }
-  if (prepared->hull) {
-    fusion::ApplyHull(prepared->integrator->grid(), *prepared->hull, prepared->options,
-                      prepared->hull_options, &prepared->slab);
+  if (prepared.hull) {
+    fusion::HullFusionOptions hull_options = prepared.hull_options;
+    hull_options.num_threads = num_threads;
+    fusion::ApplyHull(prepared.integrator->grid(), *prepared.hull, prepared.options,
+                      hull_options, slab);
   }
-  return prepared->slab;
+  return *slab;
 }
 
 int SlabCount(const fusion::VolumeGrid& grid, int slab_planes) {

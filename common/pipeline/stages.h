@@ -62,11 +62,11 @@ std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& tak
 // ---- fusion ---------------------------------------------------------------------------
 
 // The inputs of one instant's fusion, tabulated: what every slab of the instant shares
-// (building it costs about as much as fusing a slab).
+// (building it costs about as much as fusing a slab). Not changed by FuseSlab: one may
+// serve several threads' slabs at once (`dome run`'s workers share it, jobs.cc).
 struct PreparedFusion {
   std::vector<fusion::RangeImage> images;  // referenced by `integrator`
   std::unique_ptr<fusion::Integrator> integrator;
-  fusion::Slab slab;  // the last slab's buffers, reused by the next slab of its size
   // The visual hull that corrects every slab (fusion/hull_fusion.h); null: none.
   std::shared_ptr<const silhouette::VisualHull> hull;
   fusion::HullFusionOptions hull_options;  // how (its num_threads: options')
@@ -85,14 +85,16 @@ std::unique_ptr<PreparedFusion> PrepareFusion(
     const fusion::FusionOptions& options,
     std::shared_ptr<const silhouette::VisualHull> hull = nullptr,
     const fusion::HullFusionOptions& hull_options = {});
-// Fuses planes [k0, k1) into prepared->slab, corrected by the hull when there is one,
-// then, with `previous` (the same planes at the previous instant, as this function
-// returned them then) and change views, steadied by its evidence where nothing changed
-// (fusion/temporal_carry.h); returns it (valid until the next call). Errors name `where`.
-const fusion::Slab& FuseSlab(PreparedFusion* prepared, int k0, int k1,
+// Fuses planes [k0, k1) into `slab` (its buffers reused when the size repeats),
+// corrected by the hull when there is one, then, with `previous` (the same planes at the
+// previous instant, as this function returned them then) and change views, steadied by
+// its evidence where nothing changed (fusion/temporal_carry.h); returns *slab. Runs on
+// `num_threads` threads (<= 0: prepared.options'), with the same result on any number.
+// Errors name `where`.
+const fusion::Slab& FuseSlab(const PreparedFusion& prepared, fusion::Slab* slab, int k0, int k1,
                              const fusion::Slab* previous = nullptr,
                              const std::string& where = "fusion",
-                             fusion::TemporalCarryStats* carried = nullptr);
+                             fusion::TemporalCarryStats* carried = nullptr, int num_threads = 0);
 
 // The slabs of a volume of `slab_planes` planes each: how many, and slab s's planes.
 int SlabCount(const fusion::VolumeGrid& grid, int slab_planes);

@@ -17,6 +17,7 @@
 #include "io/ply.h"
 #include "net/content_hash.h"
 #include "pipeline/jobs.h"
+#include "pipeline/shared_fusion.h"
 #include "pipeline/settings.h"
 #include "pipeline/small_take_suite.h"
 #include "pipeline/stage.h"
@@ -97,8 +98,12 @@ class FusionStage : public SmallTakeSuite {
   }
 };
 
+// The slab jobs of an instant, on one worker or two (a memo each) of one process, prepare
+// its tables once (shared_fusion.h), and give the bytes of jobs that prepare their own.
 TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
   const JobBlobs blobs = Blobs(1.0);
+  DropSharedPreparedFusions();
+  const int64_t builds = SharedPreparedFusionBuilds();
   JobMemo memo;
   const int bounds[] = {0, 20, 37, 60};
   for (int s = 0; s < 3; ++s) {
@@ -111,7 +116,11 @@ TEST_F(FusionStage, SlabJobsOfOneInstantPrepareOnceAndMatchJobsWithoutAMemo) {
     for (float w : decoded.weight) weighted += w > 0;
     EXPECT_GT(weighted, 1000) << "slab " << s;
   }
-  EXPECT_EQ(memo.builds(), 2);  // the tables once, the parsed rig once
+  EXPECT_EQ(memo.builds(), 2);  // the parsed rig once, the slab buffers once
+  JobMemo other_worker;
+  EXPECT_EQ(Slab(blobs, 20, 37, &other_worker), Slab(blobs, 20, 37, nullptr));
+  EXPECT_EQ(SharedPreparedFusionBuilds() - builds, 1) << "the tables once for both workers";
+  EXPECT_EQ(other_worker.builds(), 1);  // its slab buffers only
 }
 
 // A time-aware slab job (FusionJob.temporal) adds its previous slab's evidence where the
@@ -156,10 +165,10 @@ TEST_F(FusionStage, ATimeAwareSlabJobAddsItsPreviousSlabAndNamesWrongInputs) {
     }
   }
   EXPECT_GT(doubled, observed / 2) << doubled << " of " << observed;
+  const int64_t builds = SharedPreparedFusionBuilds();
   Slab(with(before1, 0), 30, 60, &memo, true);
-  // The tables once for both slabs, the parsed rig once (the decoded frames are kept for
-  // the process, pipeline/frame_handoff.h).
-  EXPECT_EQ(memo.builds(), 2);
+  // The tables once for both slabs whatever their previous slabs (shared_fusion.h).
+  EXPECT_EQ(SharedPreparedFusionBuilds(), builds);
   dome::testing::ExpectInputError([&] { Slab(with(before1, 0), 0, 30, nullptr, true); },
                                   {"the previous instant's slab is planes 30..60"});
   dome::testing::ExpectInputError(
@@ -167,27 +176,33 @@ TEST_F(FusionStage, ATimeAwareSlabJobAddsItsPreviousSlabAndNamesWrongInputs) {
       {"the previous slab, two frames per camera", "got " + std::to_string(with(before0, 1).size())});
 }
 
-// An entry of another kind (a stereo job's frames, between two slab jobs on one
-// worker) leaves the slabs' tables kept.
+// An entry of another kind (a stereo job's, between two slab jobs on one worker) leaves
+// the slabs' buffers kept, and the instant's tables are not prepared again.
 TEST_F(FusionStage, AnEntryOfAnotherKindBetweenSlabJobsLeavesTheirTables) {
   const JobBlobs blobs = Blobs(1.0);
+  DropSharedPreparedFusions();
+  const int64_t builds = SharedPreparedFusionBuilds();
   JobMemo memo;
   const std::string first = Slab(blobs, 0, 20, &memo);
   memo.Get<std::string>("other", [] { return std::make_unique<std::string>("frames"); });
   EXPECT_EQ(Slab(blobs, 20, 40, &memo), Slab(blobs, 20, 40, nullptr));
-  EXPECT_EQ(memo.builds(), 3);  // the tables once, the other entry once, the rig once
+  EXPECT_EQ(memo.builds(), 3);  // the rig once, the slab buffers once, the other entry once
+  EXPECT_EQ(SharedPreparedFusionBuilds() - builds, 1);
 }
 
 TEST_F(FusionStage, OtherInputsArePreparedAgainNotServedStale) {
   const JobBlobs blobs = Blobs(1.0), moved = Blobs(1.05);
+  DropSharedPreparedFusions();
+  const int64_t builds = SharedPreparedFusionBuilds();
   JobMemo memo;
   const std::string first = Slab(blobs, 10, 30, &memo);
   const std::string other = Slab(moved, 10, 30, &memo);
-  EXPECT_EQ(memo.builds(), 3);  // the tables of each, the same rig once
+  EXPECT_EQ(SharedPreparedFusionBuilds() - builds, 2);  // the tables of each
   EXPECT_NE(first, other);
   EXPECT_EQ(other, Slab(moved, 10, 30, nullptr));
+  // Both kept (the instant being fused and the next): the first is not prepared again.
   EXPECT_EQ(first, Slab(blobs, 10, 30, &memo));
-  EXPECT_EQ(memo.builds(), 4);
+  EXPECT_EQ(SharedPreparedFusionBuilds() - builds, 2);
 }
 
 // The job cuts each range image to the rectangle of its depths before building its
