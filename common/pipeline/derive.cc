@@ -238,6 +238,13 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     std::string why;
     try {
       masks.emplace(take, silhouette::MaskOptions{});
+      if (request.offer_frames) {
+        // Each frame a mask is made from here (every camera's, at the instants the
+        // masks' hull looks at) is a stereo job's input: handed to the workers' jobs.
+        masks->SetFrameSeen([](const std::string& bytes, const cv::Mat& image) {
+          OfferDecodedFrame(net::Sha256Hex(bytes), image);
+        });
+      }
       const std::string& middle = instants[instants.size() / 2];
       const auto& cams = take.rig.cameras;
       std::vector<double> fraction(cams.size());

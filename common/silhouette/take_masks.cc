@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "io/file_util.h"
 #include "io/image_io.h"
 
 namespace dome::silhouette {
@@ -225,7 +226,16 @@ cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, M
   if (source == MaskSource::kGiven) {
     mask = ReadMaskFile(GivenMaskPath(instant, camera), size, camera);
   } else {
-    const Frame frame = ReadFrame(take_.FramePath(instant, camera), size, camera);
+    const fs::path path = take_.FramePath(instant, camera);
+    Frame frame;
+    if (frame_seen_) {
+      const std::string bytes = io::ReadFileBytes(path);
+      const cv::Mat image = io::DecodeImage(bytes, io::ImageMode::kUnchanged, path.string());
+      frame = SplitFrame(image, size, camera, path.string());  // checked before it is shown
+      frame_seen_(bytes, image);
+    } else {
+      frame = ReadFrame(path, size, camera);
+    }
     mask = MaskAgainst(frame, Background(camera, frame.colour.channels()), source, options_,
                        &local);
   }

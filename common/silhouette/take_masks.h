@@ -18,6 +18,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -77,6 +78,12 @@ class TakeMasks {
   // Thread-safe for distinct cameras.
   cv::Mat Mask(const std::string& instant, const std::string& camera, MaskInfo* info = nullptr);
 
+  // Called with each frame file Mask reads for the frame itself (its bytes, and the image
+  // decoded unchanged) before the mask is made from it, from Mask's threads: `dome run`
+  // hands the decoded frames to its workers' stereo jobs (pipeline/frame_handoff.h).
+  using FrameSeen = std::function<void(const std::string& bytes, const cv::Mat& image)>;
+  void SetFrameSeen(FrameSeen seen) { frame_seen_ = std::move(seen); }
+
   std::filesystem::path GivenMaskPath(const std::string& instant, const std::string& camera) const;
   std::filesystem::path PlatePath(const std::string& camera) const;
   // The files Mask(instant, camera) is made from, in the order the masks stage's job
@@ -93,6 +100,7 @@ class TakeMasks {
   MaskOptions options_;
   std::map<std::string, MaskSource> sources_;
   std::map<std::string, cv::Mat> backgrounds_;  // one entry per camera, filled on use
+  FrameSeen frame_seen_;
 };
 
 // The instants a median background uses: at most `max_count`, evenly spread over
