@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "fusion/fusion_test_util.h"
 #include "fusion/volume.h"
@@ -273,6 +276,38 @@ TEST(Integrate, SlabRoundTripsThroughBytes) {
   bytes.pop_back();
   ExpectInputError([&] { DecodeSlab(bytes, "slab.bin"); }, {"slab.bin", "bytes"});
   ExpectInputError([&] { DecodeSlab("garbage", "slab.bin"); }, {"slab.bin", "DOMESLAB"});
+}
+
+// The encoders are reused (volume.cc keeps their buffers and compressor): a slab's bytes
+// depend on the slab alone, whatever was encoded before and on however many threads at
+// once (a slab's bytes are its content address in the journal).
+TEST(Integrate, ASlabsBytesDoNotDependOnWhatWasEncodedBefore) {
+  auto make = [](int k0, int nx, float value) {
+    Slab s;
+    s.k0 = k0;
+    s.k1 = k0 + 4;
+    s.nx = nx;
+    s.ny = 50;
+    const size_t n = size_t(4) * 50 * nx;
+    for (size_t m = 0; m < n; ++m) {
+      s.distance_mm.push_back(m % 7 == 0 ? value : 0.0f);
+      s.weight.push_back(float(m % 5));
+    }
+    return s;
+  };
+  const Slab small = make(0, 40, 1.5f), large = make(8, 400, -2.25f);
+  const std::string first = EncodeSlab(small);
+  const std::string large_bytes = EncodeSlab(large);
+  EXPECT_EQ(EncodeSlab(small), first);  // after a larger slab in the same encoder
+  std::vector<std::string> at_once(8);
+  std::vector<std::thread> threads;
+  for (size_t t = 0; t < at_once.size(); ++t)
+    threads.emplace_back([&, t] { at_once[t] = EncodeSlab(t % 2 ? small : large); });
+  for (auto& t : threads) t.join();
+  for (size_t t = 0; t < at_once.size(); ++t) EXPECT_EQ(at_once[t], t % 2 ? first : large_bytes);
+  const Slab back = DecodeSlab(large_bytes, "slab.bin");
+  EXPECT_EQ(back.distance_mm, large.distance_mm);
+  EXPECT_EQ(back.weight, large.weight);
 }
 
 TEST(Integrate, SlabsTravelCompressedAndVersionOneStillReads) {
