@@ -8,6 +8,7 @@
 
 #include "core/disjoint_sets.h"
 #include "core/error.h"
+#include "core/parallel_for.h"
 
 namespace dome::mesh {
 namespace {
@@ -24,52 +25,81 @@ void SmoothOptions::Check() const {
                 "must be in (0, 1], got " + std::to_string(lambda));
   core::Require(std::isfinite(mu) && mu < -lambda && mu >= -1, "smooth_mu",
                 "must be in [-1, -smooth_lambda), got " + std::to_string(mu));
+  core::Require(num_threads >= 0, "smooth num_threads",
+                "must be >= 0 (0 = every hardware thread), got " + std::to_string(num_threads));
 }
 
 void SmoothTaubin(const SmoothOptions& options, io::Mesh* mesh) {
   options.Check();
   if (options.iterations == 0 || mesh->faces.empty()) return;
   const size_t n = mesh->vertices.size();
-  // Edge neighbours per vertex (CSR), each edge once per endpoint.
-  std::vector<std::pair<int32_t, int32_t>> edges;
-  edges.reserve(mesh->faces.size() * 3);
+  const int threads = options.num_threads;
+  // Edge neighbours per vertex (CSR), each in ascending order once: every face adds both
+  // directions of its three edges (an edge of two faces twice), then each vertex's list
+  // is sorted and its repeats dropped. Ascending order fixes each mean's sum, so the
+  // result is the same bits on any number of threads.
+  std::vector<uint32_t> degree(n + 1, 0);
   for (const Eigen::Vector3i& f : mesh->faces) {
     for (int k = 0; k < 3; ++k) {
       const int a = f[k], b = f[(k + 1) % 3];
       DOME_CHECK(a >= 0 && size_t(a) < n && b >= 0 && size_t(b) < n,
                  "face indices are valid vertices");
-      if (a != b) edges.emplace_back(std::min(a, b), std::max(a, b));
+      if (a != b) {
+        ++degree[size_t(a) + 1];
+        ++degree[size_t(b) + 1];
+      }
     }
   }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  std::vector<size_t> start(n + 1, 0);
-  for (const auto& [a, b] : edges) {
-    ++start[size_t(a) + 1];
-    ++start[size_t(b) + 1];
+  std::vector<size_t> slot(n + 1, 0);
+  for (size_t v = 0; v < n; ++v) slot[v + 1] = slot[v] + degree[v + 1];
+  std::vector<int32_t> all(slot[n]);
+  {
+    std::vector<size_t> fill(slot.begin(), slot.end() - 1);
+    for (const Eigen::Vector3i& f : mesh->faces) {
+      for (int k = 0; k < 3; ++k) {
+        const int a = f[k], b = f[(k + 1) % 3];
+        if (a == b) continue;
+        all[fill[size_t(a)]++] = b;
+        all[fill[size_t(b)]++] = a;
+      }
+    }
   }
+  std::vector<size_t> start(n + 1, 0);
+  core::ParallelFor(0, int64_t(n), threads, [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      int32_t* first = all.data() + slot[size_t(v)];
+      int32_t* last = all.data() + slot[size_t(v) + 1];
+      std::sort(first, last);
+      start[size_t(v) + 1] = size_t(std::unique(first, last) - first);
+    }
+  });
   for (size_t v = 0; v < n; ++v) start[v + 1] += start[v];
   std::vector<int32_t> nbr(start[n]);
-  std::vector<size_t> fill(start.begin(), start.end() - 1);
-  for (const auto& [a, b] : edges) {
-    nbr[fill[size_t(a)]++] = b;
-    nbr[fill[size_t(b)]++] = a;
-  }
+  core::ParallelFor(0, int64_t(n), threads, [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      std::copy_n(all.data() + slot[size_t(v)], start[size_t(v) + 1] - start[size_t(v)],
+                  nbr.data() + start[size_t(v)]);
+    }
+  });
+  all = {};
 
   // Double precision: positions in mm far from the origin keep their sub-micron steps.
   std::vector<Eigen::Vector3d> p(n), next(n);
   for (size_t v = 0; v < n; ++v) p[v] = mesh->vertices[v].cast<double>();
+  // Each vertex's step reads the positions before the step only: vertices split freely.
   auto step = [&](double factor) {
-    for (size_t v = 0; v < n; ++v) {
-      const size_t b = start[v], e = start[v + 1];
-      if (b == e) {
-        next[v] = p[v];
-        continue;
+    core::ParallelFor(0, int64_t(n), threads, [&](int64_t vb, int64_t ve) {
+      for (size_t v = size_t(vb); v < size_t(ve); ++v) {
+        const size_t b = start[v], e = start[v + 1];
+        if (b == e) {
+          next[v] = p[v];
+          continue;
+        }
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (size_t k = b; k < e; ++k) mean += p[size_t(nbr[k])];
+        next[v] = p[v] + factor * (mean / double(e - b) - p[v]);
       }
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (size_t k = b; k < e; ++k) mean += p[size_t(nbr[k])];
-      next[v] = p[v] + factor * (mean / double(e - b) - p[v]);
-    }
+    });
     p.swap(next);
   };
   for (int i = 0; i < options.iterations; ++i) {

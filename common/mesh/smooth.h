@@ -18,7 +18,7 @@
 // the depth is worst, at a small cost in completeness (README, Robovision). Normals and
 // colours are left as they are (normals, if any, are not recomputed); faces and vertices
 // change only by the welding. The result is a deterministic function of the mesh
-// (vertex order fixes the sums).
+// (vertex order fixes the sums), the same on any number of threads.
 //
 // Units: the mesh's (mm for dome's meshes); lambda and mu are dimensionless.
 #pragma once
@@ -31,6 +31,9 @@ struct SmoothOptions {
   int iterations = 0;   // lambda|mu pairs; 0: the mesh is left unchanged
   double lambda = 0.5;  // shrinking step, (0, 1]
   double mu = -0.53;    // inflating step, < -lambda and >= -1
+  // Threads the vertices are split over; 0: every hardware thread. The result is the
+  // same bits for any count.
+  int num_threads = 0;
 
   // Throws core::InputError naming "smooth_iterations", "smooth_lambda" or "smooth_mu".
   void Check() const;

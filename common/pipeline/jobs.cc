@@ -418,9 +418,19 @@ StageDescriptor StereoStage() {
     for (int n = 0; n < sj.neighbours_size(); ++n) {
       input.neighbours.push_back({RigCameraOf(rig, sj.neighbours(n), job), frames[1 + n]});
     }
-    if (!options.coarse_to_fine) {
+    std::vector<std::string> grey_keys;
+    if (options.coarse_to_fine) {
+      // Coarse to fine cuts its views to the clip box, the same cut in every job: the
+      // cut greys are kept for the process under these keys and the cut (Stereo).
+      for (int blob = 1; blob < int(num_frames); ++blob) {
+        grey_keys.push_back(IdealGreyKey(
+            job.blobs(blob).sha256(), job.blobs(0).sha256(),
+            blob == 1 ? input.reference.camera.id : input.neighbours[size_t(blob) - 2].camera.id,
+            options.stereo));
+      }
+    } else {
       // The whole views' ideal greys, kept for the process's other stereo jobs of the
-      // instant (pipeline/ideal_greys.h); coarse to fine cuts its views and makes its own.
+      // instant (pipeline/ideal_greys.h).
       auto grey = [&](stereo::StereoView* v, int blob, const char* role) {
         v->ideal_grey = SharedIdealGrey(
             IdealGreyKey(job.blobs(blob).sha256(), job.blobs(0).sha256(), v->camera.id,
@@ -476,12 +486,13 @@ StageDescriptor StereoStage() {
         return std::move(*b);
       };
     }
-    const stereo::StereoResult result = Stereo(input, options, JobWhere(job), bounds);
+    const stereo::StereoResult result = Stereo(input, options, JobWhere(job), bounds, grey_keys);
     std::vector<runtime::Output> outputs(1);
     outputs[0].set_name(kStereoOutput);
     outputs[0].set_data(EncodeStereoOutput(result));
     // The workers encode the files; the master only checks and writes them.
-    for (stereo::StereoFile& f : stereo::EncodeStereoFiles(result, sj.write_previews())) {
+    for (stereo::StereoFile& f :
+         stereo::EncodeStereoFiles(result, sj.write_previews(), job.threads())) {
       runtime::Output& o = outputs.emplace_back();
       o.set_name(std::move(f.path));
       o.set_data(std::move(f.bytes));

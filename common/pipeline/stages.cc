@@ -8,10 +8,12 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/parallel_for.h"
 #include "fusion/hull_fusion.h"
 #include "io/ply.h"
 #include "mesh/gltf.h"
 #include "mesh/marching_cubes.h"
+#include "pipeline/ideal_greys.h"
 #include "stereo/coarse_to_fine.h"
 #include "take/crop.h"
 
@@ -31,6 +33,7 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
                                        const stereo::StereoOptions& o,
                                        const stereo::CoarseToFineOptions& c2f,
                                        const stereo::SearchBounds* bounds,
+                                       const std::vector<std::string>& grey_keys,
                                        stereo::CoarseToFineStats* stats) {
   take::CropBox box;
   box.min_mm = c2f.clip_min_mm.array() - c2f.clip_pad_mm;
@@ -47,9 +50,26 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
     return stereo::StereoView{take::CropCamera(v.camera, seen), v.image(seen)};
   };
   stereo::StereoInput in;
-  cv::Rect ref_rect, unused;
-  in.reference = cut(input.reference, &ref_rect);
-  for (const auto& v : input.neighbours) in.neighbours.push_back(cut(v, &unused));
+  std::vector<cv::Rect> rects(1 + input.neighbours.size());
+  in.reference = cut(input.reference, &rects[0]);
+  for (size_t i = 0; i < input.neighbours.size(); ++i)
+    in.neighbours.push_back(cut(input.neighbours[i], &rects[1 + i]));
+  const cv::Rect& ref_rect = rects[0];
+  if (grey_keys.size() == rects.size()) {
+    // The cut views' greys from the process's store, those not there made side by side
+    // (each is one thread's work: undistortion, the stretch's percentiles).
+    core::ParallelFor(0, int64_t(rects.size()), o.num_threads, [&](int64_t b, int64_t e) {
+      for (int64_t i = b; i < e; ++i) {
+        stereo::StereoView& v = i == 0 ? in.reference : in.neighbours[size_t(i) - 1];
+        const cv::Rect& r = rects[size_t(i)];
+        v.ideal_grey = SharedIdealGrey(grey_keys[size_t(i)] + " cut " + std::to_string(r.x) +
+                                           ' ' + std::to_string(r.y) + ' ' +
+                                           std::to_string(r.width) + ' ' +
+                                           std::to_string(r.height),
+                                       v, o, "view '" + v.camera.id + "'");
+      }
+    });
+  }
   const int f = c2f.coarse_factor;
   const bool whole = ref_rect.width == input.reference.camera.width_px &&
                      ref_rect.height == input.reference.camera.height_px;
@@ -76,7 +96,8 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
 // Stereo with the options as given (the camera's own range applied).
 stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
                                    const stereo::TakeStereoOptions& options,
-                                   const std::string& where, const MakeSearchBounds& bounds) {
+                                   const std::string& where, const MakeSearchBounds& bounds,
+                                   const std::vector<std::string>& grey_keys) {
   stereo::StereoResult result;
   stereo::StereoOptions o = options.stereo;
   if (options.coarse_to_fine) {
@@ -92,7 +113,7 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
     const stereo::SearchBounds* b = sb ? &*sb : nullptr;
     stereo::CoarseToFineStats st;
     result = options.coarse_to_fine->clip
-                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b, &st)
+                 ? CoarseToFineInBox(input, o, *options.coarse_to_fine, b, grey_keys, &st)
                  : stereo::ComputeDepthCoarseToFine(input, o, *options.coarse_to_fine, &st, b);
     spdlog::debug("{}: coarse to fine: {} coarse levels, {} of {} tiles matched ({} filled), "
                   "{:.1f} levels a tile, {:.3f} s coarse, {:.3f} s tiles",
@@ -116,7 +137,8 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
 
 stereo::StereoResult Stereo(const stereo::StereoInput& input,
                             const stereo::TakeStereoOptions& options, const std::string& where,
-                            const MakeSearchBounds& bounds) {
+                            const MakeSearchBounds& bounds,
+                            const std::vector<std::string>& grey_keys) {
   stereo::TakeStereoOptions limited = options;
   const auto range = options.camera_depth_mm.find(input.reference.camera.id);
   if (range != options.camera_depth_mm.end()) {
@@ -126,7 +148,7 @@ stereo::StereoResult Stereo(const stereo::StereoInput& input,
     core::Require(s.z_min_mm < s.z_max_mm, where + ": camera_depths",
                   "camera '" + input.reference.camera.id + "': its range misses the session's");
   }
-  return StereoLimited(input, limited, where, bounds);
+  return StereoLimited(input, limited, where, bounds, grey_keys);
 }
 
 std::vector<stereo::StereoResult> RunTakeStereo(const std::filesystem::path& take_dir,

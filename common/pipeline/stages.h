@@ -45,10 +45,16 @@ namespace dome::pipeline {
 // z_max mm, after the camera's own range and the clip box) and its search bounds limit
 // the search (stereo/search_bounds.h; ComputeDepthBounded, or the coarse-to-fine
 // search's tiles).
+// With `grey_keys` (one per view, the reference first: pipeline/ideal_greys.h
+// IdealGreyKey of its whole frame), the views coarse to fine cuts to its clip box take
+// their ideal greys from the process's store (each frame is cut the same way in every
+// job of the session, and is a view of about three jobs) instead of making them again;
+// empty: each job makes its own. The same bits either way.
 using MakeSearchBounds = std::function<stereo::SearchBounds(double z_min_mm, double z_max_mm)>;
 stereo::StereoResult Stereo(const stereo::StereoInput& input,
                             const stereo::TakeStereoOptions& options, const std::string& where,
-                            const MakeSearchBounds& bounds = nullptr);
+                            const MakeSearchBounds& bounds = nullptr,
+                            const std::vector<std::string>& grey_keys = {});
 
 // `dome stereo`: Stereo for every (instant, camera) asked for (empty = all) of the take
 // at `take_dir`, written under `out_dir` (stereo/take_stereo.h layout). Errors name the

@@ -239,10 +239,18 @@ IdealViews MakeIdealViews(const StereoInput& input, const StereoOptions& options
   for (const auto& v : input.neighbours) views.push_back(&v);
   for (size_t i = 0; i < views.size(); ++i) {
     views[i]->camera.Check("view '" + views[i]->camera.id + "': camera");
-    greys.push_back(IdealGrey(*views[i], options,
-                              (i == 0 ? "reference '" : "neighbour '") + views[i]->camera.id + "'"));
     cameras.push_back(views[i]->camera.Ideal());
   }
+  // Side by side: each grey is one thread's work (the stretch's percentiles are of the
+  // whole image), and the job's other threads would wait.
+  greys.resize(views.size());
+  core::ParallelFor(0, int64_t(views.size()), options.num_threads, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      greys[size_t(i)] = IdealGrey(*views[size_t(i)], options,
+                                   (i == 0 ? "reference '" : "neighbour '") +
+                                       views[size_t(i)]->camera.id + "'");
+    }
+  });
   return iv;
 }
 
@@ -396,9 +404,13 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
 
   // 1. Coarse pass over the whole range.
   StereoInput coarse;
-  coarse.reference = {ReducedCamera(ideal_ref, f), ReduceGrey(greys[0], f)};
+  std::vector<cv::Mat> reduced(views.size());
+  core::ParallelFor(0, int64_t(views.size()), options.num_threads, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) reduced[size_t(i)] = ReduceGrey(greys[size_t(i)], f);
+  });
+  coarse.reference = {ReducedCamera(ideal_ref, f), reduced[0]};
   for (size_t i = 1; i < views.size(); ++i) {
-    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), ReduceGrey(greys[i], f)});
+    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), reduced[i]});
   }
   StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;  // the greys above are mapped already

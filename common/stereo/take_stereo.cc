@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
 #include "io/depth_tiff.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
@@ -67,27 +68,41 @@ StereoInput LoadStereoInput(const take::Take& take, const std::string& instant,
   return input;
 }
 
-std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews) {
-  std::vector<StereoFile> files;
-  for (size_t k = 0; k < result.range_images.size(); ++k) {
-    const RangeImage& r = result.range_images[k];
-    const std::string sfx = Suffix(k, r.window_px);
-    const std::string name =
-        result.camera + (k == 0 ? "" : " window " + std::to_string(r.window_px));
-    files.push_back({"depth" + sfx + "/" + result.camera + ".tiff",
-                     io::EncodeDepthTiff(r.depth_mm, "depth map of " + name,
-                                         io::DepthTiffEncoding::kFast)});
-    // PackBits: Deflate or LZW cost more CPU than the stereo job's decoding of its
-    // frames for a map of noisy floats, whose zeros (no depth) run lengths hold.
-    files.push_back({"reliability" + sfx + "/" + result.camera + ".tiff",
-                     io::EncodeRunLengthFloatTiff(
-                         r.reliability, "dome reliability: matching-cost curvature, 0 = no depth",
-                         "reliability map of " + name)});
-    if (write_previews) {
-      files.push_back({"preview" + sfx + "/" + result.camera + ".png",
-                       io::EncodeDepthPreviewPng(r.depth_mm, "depth map of " + name)});
+std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews,
+                                          int num_threads) {
+  // Each file is encoded on its own: the preview's PNG takes about as long as both TIFFs
+  // together, and the job's other threads are idle while it runs. Tasks go in the order
+  // preview, depth, reliability so that two threads split one window's files evenly
+  // (ParallelFor's chunks are contiguous); files keep the layout order.
+  const size_t per_window = write_previews ? 3 : 2;
+  std::vector<StereoFile> files(result.range_images.size() * per_window);
+  core::ParallelFor(0, int64_t(files.size()), num_threads, [&](int64_t b, int64_t e) {
+    for (int64_t t = b; t < e; ++t) {
+      const size_t k = size_t(t) / per_window, task = size_t(t) % per_window;
+      const size_t kind = write_previews ? (task + 2) % 3 : task;  // 0 depth, 1 rel., 2 preview
+      const size_t f = k * per_window + kind;
+      const RangeImage& r = result.range_images[k];
+      const std::string sfx = Suffix(k, r.window_px);
+      const std::string name =
+          result.camera + (k == 0 ? "" : " window " + std::to_string(r.window_px));
+      StereoFile& out = files[f];
+      if (kind == 0) {
+        out = {"depth" + sfx + "/" + result.camera + ".tiff",
+               io::EncodeDepthTiff(r.depth_mm, "depth map of " + name,
+                                   io::DepthTiffEncoding::kFast)};
+      } else if (kind == 1) {
+        // PackBits: Deflate or LZW cost more CPU than the stereo job's decoding of its
+        // frames for a map of noisy floats, whose zeros (no depth) run lengths hold.
+        out = {"reliability" + sfx + "/" + result.camera + ".tiff",
+               io::EncodeRunLengthFloatTiff(
+                   r.reliability, "dome reliability: matching-cost curvature, 0 = no depth",
+                   "reliability map of " + name)};
+      } else {
+        out = {"preview" + sfx + "/" + result.camera + ".png",
+               io::EncodeDepthPreviewPng(r.depth_mm, "depth map of " + name)};
+      }
     }
-  }
+  });
   return files;
 }
 

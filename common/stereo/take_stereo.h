@@ -70,8 +70,10 @@ struct StereoFile {
 };
 
 // The files of one result, in layout order (per window: depth, reliability, preview).
-// A worker encodes them; the master checks and writes them.
-std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews);
+// A worker encodes them (one file per thread of `num_threads`; <= 0: the hardware's,
+// 1: on the calling thread); the master checks and writes them.
+std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews,
+                                          int num_threads = 1);
 
 // Throws core::InputError naming `where` and the file unless `files` are exactly the
 // files of `result`: the layout's paths, the depth and reliability maps decoding to the

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <set>
 
 #include "mesh/marching_cubes.h"
 #include "mesh/mesh_test_util.h"
@@ -93,6 +94,51 @@ TEST(Smooth, NoIterationsLeaveTheMeshAsItIs) {
   for (size_t i = 0; i < m.vertices.size(); ++i) ASSERT_EQ(m.vertices[i], before.vertices[i]);
 }
 
+// The lambda|mu steps as the header states them, written plainly: each vertex moves
+// towards the mean of its edge neighbours taken in ascending index order.
+std::vector<Eigen::Vector3f> PlainTaubin(const io::Mesh& mesh, const SmoothOptions& o) {
+  std::vector<std::set<int>> nbr(mesh.vertices.size());
+  for (const auto& f : mesh.faces) {
+    for (int k = 0; k < 3; ++k) {
+      nbr[size_t(f[k])].insert(f[(k + 1) % 3]);
+      nbr[size_t(f[(k + 1) % 3])].insert(f[k]);
+    }
+  }
+  std::vector<Eigen::Vector3d> p;
+  for (const auto& v : mesh.vertices) p.push_back(v.cast<double>());
+  for (int i = 0; i < 2 * o.iterations; ++i) {
+    const double factor = i % 2 == 0 ? o.lambda : o.mu;
+    std::vector<Eigen::Vector3d> next = p;
+    for (size_t v = 0; v < p.size(); ++v) {
+      if (nbr[v].empty()) continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int n : nbr[v]) mean += p[size_t(n)];
+      next[v] = p[v] + factor * (mean / double(nbr[v].size()) - p[v]);
+    }
+    p = next;
+  }
+  std::vector<Eigen::Vector3f> out;
+  for (const auto& v : p) out.push_back(v.cast<float>());
+  return out;
+}
+
+// The vertices are split over threads: the same bits on any number of them, and the
+// bits of the plain steps above (nothing on a noisy sphere is short enough to weld).
+TEST(Smooth, TheSameBitsOnAnyNumberOfThreads) {
+  const io::Mesh input = NoisySphere(0.4);
+  SmoothOptions o;
+  o.iterations = 3;
+  const std::vector<Eigen::Vector3f> plain = PlainTaubin(input, o);
+  for (int threads : {1, 2, 3}) {
+    io::Mesh m = input;
+    o.num_threads = threads;
+    SmoothTaubin(o, &m);
+    ASSERT_EQ(m.vertices.size(), plain.size()) << threads;
+    for (size_t i = 0; i < plain.size(); ++i)
+      ASSERT_EQ(m.vertices[i], plain[i]) << threads << " threads, vertex " << i;
+  }
+}
+
 TEST(Smooth, BadOptionsAreNamed) {
   io::Mesh m = NoisySphere(0.1);
   SmoothOptions o;
@@ -104,6 +150,9 @@ TEST(Smooth, BadOptionsAreNamed) {
   o = {};
   o.mu = -0.4;  // not an inflation larger than the shrink: the mesh would shrink
   dome::testing::ExpectInputError([&] { SmoothTaubin(o, &m); }, {"smooth_mu"});
+  o = {};
+  o.num_threads = -1;
+  dome::testing::ExpectInputError([&] { SmoothTaubin(o, &m); }, {"num_threads", "-1"});
 }
 
 // Edges shorter than the limit are welded: their ends become one vertex (the least index

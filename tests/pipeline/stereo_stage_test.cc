@@ -82,6 +82,37 @@ class StereoStage : public SmallTakeSuite {
     session.mutable_stereo()->add_window_sizes_px(7);
     return ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
+
+  // Coarse to fine clipped to a box around the middle half (per axis) of the surface
+  // that `depth` (camera `cam`'s full-range depths, mm) sees; the box in lo, hi.
+  static runtime::StereoSettings MiddleBoxSettings(const geometry::TsaiCamera& cam,
+                                                   const cv::Mat& depth, Eigen::Vector3d* lo,
+                                                   Eigen::Vector3d* hi) {
+    std::vector<Eigen::Vector3d> points;
+    for (int y = 0; y < depth.rows; ++y)
+      for (int x = 0; x < depth.cols; ++x)
+        if (depth.at<float>(y, x) > 0)
+          points.push_back(cam.BackProjectAtDepth(Eigen::Vector2d(x, y), depth.at<float>(y, x)));
+    EXPECT_GT(points.size(), size_t(1000));
+    for (int i = 0; i < 3; ++i) {
+      std::vector<double> v;
+      for (const auto& p : points) v.push_back(p[i]);
+      std::sort(v.begin(), v.end());
+      (*lo)[i] = v[v.size() / 4];
+      (*hi)[i] = v[v.size() * 3 / 4];
+    }
+    runtime::StereoSettings c2f = DefaultSettings();
+    auto* block = c2f.mutable_coarse_to_fine();
+    block->set_coarse_factor(2);
+    block->set_coarse_window_px(5);
+    block->set_tile_px(32);
+    block->set_clip_pad_mm(1);
+    for (int i = 0; i < 3; ++i) {
+      block->add_clip_min_mm((*lo)[i]);
+      block->add_clip_max_mm((*hi)[i]);
+    }
+    return c2f;
+  }
 };
 
 // Frames decoded before the session (dome run's derivation, frame_handoff.h) are taken
@@ -212,31 +243,8 @@ TEST_F(StereoStage, AClipBoxCutsEachViewToWhereTheBoxProjects) {
   const geometry::TsaiCamera cam = take.rig.cameras[size_t(take.rig.Find("c00"))].model;
   const runtime::StereoSettings full = DefaultSettings();
   const cv::Mat a = RunStereoJob("c00", full);
-  // A box around the middle half of the surface the full search sees.
-  std::vector<Eigen::Vector3d> points;
-  for (int y = 0; y < a.rows; ++y)
-    for (int x = 0; x < a.cols; ++x)
-      if (a.at<float>(y, x) > 0)
-        points.push_back(cam.BackProjectAtDepth(Eigen::Vector2d(x, y), a.at<float>(y, x)));
-  ASSERT_GT(points.size(), size_t(1000));
   Eigen::Vector3d lo, hi;
-  for (int i = 0; i < 3; ++i) {
-    std::vector<double> v;
-    for (const auto& p : points) v.push_back(p[i]);
-    std::sort(v.begin(), v.end());
-    lo[i] = v[v.size() / 4];
-    hi[i] = v[v.size() * 3 / 4];
-  }
-  runtime::StereoSettings c2f = full;
-  auto* block = c2f.mutable_coarse_to_fine();
-  block->set_coarse_factor(2);
-  block->set_coarse_window_px(5);
-  block->set_tile_px(32);
-  block->set_clip_pad_mm(1);
-  for (int i = 0; i < 3; ++i) {
-    block->add_clip_min_mm(lo[i]);
-    block->add_clip_max_mm(hi[i]);
-  }
+  const runtime::StereoSettings c2f = MiddleBoxSettings(cam, a, &lo, &hi);
   const cv::Mat b = RunStereoJob("c00", c2f);
   ASSERT_EQ(b.size(), a.size());
   take::CropBox box;
@@ -264,6 +272,32 @@ TEST_F(StereoStage, AClipBoxCutsEachViewToWhereTheBoxProjects) {
   EXPECT_GT(diffs.size(), 0.7 * in_box);
   std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
   EXPECT_LT(diffs[diffs.size() / 2], 0.005);
+}
+
+// The views a clip box cuts are cut the same way in every job of a session: their
+// ideal greys are made once for the process (pipeline/stages.h Stereo's grey keys). A
+// job whose frames an earlier job cut adds only its new greys, and its outputs are the
+// bytes of the job run with none kept.
+TEST_F(StereoStage, CutGreysKeptForTheProcessGiveTheSameOutputs) {
+  const take::Take take = take::OpenTake(TakeDir());
+  const geometry::TsaiCamera cam = take.rig.cameras[size_t(take.rig.Find("c00"))].model;
+  Eigen::Vector3d lo, hi;
+  const runtime::StereoSettings c2f =
+      MiddleBoxSettings(cam, RunStereoJob("c00", DefaultSettings()), &lo, &hi);
+  DropIdealGreys();
+  std::string first, second, alone;
+  RunStereoJob("c00", c2f, nullptr, &first);
+  const size_t after_first = HeldIdealGreys();
+  EXPECT_GE(after_first, 3u);  // the reference and its neighbours, cut
+  RunStereoJob("c01", c2f, nullptr, &second);
+  EXPECT_LT(HeldIdealGreys(), 2 * after_first) << "c01 shares frames with c00's cluster";
+  DropIdealGreys();
+  RunStereoJob("c01", c2f, nullptr, &alone);
+  EXPECT_EQ(second, alone);
+  DropIdealGreys();
+  RunStereoJob("c00", c2f, nullptr, &alone);
+  EXPECT_EQ(first, alone);
+  DropIdealGreys();
 }
 
 TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
