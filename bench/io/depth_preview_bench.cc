@@ -58,10 +58,5 @@ int Run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "depth_preview_bench: %s\n", e.what());
-    return 1;
-  }
+  return dome::bench::GuardedMain("depth_preview_bench", Run, argc, argv);
 }

@@ -55,4 +55,14 @@ inline double MsSince(std::chrono::steady_clock::time_point t0) {
 // The median of timed runs (eval::Quantile's: interpolated for an even count).
 inline double MedianMs(std::vector<double> ms) { return eval::Quantile(ms, 0.5); }
 
+// A bench's main: run(argc, argv), an exception printed as "NAME: what" and exit code 1.
+inline int GuardedMain(const char* name, int (*run)(int, char**), int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", name, e.what());
+    return 1;
+  }
+}
+
 }  // namespace dome::bench

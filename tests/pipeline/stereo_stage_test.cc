@@ -83,6 +83,26 @@ class StereoStage : public SmallTakeSuite {
     return ToStereoSettings(ResolveSessionOptions(session, "session").stereo);
   }
 
+  // c00's job keeps at least its three greys; c01's, whose cluster shares frames with
+  // c00's, adds fewer than as many again; each job's outputs are the bytes of the job
+  // run with no grey kept.
+  static void ExpectKeptGreysGiveTheSameOutputs(const runtime::StereoSettings& settings) {
+    DropIdealGreys();
+    std::string first, second, alone;
+    RunStereoJob("c00", settings, nullptr, &first);
+    const size_t after_first = HeldIdealGreys();
+    EXPECT_GE(after_first, 3u);  // the reference and its neighbours
+    RunStereoJob("c01", settings, nullptr, &second);
+    EXPECT_LT(HeldIdealGreys(), 2 * after_first) << "c01 shares frames with c00's cluster";
+    DropIdealGreys();
+    RunStereoJob("c01", settings, nullptr, &alone);
+    EXPECT_EQ(second, alone);
+    DropIdealGreys();
+    RunStereoJob("c00", settings, nullptr, &alone);
+    EXPECT_EQ(first, alone);
+    DropIdealGreys();
+  }
+
   // Coarse to fine clipped to a box around the middle half (per axis) of the surface
   // that `depth` (camera `cam`'s full-range depths, mm) sees; the box in lo, hi.
   static runtime::StereoSettings MiddleBoxSettings(const geometry::TsaiCamera& cam,
@@ -153,20 +173,7 @@ TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
 // job whose frames were seen by an earlier one adds only its new greys, and its outputs
 // are the bytes of the job run with none kept.
 TEST_F(StereoStage, IdealGreysKeptForTheProcessGiveTheSameOutputs) {
-  const runtime::StereoSettings settings = DefaultSettings();
-  DropIdealGreys();
-  std::string first, second, alone;
-  RunStereoJob("c00", settings, nullptr, &first);
-  const size_t after_first = HeldIdealGreys();
-  EXPECT_GE(after_first, 3u);  // the reference and its neighbours
-  RunStereoJob("c01", settings, nullptr, &second);
-  EXPECT_LT(HeldIdealGreys(), 2 * after_first) << "c01 shares frames with c00's cluster";
-  DropIdealGreys();
-  RunStereoJob("c01", settings, nullptr, &alone);
-  EXPECT_EQ(second, alone);
-  DropIdealGreys();
-  RunStereoJob("c00", settings, nullptr, &alone);
-  EXPECT_EQ(first, alone);
+  ExpectKeptGreysGiveTheSameOutputs(DefaultSettings());
 }
 
 // A worker's jobs keep the decoded frames of an instant for the process's next jobs (a
@@ -282,22 +289,8 @@ TEST_F(StereoStage, CutGreysKeptForTheProcessGiveTheSameOutputs) {
   const take::Take take = take::OpenTake(TakeDir());
   const geometry::TsaiCamera cam = take.rig.cameras[size_t(take.rig.Find("c00"))].model;
   Eigen::Vector3d lo, hi;
-  const runtime::StereoSettings c2f =
-      MiddleBoxSettings(cam, RunStereoJob("c00", DefaultSettings()), &lo, &hi);
-  DropIdealGreys();
-  std::string first, second, alone;
-  RunStereoJob("c00", c2f, nullptr, &first);
-  const size_t after_first = HeldIdealGreys();
-  EXPECT_GE(after_first, 3u);  // the reference and its neighbours, cut
-  RunStereoJob("c01", c2f, nullptr, &second);
-  EXPECT_LT(HeldIdealGreys(), 2 * after_first) << "c01 shares frames with c00's cluster";
-  DropIdealGreys();
-  RunStereoJob("c01", c2f, nullptr, &alone);
-  EXPECT_EQ(second, alone);
-  DropIdealGreys();
-  RunStereoJob("c00", c2f, nullptr, &alone);
-  EXPECT_EQ(first, alone);
-  DropIdealGreys();
+  ExpectKeptGreysGiveTheSameOutputs(
+      MiddleBoxSettings(cam, RunStereoJob("c00", DefaultSettings()), &lo, &hi));
 }
 
 TEST_F(StereoStage, ClipBoxBoundsTheDepthRange) {
