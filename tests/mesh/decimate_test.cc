@@ -558,6 +558,14 @@ TEST(Decimate, SpecksAreSmallPartsAwayFromTheSurface) {
   float lowest = 1e9f;
   for (const auto& p : d.vertices) lowest = std::min(lowest, p.z());
   EXPECT_LT(lowest, -79.0f);  // the needle stays
+  // The gap's queries are split over the threads: the same parts go on any count.
+  for (int threads : {1, 3}) {
+    o.num_threads = threads;
+    DecimationSummary split;
+    EXPECT_EQ(Decimate(m, o, &split).faces, d.faces) << threads;
+    EXPECT_EQ(split.specks_removed, 4) << threads;
+  }
+  o.num_threads = 0;
   o.speck_gap_mm = 0;
   DecimationSummary without;
   Decimate(m, o, &without);
