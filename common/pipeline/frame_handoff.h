@@ -9,8 +9,8 @@
 //
 // Process-wide and thread-safe. At most kBudgetBytes of pixels are held, the oldest
 // dropped first; a frame is handed over once (kept for the process's jobs from there,
-// below), so nothing stays in the handoff after the jobs have run. Offer only where in-process workers
-// will run: a frame nobody takes is held until the process ends.
+// below), so nothing stays in the handoff after the jobs have run. Offer only where
+// in-process workers will run: a frame nobody takes is held until the process ends.
 #pragma once
 
 #include <opencv2/core.hpp>

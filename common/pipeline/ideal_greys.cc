@@ -19,6 +19,11 @@ std::string IdealGreyKey(const std::string& frame_sha256, const std::string& rig
          (options.normalize_contrast ? '1' : '0') + (options.sqrt_greys ? '1' : '0');
 }
 
+std::string CutGreyKey(const std::string& frame_key, const cv::Rect& rect) {
+  return frame_key + " cut " + std::to_string(rect.x) + ' ' + std::to_string(rect.y) + ' ' +
+         std::to_string(rect.width) + ' ' + std::to_string(rect.height);
+}
+
 cv::Mat SharedIdealGrey(const std::string& key, const stereo::StereoView& view,
                         const stereo::StereoOptions& options, const std::string& where) {
   const cv::Mat kept = Process().Find(key);

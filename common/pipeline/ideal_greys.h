@@ -27,6 +27,10 @@ constexpr size_t kIdealGreysBudgetBytes = size_t(128) << 20;
 std::string IdealGreyKey(const std::string& frame_sha256, const std::string& rig_sha256,
                          const std::string& camera, const stereo::StereoOptions& options);
 
+// The key of the grey of a frame's view cut to `rect` (coarse to fine's clip box cut,
+// pipeline/stages.h Stereo): `frame_key` (IdealGreyKey) and the rectangle.
+std::string CutGreyKey(const std::string& frame_key, const cv::Rect& rect);
+
 // The grey kept under `key`, or one made by stereo::IdealGrey(view, options, where) and
 // kept. The image returned is shared: callers must not write to it.
 cv::Mat SharedIdealGrey(const std::string& key, const stereo::StereoView& view,

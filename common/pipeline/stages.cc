@@ -61,12 +61,8 @@ stereo::StereoResult CoarseToFineInBox(const stereo::StereoInput& input,
     core::ParallelFor(0, int64_t(rects.size()), o.num_threads, [&](int64_t b, int64_t e) {
       for (int64_t i = b; i < e; ++i) {
         stereo::StereoView& v = i == 0 ? in.reference : in.neighbours[size_t(i) - 1];
-        const cv::Rect& r = rects[size_t(i)];
-        v.ideal_grey = SharedIdealGrey(grey_keys[size_t(i)] + " cut " + std::to_string(r.x) +
-                                           ' ' + std::to_string(r.y) + ' ' +
-                                           std::to_string(r.width) + ' ' +
-                                           std::to_string(r.height),
-                                       v, o, "view '" + v.camera.id + "'");
+        v.ideal_grey = SharedIdealGrey(CutGreyKey(grey_keys[size_t(i)], rects[size_t(i)]), v, o,
+                                       "view '" + v.camera.id + "'");
       }
     });
   }

@@ -292,9 +292,9 @@ void MatchTiles(const IdealViews& iv, const StereoOptions& options,
       *std::max_element(options.window_sizes_px.begin(), options.window_sizes_px.end()) / 2;
   const double w_range = 1.0 / options.z_min_mm - 1.0 / options.z_max_mm;
   // Tiles are small: one thread each, each thread taking the next tile when it is done
-  // with one, the dearest first (pixels times the inverse-depth range its levels span):
-  // dealt in turn, the threads ended a job's tiles up to a tenth of the job apart. Each
-  // tile writes only its own pixels of the result, so the order changes no output.
+  // with one, the dearest first (pixels times the inverse-depth range its levels span),
+  // so that no thread is left with a long tile while the other waits. Each tile writes
+  // only its own pixels of the result, so the order changes no output.
   const int threads = std::max(
       1,
       int(std::min<int64_t>(options.num_threads > 0 ? options.num_threads : core::HardwareThreads(),
