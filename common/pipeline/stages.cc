@@ -117,7 +117,7 @@ stereo::StereoResult StereoLimited(const stereo::StereoInput& input,
                   st.mean_tile_levels, st.coarse_seconds, st.fine_seconds);
   } else if (sb) {
     stereo::CoarseToFineStats st;
-    result = stereo::ComputeDepthBounded(input, o, *sb, 32, &st);
+    result = stereo::ComputeDepthBounded(input, o, *sb, &st);
     spdlog::debug("{}: bounded search: {} of {} tiles matched, {:.1f} levels a tile (at most {}), "
                   "{:.3f} s preparing, {:.3f} s matching",
                   where, st.tiles_matched, st.tiles, st.mean_tile_levels, result.num_levels,

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
+#include "stereo/cost_kernel.h"
 #include "take/crop.h"
 
 namespace dome::stereo {
@@ -548,12 +549,9 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
 }
 
 StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& options,
-                                 const SearchBounds& bounds, int tile_px,
-                                 CoarseToFineStats* stats) {
+                                 const SearchBounds& bounds, CoarseToFineStats* stats) {
   core::Stopwatch watch;
   options.Check();
-  core::Require(tile_px >= 8, "search bounds: tile_px",
-                "expected at least 8 pixels, got " + std::to_string(tile_px));
   core::Require(!input.neighbours.empty(), "cluster",
                 "camera '" + input.reference.camera.id + "' has no neighbours");
   const auto& ref_cam = input.reference.camera;
@@ -566,23 +564,62 @@ StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& 
   watch.Restart();
   const int width = ref_cam.width_px, height = ref_cam.height_px;
   StereoResult result = EmptyResult(ref_cam.id, options, width, height);
+  // Per tile of the kernel's size, the depths its searched pixels allow (the least near ..
+  // greatest far of them, within the options' range); tiles without one search nothing.
+  TileDepths tiles;
   std::vector<TileJob> jobs;
-  for (int ty = 0; ty < height; ty += tile_px) {
-    for (int tx = 0; tx < width; tx += tile_px) {
+  for (int ty = 0; ty < height; ty += kKernelTilePx) {
+    for (int tx = 0; tx < width; tx += kKernelTilePx) {
       ++st.tiles;
-      // The tile cut to the rectangle of its searched pixels: at a silhouette's edge
-      // most of a tile is background, and a tile costs its pixels (and their window
-      // margin) x its levels. The pixels cut off have no depth either way.
-      const cv::Rect tile = bounds.SearchedRect(cv::Rect(tx, ty, tile_px, tile_px) &
+      // The tile cut to the rectangle of its searched pixels (for a search per tile: at a
+      // silhouette's edge most of a tile is background, and a tile costs its pixels and
+      // their window margin x its levels; the pixels cut off have no depth either way).
+      const cv::Rect tile = bounds.SearchedRect(cv::Rect(tx, ty, kKernelTilePx, kKernelTilePx) &
                                                 cv::Rect(0, 0, width, height));
-      double near_mm, far_mm;
-      if (tile.empty() || !bounds.Range(tile, &near_mm, &far_mm)) continue;
-      const double z_lo = std::max(options.z_min_mm, near_mm);
-      const double z_hi = std::min(options.z_max_mm, far_mm);
-      if (z_lo < z_hi) jobs.push_back({tile, z_lo, z_hi});
+      double near_mm = 0, far_mm = 0;
+      if (!tile.empty() && bounds.Range(tile, &near_mm, &far_mm)) {
+        near_mm = std::max(options.z_min_mm, near_mm);
+        far_mm = std::min(options.z_max_mm, far_mm);
+        if (near_mm < far_mm) jobs.push_back({tile, near_mm, far_mm});
+      }
+      tiles.near_mm.push_back(float(near_mm));
+      tiles.far_mm.push_back(float(far_mm));
     }
   }
-  MatchTiles(iv, options, jobs, &result, &st);
+  // Where at least half of the tiles search (the previous instant's depths bound most of
+  // the image), one kernel pass over the whole images: the neighbours are resampled
+  // once for all of them. Where few do (a silhouette's), each tile alone, over its own
+  // level grid (the levels its cut of the cameras needs, fewer than the whole image's),
+  // resampling only what it sees. Measured on the synthetic dome's paper take: the
+  // previous instant's bounds (every tile searched) take 0.34x the matching time of
+  // tiles matched alone; a silhouette's (10-15 tiles in 80), 1.6x.
+  if (2 * jobs.size() >= size_t(st.tiles)) {
+    StereoInput in;
+    in.reference = {iv.cameras[0], iv.greys[0], iv.greys[0]};
+    for (size_t i = 1; i < iv.views.size(); ++i) {
+      in.neighbours.push_back({iv.cameras[i], iv.greys[i], iv.greys[i]});
+    }
+    StereoOptions o = options;
+    o.speckle = {};  // after the bounds, below
+    bool seen = true;
+    if (o.num_levels <= 0) {
+      const std::vector<geometry::TsaiCamera> nb(iv.cameras.begin() + 1, iv.cameras.end());
+      try {
+        o.num_levels = CountDepthLevels(iv.cameras[0], nb, o.z_min_mm, o.z_max_mm, o.level_step_px);
+      } catch (const core::InputError&) {
+        seen = false;  // no neighbour sees the range: nothing to match
+      }
+    }
+    if (seen) {
+      StereoResult r = ComputeDepth(in, o, &tiles);
+      r.camera = ref_cam.id;
+      st.tiles_matched = int(r.tiles_searched);
+      st.mean_tile_levels = double(r.tile_levels);
+      result = std::move(r);
+    }
+  } else {
+    MatchTiles(iv, options, jobs, &result, &st);
+  }
   st.fine_seconds = watch.ElapsedSeconds();
   if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
   if (stats) *stats = st;

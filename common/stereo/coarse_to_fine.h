@@ -118,14 +118,18 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
                                       const SearchBounds* bounds = nullptr);
 
 // The full-range search (ComputeDepth's options) limited by per-pixel bounds: the
-// reference image cut into tiles of tile_px, each cut to the rectangle of its searched
-// pixels and matched as the fine pass above over the least near .. greatest far of
-// them (within the options' range), tiles without one skipped; then every depth outside its pixel's bounds cleared, and
-// the speckles removed. The cost of a tile is its pixels x its own levels, so a search
-// bounded to a silhouette's hull costs what the foreground does. Stats: coarse_seconds
-// is the greys' preparation, fine_seconds the tiles'.
+// reference cut into tiles of the kernel's side (stereo/cost_kernel.h kKernelTilePx),
+// each searching between the least near and greatest far of its searched pixels
+// (within the options' range), tiles without one nothing; then every depth outside its
+// pixel's bounds is cleared, and the speckles removed. Where at least half of the tiles
+// search, they do so in one kernel pass over the whole images, on the options' level
+// grid (ComputeDepth with TileDepths); otherwise each tile alone, cut to the rectangle
+// of its searched pixels, on its own grid, as the fine pass above (the .cc says why).
+// The cost of a tile is its pixels x its own levels, so a search bounded to a
+// silhouette's hull costs what the foreground does. Stats: coarse_seconds is the greys'
+// preparation, fine_seconds the search; tiles_matched the tiles searched,
+// mean_tile_levels their mean level count.
 StereoResult ComputeDepthBounded(const StereoInput& input, const StereoOptions& options,
-                                 const SearchBounds& bounds, int tile_px = 32,
-                                 CoarseToFineStats* stats = nullptr);
+                                 const SearchBounds& bounds, CoarseToFineStats* stats = nullptr);
 
 }  // namespace dome::stereo

@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -12,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
 #include "core/parallel_for.h"
 #include "stereo/window_sum.h"
 
@@ -84,7 +86,7 @@ __attribute__((noinline)) void WindowSum(const float* __restrict v, int n, int h
 
 namespace {
 
-constexpr int kBandRows = 32;
+constexpr int kBandRows = kKernelTilePx;  // a band is one row of tiles
 constexpr int kLevelGroup = 4;  // levels per pass of the minimum update (UpdateRowN)
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -527,24 +529,32 @@ bool Invert3(const double a[3][3], double inv[3][3]) {
   return true;
 }
 
-// Sets up J's extent for inverse depths [w0, w1]; false when the scaling leaves the
+// Reference pixels [x0, x1] x [y0, y1] searched over inverse depths [w0, w1].
+struct Reach {
+  double x0, y0, x1, y1, w0, w1;
+};
+
+// Sets up J's extent for the reaches (m is affine in the pixel and monotone in w, so
+// the corners and the ends of each reach bound it); false when the scaling leaves the
 // usable range (then the exact per-pixel warp runs).
-bool PlanPrewarp(const KernelNeighbour& nb, int width, int height, double w0, double w1,
-                 Prewarped* pw) {
+bool PlanPrewarp(const KernelNeighbour& nb, int width, int height,
+                 const std::vector<Reach>& reaches, Prewarped* pw) {
   double inv[3][3];
   if (!Invert3(nb.a, inv)) return false;
   for (int i = 0; i < 3; ++i) {
     pw->c[i] = inv[i][0] * nb.b[0] + inv[i][1] * nb.b[1] + inv[i][2] * nb.b[2];
   }
   double xmin = kInf, xmax = -kInf, ymin = kInf, ymax = -kInf;
-  for (double w : {w0, w1}) {
-    const double d = 1.0 + w * pw->c[2];
-    if (!(d > 1.0 / kMaxPrewarpScale)) return false;
-    for (double x : {0.0, double(width - 1)}) {
-      for (double y : {0.0, double(height - 1)}) {
-        const double mx = (x + w * pw->c[0]) / d, my = (y + w * pw->c[1]) / d;
-        xmin = std::min(xmin, mx), xmax = std::max(xmax, mx);
-        ymin = std::min(ymin, my), ymax = std::max(ymax, my);
+  for (const Reach& r : reaches) {
+    for (double w : {r.w0, r.w1}) {
+      const double d = 1.0 + w * pw->c[2];
+      if (!(d > 1.0 / kMaxPrewarpScale)) return false;
+      for (double x : {r.x0, r.x1}) {
+        for (double y : {r.y0, r.y1}) {
+          const double mx = (x + w * pw->c[0]) / d, my = (y + w * pw->c[1]) / d;
+          xmin = std::min(xmin, mx), xmax = std::max(xmax, mx);
+          ymin = std::min(ymin, my), ymax = std::max(ymax, my);
+        }
       }
     }
   }
@@ -821,12 +831,14 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
   }
 }
 
-// The fixed point column pattern of inverse depth w over `n32` positions (a multiple of
-// 32), for the loads of path `simd`. `pixel` holds the pixel of each position (pixels at
+// The fixed point column pattern of inverse depth w for `n32` positions (a multiple of
+// 32), made over the positions [p_begin, p_end) (multiples of 32; the rest left as they
+// were), for the loads of path `simd`. `pixel` holds the pixel of each position (pixels at
 // and past the width repeating the last one) and `frac_scale` 32768 for pixels inside
 // the width, else 0; `col` is scratch. Not inlined: every path runs this one copy.
 __attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int width, int n32,
-                                             SimdLevel simd, const double* pixel,
+                                             int p_begin, int p_end, SimdLevel simd,
+                                             const double* pixel,
                                              const double* frac_scale, std::vector<int32_t>* col,
                                              LevelPattern16* pat) {
   pat->s = 1.0 / std::fma(double(w), pw.c[2], 1.0);
@@ -843,7 +855,7 @@ __attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int w
   int16_t* __restrict rel = pat->rel.data();
   const int last = pw.cols - 1;
   // Plain loops that vectorize.
-  for (int p = 0; p < n32; ++p) {
+  for (int p = p_begin; p < p_end; ++p) {
     const double mx = std::fma(s, pixel[p], mx0);
     const double fl = std::floor(mx);
     const int ci = int(fl);
@@ -851,7 +863,7 @@ __attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int w
     const int fq = int((mx - fl) * frac_scale[p] + 0.5);
     f[p] = int16_t(fq > 32767 ? 32767 : fq);
   }
-  for (int k = 0; k < n32 / 32; ++k) {
+  for (int k = p_begin / 32; k < p_end / 32; ++k) {
     // Positions 0 and 31 hold the block's first and last pixels.
     const int32_t b = c[32 * k];
     pat->base[k] = b;
@@ -860,7 +872,7 @@ __attribute__((noinline)) void MakePattern16(const Prewarped& pw, float w, int w
   }
   if (simd != SimdLevel::kAvx2) return;
   pat->shuffle.resize(2 * size_t(n32));
-  for (int k = 0; k < n32 / 32; ++k) {
+  for (int k = p_begin / 32; k < p_end / 32; ++k) {
     bool fits = true;
     for (int g = 8 * k; g < 8 * k + 8; ++g) {
       // A group's pixels are consecutive: its last position has the largest column.
@@ -1001,12 +1013,13 @@ struct QRow {
 // The SSD of one reference row over the neighbours rows[0..nn) in fixed point.
 // Differences are grey x kQ (v = top + MulHrs(bottom - top, ay), d = v - ref); a sample
 // without data differs by d_out. The squares sum exactly in 32 bits, and
-// ssd[x] = fma(float(sum), scale, base) for x in [0, width): the SIMD paths give the
-// same bits (scalar; `pixel` holds the pixel of each stored position).
+// ssd[x] = fma(float(sum), scale, base) for the pixels x < width of the positions
+// [x_begin, x_end) (multiples of 32): the SIMD paths give the same bits (scalar; `pixel`
+// holds the pixel of each stored position).
 void VerticalSsdQScalar(const QRow* rows, int nn, float base, const int16_t* __restrict ref_q,
-                        int16_t d_out, float scale, int width, int n32, const int16_t* pixel,
-                        float* __restrict ssd) {
-  for (int x = 0; x < n32; x += 32) {
+                        int16_t d_out, float scale, int width, int x_begin, int x_end,
+                        const int16_t* pixel, float* __restrict ssd) {
+  for (int x = x_begin; x < x_end; x += 32) {
     int32_t acc[32] = {};
     for (int n = 0; n < nn; ++n) {
       const QRow& row = rows[n];
@@ -1058,11 +1071,12 @@ __attribute__((target("avx2,fma"))) inline __attribute__((always_inline)) __m256
 __attribute__((target("avx2,fma"))) void VerticalSsdQAvx2(const QRow* rows, int nn, float base,
                                                           const int16_t* __restrict ref_q,
                                                           int16_t d_out, float scale, int width,
-                                                          int n32, const int16_t* pixel,
+                                                          int x_begin, int x_end,
+                                                          const int16_t* pixel,
                                                           float* __restrict ssd) {
   const __m256i out = _mm256_set1_epi16(d_out);
   const __m256 vscale = _mm256_set1_ps(scale), vbase = _mm256_set1_ps(base);
-  for (int x = 0; x < n32; x += 32) {
+  for (int x = x_begin; x < x_end; x += 32) {
     // Positions past the width hold anything: their sums are never read.
     const int last = std::min(x + 31, width - 1);
     const __m256i r0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref_q + x));
@@ -1122,10 +1136,11 @@ DiffQAvx512(const QRow& row, int x, int last, __m512i r, __m512i out, const int1
 // differences square and sum into pixels 4 L..4 L + 3 (low) and 16 + 4 L.. (high).
 __attribute__((target("avx512f,avx512bw,fma"))) void VerticalSsdQAvx512(
     const QRow* rows, int nn, float base, const int16_t* __restrict ref_q, int16_t d_out,
-    float scale, int width, int n32, const int16_t* pixel, float* __restrict ssd) {
+    float scale, int width, int x_begin, int x_end, const int16_t* pixel,
+    float* __restrict ssd) {
   const __m512i out = _mm512_set1_epi16(d_out);
   const __m512 vscale = _mm512_set1_ps(scale), vbase = _mm512_set1_ps(base);
-  for (int x = 0; x < n32; x += 32) {
+  for (int x = x_begin; x < x_end; x += 32) {
     // Positions past the width hold anything: their sums are never read.
     const int last = std::min(x + 31, width - 1);
     const __m512i r = _mm512_loadu_si512(ref_q + x);
@@ -1196,7 +1211,20 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
   const int halo = 2 * hmax;
   // Up to 64 MB per thread; beyond that (large images, many levels, wide windows) the
   // shared rows are warped twice.
-  const bool keep_halo = size_t(halo) * stride * in.num_levels <= (size_t(1) << 24);
+  // Not with per-tile levels: bands then search different levels.
+  const bool ranged = !in.tile_lo.empty();
+  const bool keep_halo =
+      !ranged && size_t(halo) * stride * in.num_levels <= (size_t(1) << 24);
+  const int tiles_x = (width + kKernelTilePx - 1) / kKernelTilePx;
+  // Per level, the runs of pixels [pa, pb) of the band's row whose levels are in the same
+  // place of their group of kLevelGroup: the whole row, or with per-tile levels,
+  // adjacent tiles that have the level at the same place (their first level and
+  // last level decide it).
+  struct Segment {
+    int pa, pb, g;
+    bool last;  // the group ends at this level: the state is updated
+  };
+  std::vector<Segment> segments;
   Scratch halo_cache(keep_halo ? size_t(halo) * stride * in.num_levels : 0);
   // Pre-warped paths: the column pattern of each neighbour at the current level, the
   // resampled J rows and pair_ok rows in two slots per neighbour (by row parity) and
@@ -1240,14 +1268,55 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
     // The rows this band leaves for the next one.
     const int n0 = std::max(s0, s1 - halo);
     for (auto& s : states) s.Reset(size_t(y1 - y0) * stride);
-    for (int l = 0; l < in.num_levels; ++l) {
+    const int* tile_lo = ranged ? in.tile_lo.data() + band * tiles_x : nullptr;
+    const int* tile_hi = ranged ? in.tile_hi.data() + band * tiles_x : nullptr;
+    int band_lo = 0, band_hi = in.num_levels - 1;
+    if (ranged) {
+      band_lo = in.num_levels, band_hi = -1;
+      for (int t = 0; t < tiles_x; ++t) {
+        if (tile_lo[t] > tile_hi[t]) continue;
+        band_lo = std::min(band_lo, tile_lo[t]);
+        band_hi = std::max(band_hi, tile_hi[t]);
+      }
+    }
+    for (int l = band_lo; l <= band_hi; ++l) {
+      // The columns whose SSD this level needs, [span_lo, span_hi): every pixel, or the
+      // tiles that have the level and their window margin.
+      int span_lo = 0, span_hi = width;
+      segments.clear();
+      if (ranged) {
+        int first = -1, last = -1;
+        for (int t = 0; t < tiles_x; ++t) {
+          if (tile_lo[t] > l || l > tile_hi[t]) continue;
+          if (first < 0) first = t;
+          last = t;
+          const int g = (l - tile_lo[t]) % kLevelGroup;
+          const bool end = g + 1 == kLevelGroup || l == tile_hi[t];
+          const int pa = t * kKernelTilePx, pb = std::min(width, pa + kKernelTilePx);
+          if (!segments.empty() && segments.back().pb == pa && segments.back().g == g &&
+              segments.back().last == end) {
+            segments.back().pb = pb;
+          } else {
+            segments.push_back({pa, pb, g, end});
+          }
+        }
+        if (first < 0) continue;  // no tile of the band has this level
+        span_lo = std::max(0, first * kKernelTilePx - hmax);
+        span_hi = std::min(width, (last + 1) * kKernelTilePx + hmax);
+      } else {
+        const int g = l % kLevelGroup;
+        segments.push_back({0, width, g, g + 1 == kLevelGroup || l + 1 == in.num_levels});
+      }
+      // The same span in the pre-warped paths' blocks of 32 positions.
+      const int q_begin = span_lo / 32 * 32, q_end = std::min(n32, (span_hi + 31) / 32 * 32);
       // The product is exact in double, so a contracted multiply-add (which the SIMD
       // instances may use and the scalar one not) rounds the same: one w for every path.
       const float w = float(double(in.w_far) + double(l) * double(in.w_step));
       float* cache = keep_halo ? halo_cache.data() + size_t(halo) * stride * l : nullptr;
       if constexpr (kFixed) {
         for (int n = 0; n < nn; ++n) {
-          MakePattern16(prep.prewarped[n], w, width, n32, kPatternSimd, position_pixel.data(),
+          MakePattern16(prep.prewarped[n], w, width, n32, q_begin, q_end, kPatternSimd,
+                        position_pixel.data(),
                         position_frac_scale.data(), &pattern_col, &patterns16[n]);
           run_memo[n] = RunMemo{1, -1, 0, -1};  // matches no row: ok_lo <= ok_hi or (1, 0)
         }
@@ -1288,7 +1357,7 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
               const int slot = 2 * n + (j & 1);
               if (slot_row[slot] != j) {
                 const bool run = pw.ok_run[j];
-                int x_begin = 0, x_end = n32;
+                int x_begin = q_begin, x_end = q_end;
                 if (run) {
                   // Only the blocks that hold pixels with data.
                   // Neighbouring J rows mostly share their run of columns with data.
@@ -1298,8 +1367,9 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                     PixelRun(pat, width, m.c_lo, m.c_hi, &m.lo, &m.hi);
                   }
                   slot_lo[slot] = m.lo, slot_hi[slot] = m.hi;
-                  x_begin = slot_lo[slot] / 32 * 32;
-                  x_end = slot_lo[slot] <= slot_hi[slot] ? (slot_hi[slot] / 32 + 1) * 32 : x_begin;
+                  x_begin = std::max(q_begin, slot_lo[slot] / 32 * 32);
+                  x_end = std::min(q_end, (slot_hi[slot] / 32 + 1) * 32);
+                  if (slot_lo[slot] > slot_hi[slot] || x_end < x_begin) x_end = x_begin;
                 }
                 const int16_t* jrow = pw.q.data() + size_t(j) * pw.qstride;
                 const int16_t* ok_row = pw.pair_ok.data() + size_t(j) * pw.qstride;
@@ -1352,7 +1422,7 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
                                         : kPath == Path::kPrewarpAvx2 ? VerticalSsdQAvx2
                                                                       : VerticalSsdQScalar;
           kVerticalSsd(qrow.data(), active, base_cost, prep.ref_q.data() + size_t(y) * stride,
-                       prep.d_out, q_scale, width, n32, position_x.data(), row);
+                       prep.d_out, q_scale, width, q_begin, q_end, position_x.data(), row);
           continue;
         }
         if constexpr (kPath != Path::kAvx512) std::fill(row, row + stride, 0.0f);
@@ -1390,37 +1460,46 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
         const int oy0 = std::max(y0, h), oy1 = std::min(y1, height - h);
         if (oy0 >= oy1 || width <= 2 * h) continue;
         BandState& st = states[k];
-        // Vertical running sum over rows oy-h..oy+h.
-        std::fill(vsum.begin(), vsum.end(), 0.0f);
+        // Vertical running sum over rows oy-h..oy+h, over the columns the segments' windows
+        // read.
+        const int vx0 = std::max(0, segments.front().pa - h);
+        const int vx1 = std::min(width, segments.back().pb + h);
+        std::fill(vsum.begin() + vx0, vsum.begin() + vx1, 0.0f);
         for (int yy = oy0 - h; yy <= oy0 + h; ++yy) {
           const float* row = ssd.data() + size_t(yy - s0) * stride;
-          for (int x = 0; x < width; ++x) vsum[x] += row[x];
+          for (int x = vx0; x < vx1; ++x) vsum[x] += row[x];
         }
         for (int y = oy0; y < oy1; ++y) {
           if (y > oy0) {
             const float* add = ssd.data() + size_t(y + h - s0) * stride;
             const float* sub = ssd.data() + size_t(y - h - 1 - s0) * stride;
-            for (int x = 0; x < width; ++x) vsum[x] += add[x] - sub[x];
+            for (int x = vx0; x < vx1; ++x) vsum[x] += add[x] - sub[x];
           }
-          const int n = width - 2 * h;
-          const size_t o = size_t(y - y0) * stride + h;
-          // Levels go to the state in groups of kLevelGroup: the costs of the group's
-          // earlier levels wait in `pending`.
-          const int g = l % kLevelGroup;
-          if (g + 1 < kLevelGroup && l + 1 < in.num_levels) {
-            WindowSum(vsum.data(), n, h, pending[size_t(k) * (kLevelGroup - 1) + g].data() + o);
-            continue;
+          for (const Segment& seg : segments) {
+            // Pixels whose window lies inside the image.
+            const int pa = std::max(seg.pa, h), pb = std::min(seg.pb, width - h);
+            if (pa >= pb) continue;
+            const int n = pb - pa;
+            const size_t o = size_t(y - y0) * stride + pa;
+            // Levels go to the state in groups of kLevelGroup: the costs of the group's
+            // earlier levels wait in `pending`.
+            const int g = seg.g;
+            if (!seg.last) {
+              WindowSum(vsum.data() + pa - h, n, h,
+                        pending[size_t(k) * (kLevelGroup - 1) + g].data() + o);
+              continue;
+            }
+            const float* group[kLevelGroup];
+            for (int i = 0; i < g; ++i) {
+              group[i] = pending[size_t(k) * (kLevelGroup - 1) + i].data() + o;
+            }
+            WindowSum(vsum.data() + pa - h, n, h, cost.data() + pa);
+            group[g] = cost.data() + pa;
+            kUpdateRow[g](group, n, float(l - g), st.best.data() + o, st.level.data() + o,
+                          st.cm.data() + o, st.cp.data() + o, st.before.data() + o,
+                          st.after.data() + o, st.run.data() + o, st.run_prev.data() + o,
+                          st.prev.data() + o);
           }
-          const float* group[kLevelGroup];
-          for (int i = 0; i < g; ++i) {
-            group[i] = pending[size_t(k) * (kLevelGroup - 1) + i].data() + o;
-          }
-          WindowSum(vsum.data(), n, h, cost.data());
-          group[g] = cost.data();
-          kUpdateRow[g](group, n, float(l - g), st.best.data() + o, st.level.data() + o,
-                        st.cm.data() + o, st.cp.data() + o, st.before.data() + o,
-                        st.after.data() + o, st.run.data() + o, st.run_prev.data() + o,
-                        st.prev.data() + o);
         }
       }
     }
@@ -1493,12 +1572,32 @@ __attribute__((target("avx512f,avx512bw,fma"))) void RunBandsPrewarpAvx512(
 bool PreparePrewarp(const KernelInput& in, SimdLevel simd, int num_threads, Prepared* prep) {
   const size_t nn = in.neighbours.size();
   std::vector<Prewarped> pws(nn);
-  const double w0 = in.w_far, w1 = double(in.w_far) + double(in.num_levels - 1) * in.w_step;
-  for (size_t n = 0; n < nn; ++n) {
-    if (!PlanPrewarp(in.neighbours[n], in.width, in.height, std::min(w0, w1), std::max(w0, w1),
-                     &pws[n])) {
-      return false;
+  const auto level_w = [&](int l) { return double(in.w_far) + double(l) * in.w_step; };
+  std::vector<Reach> reaches;
+  if (in.tile_lo.empty()) {
+    const double w0 = in.w_far, w1 = level_w(in.num_levels - 1);
+    reaches.push_back(
+        {0.0, 0.0, double(in.width - 1), double(in.height - 1), std::min(w0, w1), std::max(w0, w1)});
+  } else {
+    // Only what the tiles search: each tile's pixels with the window margin its band's
+    // SSD rows and columns take, over its own levels. A search bounded to a silhouette
+    // resamples the neighbours where the silhouette can be seen, not the whole image.
+    const int hmax = *std::max_element(in.half_windows.begin(), in.half_windows.end());
+    const int tiles_x = (in.width + kKernelTilePx - 1) / kKernelTilePx;
+    for (size_t t = 0; t < in.tile_lo.size(); ++t) {
+      if (in.tile_lo[t] > in.tile_hi[t]) continue;
+      const int tx = int(t % size_t(tiles_x)) * kKernelTilePx;
+      const int ty = int(t / size_t(tiles_x)) * kKernelTilePx;
+      const double w0 = level_w(in.tile_lo[t]), w1 = level_w(in.tile_hi[t]);
+      reaches.push_back({double(std::max(0, tx - hmax)), double(std::max(0, ty - hmax)),
+                         double(std::min(in.width - 1, tx + kKernelTilePx - 1 + hmax)),
+                         double(std::min(in.height - 1, ty + kKernelTilePx - 1 + hmax)),
+                         std::min(w0, w1), std::max(w0, w1)});
     }
+    if (reaches.empty()) return false;
+  }
+  for (size_t n = 0; n < nn; ++n) {
+    if (!PlanPrewarp(in.neighbours[n], in.width, in.height, reaches, &pws[n])) return false;
   }
   core::ParallelFor(0, int64_t(nn), num_threads, [&](int64_t b, int64_t e) {
     for (int64_t n = b; n < e; ++n) FillPrewarp(in.neighbours[n], simd, &pws[n]);
@@ -1522,6 +1621,24 @@ SimdLevel CostKernelSimd() {
 }
 
 void RunCostKernel(const KernelInput& input, int num_threads, std::vector<KernelOutput>* outputs) {
+  if (!input.tile_lo.empty()) {
+    const size_t tiles = size_t((input.width + kKernelTilePx - 1) / kKernelTilePx) *
+                         size_t((input.height + kKernelTilePx - 1) / kKernelTilePx);
+    core::Require(input.tile_lo.size() == tiles && input.tile_hi.size() == tiles,
+                  "cost kernel: tile levels",
+                  "expected " + std::to_string(tiles) + " tiles, got " +
+                      std::to_string(input.tile_lo.size()) + " and " +
+                      std::to_string(input.tile_hi.size()));
+    for (size_t t = 0; t < tiles; ++t) {
+      core::Require(input.tile_lo[t] > input.tile_hi[t] ||
+                        (input.tile_lo[t] >= 0 && input.tile_hi[t] < input.num_levels),
+                    "cost kernel: tile levels",
+                    "tile " + std::to_string(t) + " has levels " +
+                        std::to_string(input.tile_lo[t]) + ".." +
+                        std::to_string(input.tile_hi[t]) + " outside 0.." +
+                        std::to_string(input.num_levels - 1));
+    }
+  }
   SimdLevel simd = std::min(input.max_simd, CostKernelSimd());
   Prepared prep;
   // The fixed point sums of the pre-warped kernel hold up to kMaxQNeighbours neighbours
@@ -1566,7 +1683,7 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
     }
   }
   const int64_t bands = (input.height + kBandRows - 1) / kBandRows;
-  core::ParallelFor(0, bands, num_threads, [&](int64_t b, int64_t e) {
+  const auto run_bands = [&](int64_t b, int64_t e) {
     switch (simd) {
       case SimdLevel::kAvx512:
         (prewarp ? RunBandsPrewarpAvx512 : RunBandsAvx512)(input, prep, b, e, outputs);
@@ -1578,7 +1695,20 @@ void RunCostKernel(const KernelInput& input, int num_threads, std::vector<Kernel
         (prewarp ? RunBandsPrewarpScalar : RunBandsScalar)(input, prep, b, e, outputs);
         break;
     }
-  });
+  };
+  if (input.tile_lo.empty()) {
+    // Contiguous bands per thread: each hands the SSD rows it shares to the next.
+    core::ParallelFor(0, bands, num_threads, run_bands);
+  } else {
+    // With per-tile levels bands cost what their tiles search (none in a background
+    // band): one band at a time to the next free thread.
+    const int threads = int(std::max<int64_t>(
+        1, std::min<int64_t>(num_threads > 0 ? num_threads : core::HardwareThreads(), bands)));
+    std::atomic<int64_t> next{0};
+    core::ParallelFor(0, threads, threads, [&](int64_t, int64_t) {
+      for (int64_t b = next++; b < bands; b = next++) run_bands(b, b + 1);
+    });
+  }
   for (auto& pw : prep.prewarped) {
     Pool<int16_t>::Give(&pw.q);
     Pool<int16_t>::Give(&pw.pair_ok);

@@ -1,9 +1,11 @@
 // The SSSD cost kernel of multi-baseline stereo (internal to dome_stereo; the
 // interface is multi_baseline.h, which validates everything before calling it).
 //
-// Work is cut into bands of reference rows; each thread takes contiguous bands, and
-// the SSD rows two bands share (the window's overlap) are computed once per thread and
-// handed on per level. Per band and per level, for every neighbour the homography is
+// Work is cut into bands of reference rows (kKernelTilePx); each thread takes contiguous
+// bands, and the SSD rows two bands share (the window's overlap) are computed once per
+// thread and handed on per level. With levels per tile (KernelInput::tile_lo) a band
+// runs only its tiles' levels, each over the columns of the tiles that have it, and
+// bands go one at a time to the next free thread, each computing its own shared rows. Per band and per level, for every neighbour the homography is
 // evaluated incrementally along each row (q = q0 + x dq, one reciprocal per pixel), the
 // neighbour sampled bilinearly and the squared difference added to a band-sized SSD
 // buffer; the window sums come from a running vertical sum and a short horizontal sum
@@ -36,6 +38,10 @@ namespace dome::stereo {
 // Instruction sets of the warp, in increasing order.
 enum class SimdLevel { kNone = 0, kAvx2 = 1, kAvx512 = 2 };
 
+// The side of the kernel's tiles, reference pixels: its bands are this many rows, and
+// KernelInput::tile_lo / tile_hi give levels per tile of this side.
+constexpr int kKernelTilePx = 32;
+
 struct KernelNeighbour {
   double a[3][3];  // x_n ~ a x_r + w b  (ideal pixels, w = 1/z in 1/mm)
   double b[3];
@@ -61,6 +67,16 @@ struct KernelInput {
   // sums) or a width of 2^15 - 32 pixels or more (16-bit pixel columns). Runs the best of
   // its AVX-512, AVX2 and scalar paths up to max_simd, all with the same output.
   bool prewarp = false;
+  // Optional per-tile level ranges: the reference cut into tiles of kKernelTilePx (row
+  // major, ceil(width / 32) x ceil(height / 32)); a pixel's costs are those of its
+  // tile's levels tile_lo..tile_hi only (lo > hi: none, the pixel gets best_level -1),
+  // as if the levels outside did not exist, and its minimum, neighbours' costs and
+  // second best are taken over those levels. The work of a band of tiles is the levels
+  // of its tiles, each over the columns of the tiles that have it (and their window
+  // margin): a search bounded per tile (a silhouette's hull, the previous instant's
+  // depths) costs what it searches, in one pass over the image. Empty: every level
+  // everywhere.
+  std::vector<int> tile_lo, tile_hi;
 };
 
 // Per pixel (row-major), per window size. Pixels whose window leaves the image get

@@ -261,7 +261,8 @@ std::string StereoResult::BriefReport() const {
   return out.str();
 }
 
-StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options) {
+StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options,
+                          const TileDepths* tiles) {
   options.Check();
   core::Require(!input.neighbours.empty(), "cluster",
                 "camera '" + input.reference.camera.id +
@@ -320,6 +321,31 @@ StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options
   for (int w : options.window_sizes_px) kin.half_windows.push_back(w / 2);
   kin.prewarp = options.prewarp_neighbours;
   kin.max_simd = static_cast<SimdLevel>(options.max_simd);
+  if (tiles) {
+    const size_t n = size_t((width + kKernelTilePx - 1) / kKernelTilePx) *
+                     size_t((height + kKernelTilePx - 1) / kKernelTilePx);
+    core::Require(tiles->near_mm.size() == n && tiles->far_mm.size() == n, "tile depths",
+                  "expected " + std::to_string(n) + " tiles of " + std::to_string(kKernelTilePx) +
+                      " px for camera '" + ref_cam.id + "', got " +
+                      std::to_string(tiles->near_mm.size()) + " and " +
+                      std::to_string(tiles->far_mm.size()));
+    kin.tile_lo.assign(n, 1);
+    kin.tile_hi.assign(n, 0);
+    // Level of inverse depth w on the grid: (w - w_far) / w_step, level 0 at z_max.
+    const double w_far = 1.0 / options.z_max_mm;
+    const double w_step = (1.0 / options.z_min_mm - w_far) / (num_levels - 1);
+    for (size_t t = 0; t < n; ++t) {
+      const double near = tiles->near_mm[t], far = tiles->far_mm[t];
+      if (!(near > 0.0 && near < far)) continue;
+      const int lo = std::max(0, int(std::floor((1.0 / far - w_far) / w_step)) - 1);
+      const int hi = std::min(num_levels - 1, int(std::ceil((1.0 / near - w_far) / w_step)) + 1);
+      if (lo > hi) continue;
+      kin.tile_lo[t] = lo;
+      kin.tile_hi[t] = hi;
+      ++result.tiles_searched;
+      result.tile_levels += hi - lo + 1;
+    }
+  }
   result.prepare_seconds = watch.ElapsedSeconds();
   watch.Restart();
 

@@ -138,6 +138,8 @@ struct StereoResult {
   std::vector<RangeImage> range_images;  // one per window size, in the options' order
   double prepare_seconds = 0.0;          // undistortion and conversion
   double match_seconds = 0.0;            // the cost volume and the minimum search
+  int64_t tiles_searched = 0;            // with TileDepths: tiles given levels
+  int64_t tile_levels = 0;               // ... and their levels, summed
 
   std::string BriefReport() const;
 };
@@ -157,9 +159,21 @@ int CountDepthLevels(const geometry::TsaiCamera& reference,
 // levels allowed.
 double LevelDepthMm(double level, int num_levels, double z_min_mm, double z_max_mm);
 
+// Depths searched per tile of the reference (stereo/cost_kernel.h kKernelTilePx square
+// tiles, row major, ceil(width / 32) x ceil(height / 32)): near_mm..far_mm, z along the
+// reference's axis; near >= far: the tile is not searched.
+struct TileDepths {
+  std::vector<float> near_mm, far_mm;
+};
+
 // Runs the stereo. Throws core::InputError naming the option or view at fault (no
 // neighbours, an image of the wrong size or type, a bad camera, bad options).
-StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options);
+// With `tiles`, each tile searches the levels of the options' grid (z_min..z_max,
+// num_levels or the geometry's count) that cover its depths, plus one either side,
+// in one kernel pass (KernelInput::tile_lo); a minimum on a tile's first or last level
+// has no curvature and gives no depth.
+StereoResult ComputeDepth(const StereoInput& input, const StereoOptions& options,
+                          const TileDepths* tiles = nullptr);
 
 // A view's grey as CV_32FC1, NaN where the pixel has no data (alpha below 255, NaN, or
 // no source after undistortion); in the ideal camera when `undistort`, else in the

@@ -23,7 +23,7 @@ namespace dome::stereo {
 struct TemporalBoundsOptions {
   // Square tiles, px of the ideal grid: a tile is judged changed or still as a whole
   // (a pixel's own grey difference is mostly noise). The bounded search
-  // (coarse_to_fine.h ComputeDepthBounded) matches tiles of 32 px over the widest range
+  // (coarse_to_fine.h ComputeDepthBounded) searches tiles of 32 px over the widest range
   // of their pixels: tiles of the same size, aligned, keep a changed tile's whole range
   // from spreading to its still neighbours' search.
   int tile_px = 32;

@@ -300,6 +300,53 @@ TEST(CoarseToFine, VisibleBoxDepthsFollowTheCameraAndAreKeptPerCameraAndBox) {
       {"box", "camera 'c' sees no depth of the clip box"});
 }
 
+// Bounds that let every tile search (the previous instant's depths over most of the
+// image) run as one kernel pass over the whole images. With every pixel bounded by the
+// whole range that is the plain search, bit for bit; with a band of depths around the
+// plane, the depths inside it are the plain search's, bit for bit, and the pixels left
+// out get none.
+TEST(CoarseToFine, DenseBoundsSearchInOnePassAsThePlainSearchDoes) {
+  const stereo::StereoInput in = PlaneInput(2000.0, true);
+  stereo::StereoOptions o = Options();
+  o.z_min_mm = 1000;
+  o.z_max_mm = 4000;
+  const stereo::StereoResult plain = stereo::ComputeDepth(in, o);
+  stereo::SearchBounds whole{cv::Mat(kHeight, kWidth, CV_32FC2, cv::Scalar(1000, 4000))};
+  CoarseToFineStats st;
+  const stereo::StereoResult a = ComputeDepthBounded(in, o, whole, &st);
+  EXPECT_EQ(st.tiles_matched, st.tiles);
+  const cv::Mat& pd = plain.range_images[0].depth_mm;
+  ASSERT_GT(cv::countNonZero(pd), kWidth * kHeight / 2);
+  EXPECT_EQ(cv::countNonZero(a.range_images[0].depth_mm != pd), 0);
+  EXPECT_EQ(cv::countNonZero(a.range_images[0].reliability != plain.range_images[0].reliability),
+            0);
+  // 1900..2100 mm, and a block of tiles not searched at all.
+  stereo::SearchBounds band{cv::Mat(kHeight, kWidth, CV_32FC2, cv::Scalar(1900, 2100))};
+  band.near_far_mm(cv::Rect(64, 64, 64, 64)).setTo(cv::Scalar(0, 0));
+  const stereo::StereoResult b = ComputeDepthBounded(in, o, band, &st);
+  EXPECT_EQ(st.tiles_matched, st.tiles - 4);
+  EXPECT_LT(st.mean_tile_levels, 0.25 * plain.num_levels);
+  const cv::Mat& bd = b.range_images[0].depth_mm;
+  int same = 0, plain_inside = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const float d = bd.at<float>(y, x), p = pd.at<float>(y, x);
+      if (!band.Searched(x, y)) {
+        EXPECT_EQ(d, 0.0f) << "(" << x << ", " << y << ")";
+        continue;
+      }
+      if (p > 1900.0f && p < 2100.0f) {
+        ++plain_inside;
+        same += d == p;
+      }
+    }
+  }
+  ASSERT_GT(plain_inside, kWidth * kHeight / 2);
+  // A pixel can differ only where its second-best cost lay outside the band (then its
+  // uniqueness grows), or where a speckle changed: none here.
+  EXPECT_EQ(same, plain_inside);
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});

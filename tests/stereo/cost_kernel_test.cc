@@ -14,6 +14,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/error.h"
 #include "stereo/stereo_test_util.h"
 
 namespace dome::stereo {
@@ -107,7 +108,7 @@ std::vector<KernelOutput> RunKernel(const KernelInput& in, SimdLevel simd, bool 
 TEST(CostKernelTest, SimdPathsAgreeWithScalar) {
   const Scene scene = MakeScene();
   const auto scalar = RunKernel(scene.input, SimdLevel::kNone);
-  // The scene is recovered: the plane at 1800 mm is level 23.9 of 40.
+  // The scene is recovered: the plane at 1800 mm is level 12.2 of 40.
   const double true_level = (1.0 / 1800 - 1.0 / 5000) / scene.input.w_step;
   int near_truth = 0, interior = 0;
   for (int y = 30; y < 90; ++y) {
@@ -279,6 +280,83 @@ TEST(CostKernelTest, PrewarpedPathsGiveTheSameBits) {
         EXPECT_EQ(BitDifferences(fast[k].offset, scalar[k].offset), 0u) << at;
       }
     }
+  }
+}
+
+// Levels per tile (KernelInput::tile_lo / tile_hi): with every tile over every level the
+// output is the plain kernel's, bit for bit; with fewer, a pixel whose least cost lies
+// inside its tile's levels (not at either end) keeps its level, costs, curvature and
+// offset to the bit, its second best can only grow, and a tile without levels gets
+// none. The paths (scalar, AVX2, AVX-512; pre-warped and exact) give the same bits as
+// each other, as without tiles.
+TEST(CostKernelTest, TileLevelsSearchOnlyTheirLevels) {
+  const Scene scene = MakeScene();
+  const KernelInput& in = scene.input;
+  const int tiles_x = (in.width + kKernelTilePx - 1) / kKernelTilePx;
+  const int tiles = tiles_x * ((in.height + kKernelTilePx - 1) / kKernelTilePx);
+  for (bool prewarp : {true, false}) {
+    const auto plain = RunKernel(in, SimdLevel::kNone, prewarp);
+    KernelInput all = in;
+    all.tile_lo.assign(size_t(tiles), 0);
+    all.tile_hi.assign(size_t(tiles), in.num_levels - 1);
+    const auto every = RunKernel(all, SimdLevel::kNone, prewarp);
+    KernelInput some = in;  // the plane is at level 12.2
+    for (int t = 0; t < tiles; ++t) {
+      some.tile_lo.push_back(t == 7 ? 1 : 4 + t % 3);
+      some.tile_hi.push_back(t == 7 ? 0 : 21 - t % 2);
+    }
+    const auto scalar = RunKernel(some, SimdLevel::kNone, prewarp);
+    for (size_t k = 0; k < plain.size(); ++k) {
+      const std::string at = std::string(prewarp ? "pre-warped" : "exact") + ", window " +
+                             std::to_string(k);
+      EXPECT_EQ(BitDifferences(every[k].best_level, plain[k].best_level), 0u) << at;
+      EXPECT_EQ(BitDifferences(every[k].best_cost, plain[k].best_cost), 0u) << at;
+      EXPECT_EQ(BitDifferences(every[k].second_cost, plain[k].second_cost), 0u) << at;
+      EXPECT_EQ(BitDifferences(every[k].curvature, plain[k].curvature), 0u) << at;
+      EXPECT_EQ(BitDifferences(every[k].offset, plain[k].offset), 0u) << at;
+      int inside = 0;
+      for (int y = 0; y < in.height; ++y) {
+        for (int x = 0; x < in.width; ++x) {
+          const size_t i = size_t(y) * in.width + x;
+          const int t = (y / kKernelTilePx) * tiles_x + x / kKernelTilePx;
+          if (t == 7) {
+            ASSERT_EQ(scalar[k].best_level[i], -1.0f) << at;
+            continue;
+          }
+          const float l = plain[k].best_level[i];
+          if (!(l > some.tile_lo[t] && l < some.tile_hi[t])) continue;
+          ++inside;
+          ASSERT_EQ(scalar[k].best_level[i], l) << at << " (" << x << ", " << y << ")";
+          ASSERT_EQ(scalar[k].best_cost[i], plain[k].best_cost[i]) << at;
+          ASSERT_EQ(scalar[k].curvature[i], plain[k].curvature[i]) << at;
+          ASSERT_EQ(scalar[k].offset[i], plain[k].offset[i]) << at;
+          ASSERT_GE(scalar[k].second_cost[i], plain[k].second_cost[i]) << at;
+        }
+      }
+      EXPECT_GT(inside, in.width * in.height / 2) << at;
+      // The exact warp's SIMD paths agree with its scalar one only up to the rounding of
+      // the greys (SimdPathsAgreeWithScalar); the pre-warped ones to the bit.
+      for (SimdLevel simd : {SimdLevel::kAvx2, SimdLevel::kAvx512}) {
+        if (!prewarp || CostKernelSimd() < simd) continue;  // or this CPU cannot run it
+        const auto fast = RunKernel(some, simd, prewarp);
+        const std::string at_simd = at + ", simd " + std::to_string(int(simd));
+        EXPECT_EQ(BitDifferences(fast[k].best_level, scalar[k].best_level), 0u) << at_simd;
+        EXPECT_EQ(BitDifferences(fast[k].best_cost, scalar[k].best_cost), 0u) << at_simd;
+        EXPECT_EQ(BitDifferences(fast[k].second_cost, scalar[k].second_cost), 0u) << at_simd;
+        EXPECT_EQ(BitDifferences(fast[k].curvature, scalar[k].curvature), 0u) << at_simd;
+        EXPECT_EQ(BitDifferences(fast[k].offset, scalar[k].offset), 0u) << at_simd;
+      }
+    }
+  }
+  KernelInput bad = in;
+  bad.tile_lo.assign(size_t(tiles), 0);
+  bad.tile_hi.assign(size_t(tiles), in.num_levels);
+  std::vector<KernelOutput> outs(in.half_windows.size());
+  try {
+    RunCostKernel(bad, 1, &outs);
+    ADD_FAILURE() << "levels past the last were taken";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tile levels"), std::string::npos) << e.what();
   }
 }
 
