@@ -502,45 +502,70 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
       }
     }
   }
-  // Tiles without coarse depths, beside searched ones, search the union of their bounds.
-  if (c2f.fill_min_neighbours > 0) {
-    const size_t searched = jobs.size();  // filled tiles do not fill others
-    for (int by = 0; by < tiles_y; ++by) {
-      for (int bx = 0; bx < tiles_x; ++bx) {
-        if (job_of[size_t(by) * tiles_x + bx] >= 0) continue;
-        int count = 0;
-        double z_lo = options.z_max_mm, z_hi = options.z_min_mm;
-        for (int ny = std::max(0, by - 1); ny <= std::min(tiles_y - 1, by + 1); ++ny) {
-          for (int nx = std::max(0, bx - 1); nx <= std::min(tiles_x - 1, bx + 1); ++nx) {
-            const int j = job_of[size_t(ny) * tiles_x + nx];
-            if (j < 0 || size_t(j) >= searched) continue;
-            ++count;
-            z_lo = std::min(z_lo, jobs[j].z_lo);
-            z_hi = std::max(z_hi, jobs[j].z_hi);
-          }
-        }
-        if (count < c2f.fill_min_neighbours) continue;
-        const cv::Rect tile =
-            cv::Rect(bx * c2f.tile_px, by * c2f.tile_px, c2f.tile_px, c2f.tile_px) & image;
-        jobs.push_back({tile, z_lo, z_hi});
-        ++st.tiles_filled;
-      }
-    }
-  }
-
-  if (bounds) {
-    // Each tile searches only the part of its range its pixels' bounds allow.
+  // Each tile searches only the part of its range its pixels' bounds allow.
+  const auto within_bounds = [&](std::vector<TileJob> js) {
+    if (!bounds) return js;
     std::vector<TileJob> kept;
-    for (TileJob job : jobs) {
+    for (TileJob job : js) {
       double near_mm, far_mm;
       if (!bounds->Range(job.tile, &near_mm, &far_mm)) continue;
       job.z_lo = std::max(job.z_lo, near_mm);
       job.z_hi = std::min(job.z_hi, far_mm);
       if (job.z_lo < job.z_hi) kept.push_back(job);
     }
-    jobs = std::move(kept);
+    return kept;
+  };
+  MatchTiles(iv, options, within_bounds(jobs), &result, &st);
+  // Tiles without coarse depths, beside searched ones whose surface reaches them, search
+  // the union of those tiles' bounds. A neighbour's surface reaches a tile when its
+  // fine depths hold at least `strip` pixels within `strip` of the tile (along the
+  // shared edge, or in the shared corner): most tiles beside a searched one are
+  // background that matches nothing (on Robovision 12_11_32, 1,049 of 2,154 tiles
+  // matched were filled, most without a depth), and a surface that goes on across an
+  // edge shows at the edge.
+  if (c2f.fill_min_neighbours > 0) {
+    const int strip = std::max(1, c2f.tile_px / 8);
+    // The searched tiles' surface without its specks (stray matches in the background
+    // reach every edge).
+    std::vector<cv::Mat> surface;
+    for (const RangeImage& ri : result.range_images) {
+      cv::Mat depth = ri.depth_mm.clone(), reliability = ri.reliability.clone();
+      RemoveSpeckles(options.speckle, &depth, &reliability);
+      surface.push_back(depth);
+    }
+    std::vector<TileJob> fill;
+    for (int by = 0; by < tiles_y; ++by) {
+      for (int bx = 0; bx < tiles_x; ++bx) {
+        if (job_of[size_t(by) * tiles_x + bx] >= 0) continue;
+        const cv::Rect tile =
+            cv::Rect(bx * c2f.tile_px, by * c2f.tile_px, c2f.tile_px, c2f.tile_px) & image;
+        const cv::Rect near_tile(tile.x - strip, tile.y - strip, tile.width + 2 * strip,
+                                 tile.height + 2 * strip);
+        int count = 0;
+        double z_lo = options.z_max_mm, z_hi = options.z_min_mm;
+        for (int ny = std::max(0, by - 1); ny <= std::min(tiles_y - 1, by + 1); ++ny) {
+          for (int nx = std::max(0, bx - 1); nx <= std::min(tiles_x - 1, bx + 1); ++nx) {
+            const int j = job_of[size_t(ny) * tiles_x + nx];
+            if (j < 0) continue;
+            const cv::Rect edge = jobs[size_t(j)].tile & near_tile;
+            int found = 0;
+            for (const cv::Mat& depth : surface) {
+              found = std::max(found, cv::countNonZero(depth(edge)));
+            }
+            if (found < strip) continue;
+            ++count;
+            z_lo = std::min(z_lo, jobs[size_t(j)].z_lo);
+            z_hi = std::max(z_hi, jobs[size_t(j)].z_hi);
+          }
+        }
+        if (count < c2f.fill_min_neighbours) continue;
+        fill.push_back({tile, z_lo, z_hi});
+      }
+    }
+    fill = within_bounds(std::move(fill));
+    st.tiles_filled = int(fill.size());
+    MatchTiles(iv, options, fill, &result, &st);
   }
-  MatchTiles(iv, options, jobs, &result, &st);
   st.fine_seconds = watch.ElapsedSeconds();
   if (st.tiles_matched > 0) st.mean_tile_levels /= st.tiles_matched;
   if (stats) *stats = st;

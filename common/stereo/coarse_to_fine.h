@@ -11,9 +11,9 @@
 //      of them dropped on each side: stray coarse matches), widened on both sides by
 //      `margin_levels` coarse levels (the coarse depths are good to a fraction of one);
 //      tiles with fewer than `min_coarse_depths` coarse depths around them (coarse
-//      matches pass `coarse_min_uniqueness`) are left without depth, unless
-//      `fill_min_neighbours` of the 8 tiles around them are searched: then they search
-//      the union of those tiles' bounds. Every
+//      matches pass `coarse_min_uniqueness`) are left without depth, unless, once the
+//      others are matched, the surface found in `fill_min_neighbours` of the 8 tiles
+//      around them reaches them: then they search the union of those tiles' bounds. Every
 //      image is cut to what the tile can see (the reference: the tile and its window
 //      margin; a neighbour: the projections of that rectangle between the tile's depth
 //      bounds), so the cost of a tile is its pixels x its own levels. Tiles run in
@@ -49,11 +49,13 @@ struct CoarseToFineOptions {
   // Uniqueness margin of the coarse pass (StereoOptions::min_uniqueness); 0: the fine
   // pass's. A stricter one keeps fewer, surer coarse depths, so tiles search less.
   double coarse_min_uniqueness = 0.0;
-  // A tile left without a search (too few coarse depths around it) that has at least
-  // this many searched tiles among its 8 neighbours searches the union of their depth
-  // bounds (the surface usually goes on across a tile's edge, and the coarse pass, at a
-  // quarter of the resolution and a strict uniqueness, leaves dim or slanted parts of an
-  // object without coarse depths). Filled tiles do not fill others. 0..8; 0: no filling.
+  // A tile left without a search (too few coarse depths around it) searches the union
+  // of the depth bounds of those of its 8 neighbours whose fine depths reach it, when
+  // there are at least this many: the surface usually goes on across a tile's edge, and
+  // the coarse pass, at a quarter of the resolution and a strict uniqueness, leaves dim
+  // or slanted parts of an object without coarse depths. A neighbour's surface reaches
+  // the tile when its depths, specks removed, hold at least tile_px / 8 pixels within
+  // tile_px / 8 of the tile. Filled tiles do not fill others. 0..8; 0: no filling.
   int fill_min_neighbours = 0;
   // A clip box, world frame, mm (clip = true): each reference camera searches only the
   // depths of the box, its range clipped to the nearest and farthest box corner (z along

@@ -225,6 +225,26 @@ TEST(CoarseToFine, TilesWithoutCoarseDepthsAreFilledFromTheirNeighbours) {
   EXPECT_LT(all8.tiles_filled, filled_stats.tiles_filled);
 }
 
+// A tile is filled only where the surface its searched neighbours found reaches it: with
+// a fine pass that keeps no depth (a uniqueness no match passes), the same tiles go
+// unsearched and none is filled.
+TEST(CoarseToFine, TilesAreFilledOnlyWhereTheNeighboursSurfaceReaches) {
+  const auto in = PlaneInput(2000.0, true);
+  CoarseToFineOptions c2f = HalfScaleTiles(40);
+  c2f.coarse_min_uniqueness = 3.0;
+  c2f.min_coarse_depths = 500;
+  c2f.fill_min_neighbours = 1;
+  CoarseToFineStats found, none;
+  ComputeDepthCoarseToFine(in, Options(), c2f, &found);
+  stereo::StereoOptions strict = Options();
+  strict.min_uniqueness = 100.0;
+  const auto r = ComputeDepthCoarseToFine(in, strict, c2f, &none).range_images[0];
+  EXPECT_EQ(cv::countNonZero(r.depth_mm), 0);
+  EXPECT_GT(found.tiles_filled, 0);
+  EXPECT_EQ(none.tiles_filled, 0);
+  EXPECT_EQ(none.tiles_matched, found.tiles_matched - found.tiles_filled);
+}
+
 // A clip box holding only part of the plane: coarse depths whose points fall outside it
 // do not seed tiles, so tiles that see only what lies outside the box (a table, the
 // walls beyond the scene) are not searched; the part inside keeps its depths.
