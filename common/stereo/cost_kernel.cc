@@ -1493,8 +1493,8 @@ inline __attribute__((always_inline)) void RunBandsImpl(const KernelInput& in, c
             for (int i = 0; i < g; ++i) {
               group[i] = pending[size_t(k) * (kLevelGroup - 1) + i].data() + o;
             }
-            WindowSum(vsum.data() + pa - h, n, h, cost.data() + pa);
-            group[g] = cost.data() + pa;
+            WindowSum(vsum.data() + pa - h, n, h, cost.data());
+            group[g] = cost.data();
             kUpdateRow[g](group, n, float(l - g), st.best.data() + o, st.level.data() + o,
                           st.cm.data() + o, st.cp.data() + o, st.before.data() + o,
                           st.after.data() + o, st.run.data() + o, st.run_prev.data() + o,
