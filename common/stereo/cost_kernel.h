@@ -5,11 +5,12 @@
 // bands, and the SSD rows two bands share (the window's overlap) are computed once per
 // thread and handed on per level. With levels per tile (KernelInput::tile_lo) a band
 // runs only its tiles' levels, each over the columns of the tiles that have it, and
-// bands go one at a time to the next free thread, each computing its own shared rows. Per band and per level, for every neighbour the homography is
-// evaluated incrementally along each row (q = q0 + x dq, one reciprocal per pixel), the
-// neighbour sampled bilinearly and the squared difference added to a band-sized SSD
-// buffer; the window sums come from a running vertical sum and a short horizontal sum
-// (both vectorized across x). The cost volume is never stored: per pixel the kernel
+// bands go one at a time to the next free thread, each computing its own shared rows.
+// Per band and per level, for every neighbour the homography is evaluated
+// incrementally along each row (q = q0 + x dq, one reciprocal per pixel), the neighbour
+// sampled bilinearly and the squared difference added to a band-sized SSD buffer; the
+// window sums come from a running vertical sum and a short horizontal sum (both
+// vectorized across x). The cost volume is never stored: per pixel the kernel
 // keeps the running minimum, the costs at the levels either side of it and the least
 // cost outside them (exact, see UpdateRowN in cost_kernel.cc), updated four levels at a
 // time, so memory is O(band x width), not O(levels).
