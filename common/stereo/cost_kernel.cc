@@ -1576,8 +1576,8 @@ bool PreparePrewarp(const KernelInput& in, SimdLevel simd, int num_threads, Prep
   std::vector<Reach> reaches;
   if (in.tile_lo.empty()) {
     const double w0 = in.w_far, w1 = level_w(in.num_levels - 1);
-    reaches.push_back(
-        {0.0, 0.0, double(in.width - 1), double(in.height - 1), std::min(w0, w1), std::max(w0, w1)});
+    reaches.push_back({0.0, 0.0, double(in.width - 1), double(in.height - 1), std::min(w0, w1),
+                       std::max(w0, w1)});
   } else {
     // Only what the tiles search: each tile's pixels with the window margin its band's
     // SSD rows and columns take, over its own levels. A search bounded to a silhouette
