@@ -367,6 +367,17 @@ TEST(CoarseToFine, DenseBoundsSearchInOnePassAsThePlainSearchDoes) {
   EXPECT_EQ(same, plain_inside);
 }
 
+// Tile depths of another grid are named, with the count the camera needs.
+TEST(CoarseToFine, TileDepthsOfTheWrongGridAreNamed) {
+  stereo::TileDepths tiles;
+  tiles.near_mm.assign(3, 1000.0f);
+  tiles.far_mm.assign(3, 4000.0f);
+  // 320x240 in 32 px tiles: 10 x 8.
+  dome::testing::ExpectInputError(
+      [&] { stereo::ComputeDepth(PlaneInput(2000.0, true), Options(), &tiles); },
+      {"tile depths", "expected 80 tiles of 32 px", "got 3 and 3"});
+}
+
 TEST(CoarseToFine, TexturelessImagesGiveNoDepth) {
   const stereo::StereoResult r =
       ComputeDepthCoarseToFine(PlaneInput(2000.0, false), Options(), CoarseToFineOptions{});
