@@ -1,6 +1,5 @@
 // dome-master: the scheduler daemon (master/master.h). Its sockets are CURVE
 // servers with a ZAP allow-list (net/security.h) unless started with --insecure.
-#include <malloc.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -22,21 +21,6 @@ void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   dome::core::RetainFreedMemory();
-#ifdef M_ARENA_MAX
-  // One malloc arena for every thread. ZeroMQ's I/O thread allocates each message it
-  // receives (a result, or a peer's 5 MB of garbage) in an arena of its own, and the
-  // loop frees it there. glibc's malloc_trim, which the loop calls every 5 s
-  // (MasterOptions::release_memory_s below), gives back the free pages of
-  // the main arena and of the free chunks of the others, but not the free top of
-  // another arena's heap, which RetainFreedMemory's trim threshold also keeps from
-  // shrinking by itself: after a burst of large messages that top stayed resident
-  // (master_flood_bench: 53 or 101 MB after a round, one or the other by where the
-  // last freed message lay; 53.5 MB every round with one arena). The master's threads
-  // (loop, result writers, surface runs, ZeroMQ's) allocate large buffers rarely and
-  // small ones from glibc's per-thread caches, so they seldom wait on the one lock.
-  // Set before any thread starts.
-  mallopt(M_ARENA_MAX, 1);
-#endif
   CLI::App app{"dome-master: schedules stereo and fusion jobs to dome-workers over ZeroMQ"};
   dome::scheduler::MasterOptions o;
   o.release_memory_s = 5;  // a daemon: what peers sent goes back to the system

@@ -8,7 +8,8 @@ namespace dome::core {
 // glibc's defaults each becomes a fresh mmap whose pages fault in again (zero-filled
 // by the kernel, serialised on the process's memory map when two in-process workers
 // do it at once). With these settings the second job of a size reuses the first one's
-// pages. Call once at the start of main(), before any thread starts; idempotent.
+// pages, and every thread allocates from one arena (memory.cc says why). Call once at
+// the start of main(), before any thread starts; idempotent.
 void RetainFreedMemory();
 
 // Returns the heap's free pages to the kernel (glibc malloc_trim): for a long-running
