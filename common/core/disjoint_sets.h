@@ -12,7 +12,16 @@ namespace dome::core {
 
 class DisjointSets {
  public:
-  explicit DisjointSets(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  explicit DisjointSets(size_t n = 0) : parent_(n) {
+    std::iota(parent_.begin(), parent_.end(), 0);
+  }
+
+  // Adds a set of its own, n, and returns n (the number of members before).
+  int32_t Add() {
+    parent_.push_back(int32_t(parent_.size()));
+    return parent_.back();
+  }
+  size_t size() const { return parent_.size(); }
 
   // The root (least member) of v's set.
   int32_t Find(int32_t v) {

@@ -4,6 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+#include <vector>
+
 #include "stereo/multi_baseline.h"
 #include "stereo/stereo_test_util.h"
 #include "testing/expect_error.h"
@@ -70,6 +74,71 @@ TEST(Speckle, TheScanOrderDoesNotMatter) {
   RemoveSpeckles(Options(30), &t, nullptr);
   cv::transpose(t, t);
   EXPECT_EQ(cv::norm(d, t, cv::NORM_INF), 0);
+}
+
+// The pieces of a flood fill from each unvisited valid pixel (the definition, written
+// the plain way): the removal must clear exactly the pixels of its small pieces.
+cv::Mat FloodFillKept(const cv::Mat& d, int min_area, float step) {
+  cv::Mat seen(d.size(), CV_8UC1, cv::Scalar(0)), kept = d.clone();
+  for (int y0 = 0; y0 < d.rows; ++y0) {
+    for (int x0 = 0; x0 < d.cols; ++x0) {
+      if (seen.at<uint8_t>(y0, x0) || !(d.at<float>(y0, x0) > 0)) continue;
+      std::vector<cv::Point> piece = {{x0, y0}};
+      seen.at<uint8_t>(y0, x0) = 1;
+      for (size_t i = 0; i < piece.size(); ++i) {
+        const cv::Point p = piece[i];
+        for (const cv::Point q : {p + cv::Point(1, 0), p - cv::Point(1, 0), p + cv::Point(0, 1),
+                                  p - cv::Point(0, 1)}) {
+          if (q.x < 0 || q.y < 0 || q.x >= d.cols || q.y >= d.rows || seen.at<uint8_t>(q))
+            continue;
+          if (d.at<float>(q) > 0 && std::abs(d.at<float>(q) - d.at<float>(p)) <= step) {
+            seen.at<uint8_t>(q) = 1;
+            piece.push_back(q);
+          }
+        }
+      }
+      if (int(piece.size()) < min_area)
+        for (const cv::Point& p : piece) kept.at<float>(p) = 0;
+    }
+  }
+  return kept;
+}
+
+TEST(Speckle, ThePiecesAreThoseOfAFloodFill) {
+  // Noisy maps of steps, holes, spirals of a piece that winds back on itself, and
+  // non-finite depths, against the plain flood fill.
+  cv::RNG rng(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int w = 17 + trial * 3, h = 11 + trial * 2;
+    cv::Mat d(h, w, CV_32FC1);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const double u = rng.uniform(0.0, 1.0);
+        float v = 100.0f + 0.3f * float((x / 5 + y / 4) % 3) + float(rng.uniform(0.0, 0.12));
+        if (u < 0.25 + 0.01 * (trial % 20)) v = 0;
+        if (u > 0.995) v = std::numeric_limits<float>::quiet_NaN();
+        if (u > 0.99 && u <= 0.995) v = std::numeric_limits<float>::infinity();
+        d.at<float>(y, x) = v;
+      }
+    }
+    for (int min_area : {2, 5, 30, 200}) {
+      cv::Mat got = d.clone(), r(d.size(), CV_32FC1, cv::Scalar(1.0f));
+      const int64_t removed = RemoveSpeckles(Options(min_area), &got, &r);
+      const cv::Mat want = FloodFillKept(d, min_area, 0.1f);
+      int64_t cleared = 0;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const float g = got.at<float>(y, x), e = want.at<float>(y, x);
+          ASSERT_TRUE(g == e || (std::isnan(g) && std::isnan(e)))
+              << "trial " << trial << " area " << min_area << " at " << x << "," << y;
+          const bool gone = (d.at<float>(y, x) > 0) && g == 0;
+          cleared += gone;
+          EXPECT_EQ(r.at<float>(y, x), gone ? 0.0f : 1.0f);
+        }
+      }
+      EXPECT_EQ(removed, cleared) << "trial " << trial << " area " << min_area;
+    }
+  }
 }
 
 TEST(Speckle, BadOptionsAreNamed) {
