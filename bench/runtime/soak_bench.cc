@@ -97,7 +97,7 @@ struct Cluster {
   std::string workers, control, events;
   pid_t master = -1;
   int master_sessions = 0;  // sessions the running master process has served
-  std::vector<pid_t> worker_pids;
+  std::vector<pid_t> worker_pids{};
   int started = 0;
 
   void StartMaster() {

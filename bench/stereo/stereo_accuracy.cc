@@ -264,8 +264,8 @@ int RunAloe(const std::string& dir, std::vector<int> windows) {
     return c;
   };
   stereo::StereoInput in;
-  in.reference = {cam("left", 0), left};
-  in.neighbours.push_back({cam("right", b), right});
+  in.reference = {cam("left", 0), left, {}};
+  in.neighbours.push_back({cam("right", b), right, {}});
   // Both profiles: the defaults and RealImageOptions() (multi_baseline.h).
   for (const bool real : {false, true}) {
     stereo::StereoOptions opt = real ? stereo::RealImageOptions() : stereo::StereoOptions{};

@@ -93,7 +93,9 @@ TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
     for (const auto& c : take.rig.cameras) {
       const std::string bytes = io::ReadFileBytes(take.FramePath(instant, c.model.id));
       const cv::Mat held = TakeDecodedFrame(net::Sha256Hex(bytes));
-      if (instant == middle) ASSERT_FALSE(held.empty()) << c.model.id;
+      if (instant == middle) {
+        ASSERT_FALSE(held.empty()) << c.model.id;
+      }
       if (held.empty()) continue;
       ++taken;
       const cv::Mat decoded = stereo::DecodeFrame(bytes, c.model.id);

@@ -459,7 +459,9 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
     // The person's centre: deep inside, minus the truncation when standing in.
     const auto c = voxel_of(centre);
     const size_t v = (size_t(c.z()) * grid.ny + c.y()) * grid.nx + c.x();
-    if (stereo_weight == 0) EXPECT_LT(slab.distance_mm[v], -40.0f);
+    if (stereo_weight == 0) {
+      EXPECT_LT(slab.distance_mm[v], -40.0f);
+    }
   }
   // One camera whose mask lost the person: two votes keep the person, one carves it.
   std::vector<cv::Mat> broken = masks;
