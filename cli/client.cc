@@ -7,7 +7,6 @@
 #include <chrono>
 #include <map>
 #include <memory>
-#include <optional>
 #include <thread>
 #include <vector>
 
@@ -158,19 +157,20 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   const auto start = Clock::now();
   auto next_poll = start;
   int first_done = -1;
-  std::optional<Clock::time_point> silent_since;  // the master stopped answering then
+  // The master stopped answering then (Clock::time_point::max(): it answers).
+  Clock::time_point silent_since = Clock::time_point::max();
   while (true) {
     if (Clock::now() >= next_poll) {
       runtime::SessionStatus st;
       try {
         st = QueryStatus(context, control, id, options);
-        silent_since.reset();
+        silent_since = Clock::time_point::max();
       } catch (const core::InputError& e) {
         // A master restarting (systemd brings it back in seconds; with --state it
         // resumes the session under its id): keep asking for a while, saying so once.
         const bool no_answer = std::string(e.what()).find("no answer within") != std::string::npos;
         if (!no_answer) throw;
-        if (!silent_since) {
+        if (silent_since == Clock::time_point::max()) {
           silent_since = Clock::now();
           if (out != nullptr) {
             std::fprintf(out, "master %s not answering; asking again for up to %d s\n",
@@ -178,7 +178,7 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
             std::fflush(out);
           }
         }
-        if (Clock::now() - *silent_since > std::chrono::seconds(kRestartPatienceS)) throw;
+        if (Clock::now() - silent_since > std::chrono::seconds(kRestartPatienceS)) throw;
         next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);
         continue;
       }

@@ -38,7 +38,7 @@ namespace dome::scheduler {
 
 struct JournalEntry {
   std::vector<std::pair<std::string, std::string>> outputs;  // name, sha256
-  std::string inputs;  // digest of the inputs the job was made from; empty: none recorded
+  std::string inputs{};  // digest of the inputs the job was made from; empty: none recorded
 };
 
 class Journal {

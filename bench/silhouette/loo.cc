@@ -127,7 +127,7 @@ io::Mesh VisualHull(const std::vector<const geometry::TsaiCamera*>& cameras,
       for (int x = 0; x < n.x(); ++x) {
         const Eigen::Vector3d p = box.min + edge * Eigen::Vector3d(x + 0.5, y + 0.5, z + 0.5);
         for (size_t c = 0; c < cameras.size(); ++c) {
-          Eigen::Vector2d px;
+          Eigen::Vector2d px = Eigen::Vector2d::Zero();
           bool in = cameras[c]->Project(p, &px);
           const int u = int(std::lround(px.x())), v = int(std::lround(px.y()));
           in = in && u >= 0 && v >= 0 && u < masks[c].cols && v < masks[c].rows &&

@@ -324,10 +324,10 @@ void MatchTiles(const IdealViews& iv, const StereoOptions& options,
             image;
         // Views of the greys, not copies: ComputeDepth copies what it matches.
         StereoInput in;
-        in.reference = {take::CropCamera(ideal_ref, ref_rect), greys[0](ref_rect)};
+        in.reference = {take::CropCamera(ideal_ref, ref_rect), greys[0](ref_rect), {}};
         for (size_t i = 1; i < views.size(); ++i) {
           const cv::Rect r = NeighbourRect(ideal_ref, cameras[i], ref_rect, job.z_lo, job.z_hi, 4);
-          in.neighbours.push_back({take::CropCamera(cameras[i], r), greys[i](r)});
+          in.neighbours.push_back({take::CropCamera(cameras[i], r), greys[i](r), {}});
         }
         StereoOptions o = options;
         o.normalize_contrast = false;
@@ -419,9 +419,9 @@ StereoResult ComputeDepthCoarseToFine(const StereoInput& input, const StereoOpti
   core::ParallelFor(0, int64_t(views.size()), options.num_threads, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) reduced[size_t(i)] = ReduceGrey(greys[size_t(i)], f);
   });
-  coarse.reference = {ReducedCamera(ideal_ref, f), reduced[0]};
+  coarse.reference = {ReducedCamera(ideal_ref, f), reduced[0], {}};
   for (size_t i = 1; i < views.size(); ++i) {
-    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), reduced[i]});
+    coarse.neighbours.push_back({ReducedCamera(cameras[i], f), reduced[i], {}});
   }
   StereoOptions coarse_options = options;
   coarse_options.normalize_contrast = false;  // the greys above are mapped already

@@ -7,9 +7,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -157,7 +159,11 @@ void AccumulateRowScalar(const KernelNeighbour& nb, float w, int y, int n,
 
 // The same for x in [0, n8), n8 a multiple of 8, eight pixels at a time with AVX2/FMA
 // on the packed taps. `ref_neg` is minus the reference grey. The reciprocal of the homogeneous
-// coordinate is rcp + one Newton step (relative error ~1e-7: ~1e-4 px at 1000 px).
+// coordinate is a division, rounded as IEEE requires on every CPU: rcp's approximation
+// differs between instruction sets (12 bits here, 14 with AVX-512) and between CPU
+// makers, and after a Newton step the last bit of u and v did too, so the AVX2 and
+// AVX-512 paths, and two AVX2 CPUs, gave different costs and depths (2,383 of a small
+// synthetic take's 19,200 depths, by up to 0.007 mm).
 __attribute__((target("avx2,fma"))) void AccumulateRowAvx2(
     const KernelNeighbour& nb, const uint32_t* __restrict taps, float w, int y, int n8,
     const float* __restrict ref_neg, float outside_cost, float* __restrict ssd) {
@@ -172,7 +178,7 @@ __attribute__((target("avx2,fma"))) void AccumulateRowAvx2(
   const __m256 umax = _mm256_set1_ps(float(nb.width - 1));
   const __m256 vmax = _mm256_set1_ps(float(nb.height - 1));
   const __m256 stride = _mm256_set1_ps(float(nb.width));
-  const __m256 zero = _mm256_setzero_ps(), two = _mm256_set1_ps(2.0f);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
   const __m256 eight = _mm256_set1_ps(8.0f);
   const __m256 outside = _mm256_set1_ps(outside_cost);
   const __m256i byte = _mm256_set1_epi32(0xff), no_data = _mm256_set1_epi8(char(kNoData));
@@ -182,8 +188,7 @@ __attribute__((target("avx2,fma"))) void AccumulateRowAvx2(
     const __m256 qz = _mm256_fmadd_ps(fx, dqz, vq0z);
     const __m256 qx = _mm256_fmadd_ps(fx, dqx, vq0x);
     const __m256 qy = _mm256_fmadd_ps(fx, dqy, vq0y);
-    __m256 r = _mm256_rcp_ps(qz);
-    r = _mm256_mul_ps(r, _mm256_fnmadd_ps(qz, r, two));
+    const __m256 r = _mm256_div_ps(one, qz);
     __m256 u = _mm256_mul_ps(qx, r), v = _mm256_mul_ps(qy, r);
     __m256 in = _mm256_cmp_ps(qz, zero, _CMP_GT_OQ);
     in = _mm256_and_ps(in, _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
@@ -237,7 +242,7 @@ __attribute__((target("avx512f,avx512bw,fma"))) void AccumulateRowAvx512(
   const __m512i xlimit = _mm512_set1_epi32(nb.width - 1);
   const __m512i ylimit = _mm512_set1_epi32(nb.height - 1);
   const __m512 stride = _mm512_set1_ps(float(nb.width));
-  const __m512 zero = _mm512_setzero_ps(), two = _mm512_set1_ps(2.0f);
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
   const __m512 sixteen = _mm512_set1_ps(16.0f);
   const __m512 outside = _mm512_set1_ps(outside_cost);
   const __m512i byte = _mm512_set1_epi32(0xff), no_data = _mm512_set1_epi8(char(kNoData));
@@ -247,8 +252,7 @@ __attribute__((target("avx512f,avx512bw,fma"))) void AccumulateRowAvx512(
     const __m512 qz = _mm512_fmadd_ps(fx, dqz, vq0z);
     const __m512 qx = _mm512_fmadd_ps(fx, dqx, vq0x);
     const __m512 qy = _mm512_fmadd_ps(fx, dqy, vq0y);
-    __m512 r = _mm512_rcp14_ps(qz);
-    r = _mm512_mul_ps(r, _mm512_fnmadd_ps(qz, r, two));
+    const __m512 r = _mm512_div_ps(one, qz);  // as AccumulateRowAvx2's
     const __m512 u = _mm512_mul_ps(qx, r), v = _mm512_mul_ps(qy, r);
     const __m512 fu = _mm512_roundscale_ps(u, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
     const __m512 fv = _mm512_roundscale_ps(v, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
@@ -1610,12 +1614,25 @@ bool PreparePrewarp(const KernelInput& in, SimdLevel simd, int num_threads, Prep
 
 SimdLevel CostKernelSimd() {
   static const SimdLevel level = [] {
+    SimdLevel cpu = SimdLevel::kNone;
     if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
         __builtin_cpu_supports("fma")) {
-      return SimdLevel::kAvx512;
+      cpu = SimdLevel::kAvx512;
+    } else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+      cpu = SimdLevel::kAvx2;
     }
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return SimdLevel::kAvx2;
-    return SimdLevel::kNone;
+    // DOME_MAX_SIMD (avx512, avx2 or scalar) holds every process on one machine to a
+    // lower path: the paths give the same bits, so only the time changes (an older
+    // CPU's kernel measured on a newer one, with a build for its instruction set).
+    const char* cap = std::getenv("DOME_MAX_SIMD");
+    if (cap == nullptr || *cap == '\0') return cpu;
+    const std::string c = cap;
+    core::Require(c == "avx512" || c == "avx2" || c == "scalar", "DOME_MAX_SIMD",
+                  "must be avx512, avx2 or scalar, got '" + c + "'");
+    const SimdLevel most = c == "avx512" ? SimdLevel::kAvx512
+                           : c == "avx2" ? SimdLevel::kAvx2
+                                         : SimdLevel::kNone;
+    return std::min(cpu, most);
   }();
   return level;
 }

@@ -90,7 +90,9 @@ struct KernelOutput {
   std::vector<float> second_cost;  // least c outside l-1..l+1
 };
 
-// The best path this CPU runs (AVX-512 needs F and BW; AVX2 needs FMA too).
+// The best path this CPU runs (AVX-512 needs F and BW; AVX2 needs FMA too), at most
+// the environment's DOME_MAX_SIMD (avx512, avx2 or scalar) where it is set; another
+// value throws core::InputError naming DOME_MAX_SIMD. Read once per process.
 SimdLevel CostKernelSimd();
 
 // `outputs` has one entry per half window, each vector sized width x height.

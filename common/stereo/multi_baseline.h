@@ -117,7 +117,7 @@ struct StereoView {
   // Optional: IdealGrey's result for this view and the search's options, made by a
   // caller that keeps it between searches (a worker's stereo jobs share frames); empty:
   // made from `image` when needed. A view cut from another (a crop) has none.
-  cv::Mat ideal_grey;
+  cv::Mat ideal_grey{};
 };
 
 struct StereoInput {

@@ -1,10 +1,12 @@
 // The executables as a user runs them: exit codes and messages.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "core/json.h"
 #include "io/file_util.h"
@@ -151,6 +153,44 @@ TEST(Cli, SynthSmallTakePassesInfo) {
   EXPECT_NE(info.output.find("rig: 6 camera(s), source synthetic"), std::string::npos)
       << info.output;
   EXPECT_NE(info.output.find("truth: 1 instant(s)"), std::string::npos) << info.output;
+}
+
+// DOME_MAX_SIMD holds the cost kernel to a lower path. AVX2 gives the same depth maps
+// to the byte as AVX-512 (this small take's neighbours are not pre-warped, so the exact
+// warp runs: its homogeneous division must round alike on both); the scalar path, on
+// the float images, agrees only up to their rounding (cost_kernel.h), so it is only
+// run. A value it does not know is named.
+TEST(Cli, MaxSimdChangesNoDepthAndNamesABadValue) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take";
+  ASSERT_EQ(
+      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
+          .exit_code,
+      0);
+  auto stereo = [&](const char* simd, const std::string& out) {
+    if (simd != nullptr) setenv("DOME_MAX_SIMD", simd, 1);
+    const Result r = RunDomeBinary("stereo " + take.string() + " --camera c00 --out " + out);
+    unsetenv("DOME_MAX_SIMD");
+    return r;
+  };
+  const Result plain = stereo(nullptr, (tmp / "plain").string());
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  std::vector<fs::path> maps;
+  for (const auto& e : fs::recursive_directory_iterator(tmp / "plain"))
+    if (e.path().extension() == ".tiff") maps.push_back(fs::relative(e.path(), tmp / "plain"));
+  ASSERT_FALSE(maps.empty());
+  const Result avx2 = stereo("avx2", (tmp / "avx2").string());
+  ASSERT_EQ(avx2.exit_code, 0) << avx2.output;
+  for (const auto& m : maps)
+    EXPECT_TRUE(io::ReadFileBytes(tmp / "avx2" / m) == io::ReadFileBytes(tmp / "plain" / m)) << m;
+  const Result scalar = stereo("scalar", (tmp / "scalar").string());
+  ASSERT_EQ(scalar.exit_code, 0) << scalar.output;
+  for (const auto& m : maps) EXPECT_TRUE(fs::exists(tmp / "scalar" / m)) << m;
+  const Result bad = stereo("sse4", (tmp / "bad").string());
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_NE(bad.output.find("DOME_MAX_SIMD: must be avx512, avx2 or scalar, got 'sse4'"),
+            std::string::npos)
+      << bad.output;
 }
 
 // `dome masks`: plates of a synthetic take, one line per camera with its IoU against the

@@ -50,7 +50,7 @@ TEST(Wire, BytesThatAreNotUtf8CrossTheWireUnchanged) {
   // sequences, and the escapes' own code points: escaped to valid UTF-8, then back.
   std::string all;
   for (int b = 0; b < 256; ++b) all.push_back(char(b));
-  for (const std::string text :
+  for (const std::string& text :
        {all, std::string("take\xE9"), std::string("\xC0\xAF"), std::string("\xED\xA0\x80"),
         std::string("\xE2\x82"), std::string("\xF4\x8F\xBC\x80 literal"),
         std::string("\xF4\x90\x80\x80")}) {

@@ -274,7 +274,9 @@ TEST(CoarseToFine, CoarseDepthsOutsideTheClipBoxSeedNoTile) {
     for (int x = 0; x < kWidth; ++x) {
       const double wx = ref.BackProjectAtDepth(Eigen::Vector2d(x, y), plane_mm).x() - centre.x();
       const float d = clip.depth_mm.at<float>(y, x);
-      if (wx > 49 * plane_mm / kFocalPx) EXPECT_EQ(d, 0.0f) << x << " " << y;
+      if (wx > 49 * plane_mm / kFocalPx) {
+        EXPECT_EQ(d, 0.0f) << x << " " << y;
+      }
       if (wx < -40 && open.depth_mm.at<float>(y, x) > 0) {
         ++inside;
         inside_with += d > 0;
