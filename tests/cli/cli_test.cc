@@ -23,6 +23,15 @@ namespace fs = std::filesystem;
 using dome::testing::RunDomeBinary;
 using Result = dome::testing::CommandResult;
 
+// The small synthetic take of `instants` instants (no tape, no calibration images) at
+// `take`; false, with the output, when dome synth fails.
+bool SynthSmallTake(const fs::path& take, int instants) {
+  const Result r = RunDomeBinary("synth --preset small --instants " + std::to_string(instants) +
+                                 " --no-tape --no-calib --out " + take.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return r.exit_code == 0;
+}
+
 TEST(Cli, EveryExecutablePrintsHelp) {
   for (const char* binary : {"dome", "dome-master", "dome-worker", "dome-capture"}) {
     const Result r = RunDomeBinary("--help", binary);
@@ -163,10 +172,7 @@ TEST(Cli, SynthSmallTakePassesInfo) {
 TEST(Cli, MaxSimdChangesNoDepthAndNamesABadValue) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take";
-  ASSERT_EQ(
-      RunDomeBinary("synth --preset small --instants 1 --no-tape --no-calib --out " + take.string())
-          .exit_code,
-      0);
+  ASSERT_TRUE(SynthSmallTake(take, 1));
   auto stereo = [&](const char* simd, const std::string& out) {
     if (simd != nullptr) setenv("DOME_MAX_SIMD", simd, 1);
     const Result r = RunDomeBinary("stereo " + take.string() + " --camera c00 --out " + out);
@@ -199,10 +205,7 @@ TEST(Cli, MaxSimdChangesNoDepthAndNamesABadValue) {
 TEST(Cli, MasksFromPlatesAndTheirErrors) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take";
-  ASSERT_EQ(
-      RunDomeBinary("synth --preset small --instants 2 --no-tape --no-calib --out " + take.string())
-          .exit_code,
-      0);
+  ASSERT_TRUE(SynthSmallTake(take, 2));
   EXPECT_NE(RunDomeBinary("info " + take.string()).output.find("background plates: 6"),
             std::string::npos);
   const Result masks = RunDomeBinary("masks " + take.string() + " --threads 2");
@@ -416,15 +419,6 @@ TEST(Cli, RunAgainAfterAFrameChangedRedoesItsInstantOnly) {
     }
   }
   EXPECT_EQ(compared, 12);  // 6 cameras x 2 instants
-}
-
-// The small synthetic take of `instants` instants (no tape, no calibration images) at
-// `take`; false, with the output, when dome synth fails.
-bool SynthSmallTake(const fs::path& take, int instants) {
-  const Result r = RunDomeBinary("synth --preset small --instants " + std::to_string(instants) +
-                                 " --no-tape --no-calib --out " + take.string());
-  EXPECT_EQ(r.exit_code, 0) << r.output;
-  return r.exit_code == 0;
 }
 
 // The line of a failed command that carries its error ("dome: ..."); "" when none.
