@@ -21,7 +21,6 @@ class DisjointSets {
     parent_.push_back(int32_t(parent_.size()));
     return parent_.back();
   }
-  size_t size() const { return parent_.size(); }
 
   // The root (least member) of v's set.
   int32_t Find(int32_t v) {
