@@ -16,9 +16,13 @@
 # Prints wall and CPU seconds (user + system) and the session's seconds per instant of
 # each process, and whether the two builds' meshes are the same bytes.
 set -euo pipefail
+[ $# -ge 2 ] || { echo "usage: avx2_side_by_side.sh BUILD/bin/dome OUT [PAIRS]" >&2; exit 1; }
 NATIVE=$(realpath "$1"); OUT=$(realpath -m "$2"); PAIRS=${3:-2}
+[ -x "$NATIVE" ] || { echo "avx2_side_by_side.sh: $1 is not an executable dome" >&2; exit 1; }
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 DATA=${DATA:-$ROOT/../shared/data}
+SCENE="$DATA/robovision/2016_10_24__17_43_02"
+[ -d "$SCENE" ] || { echo "avx2_side_by_side.sh: no Robovision scene at $SCENE (set DATA)" >&2; exit 1; }
 mkdir -p "$OUT"
 cmake -S "$ROOT" -B "$OUT/build-avx2" -DCMAKE_BUILD_TYPE=Release -DDOME_NATIVE=OFF \
   -DCMAKE_CXX_FLAGS="-march=x86-64-v3" > "$OUT/build-avx2.log"
@@ -26,7 +30,6 @@ cmake --build "$OUT/build-avx2" -j"$(nproc)" --target dome >> "$OUT/build-avx2.l
 AVX2="$OUT/build-avx2/bin/dome"
 
 [ -d "$OUT/paper" ] || "$NATIVE" synth --preset paper --out "$OUT/paper" > "$OUT/synth.log"
-SCENE="$DATA/robovision/2016_10_24__17_43_02"
 [ -d "$OUT/robovision" ] || "$NATIVE" import halcon "$SCENE" --out "$OUT/robovision" > "$OUT/import.log"
 
 run() {  # label, dome, take, out, extra args...
