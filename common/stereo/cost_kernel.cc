@@ -687,8 +687,8 @@ __attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(
 
 // With AVX2: eight lanes at a time, per tap row each lane's four taps one 128-bit load;
 // lanes j and j + 4 share a register, and a 4x4 transpose in each 128-bit half turns
-// the four registers (lanes x columns) into one per column. The scalar loop's 16
-// single loads and stores per lane and row were most of the pre-warp's time on AVX2.
+// the four registers (lanes x columns) into one per column. The scalar loop's single
+// loads and stores, 16 of each per lane, were most of the pre-warp's time on AVX2.
 __attribute__((target("avx2"))) void GatherTapsAvx2(const float* image, const int64_t* corner,
                                                     const int32_t* bicubic, const float* zeros,
                                                     int stride, int blocks,
@@ -882,8 +882,8 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
 // The AVX2 path's byte shuffles of the positions [p_begin, p_end) (multiples of 32) from
 // their columns relative to the block (`rel`): per position, the bytes of its left tap
 // among the 8 columns loaded from its group's first column, 2 r and 2 r + 1 for r = its
-// column - the group's first column (at most 7), and per block whether a group spans
-// more than 8 columns (`scalar`). Sixteen positions a step: a scalar loop over the
+// column - the group's first column (at most 7), and per block whether a group's taps,
+// right taps included, reach past those 8 columns (`scalar`: r above 6). Sixteen positions a step: a scalar loop over the
 // positions took about a tenth of the AVX2 kernel's time. A group's columns are
 // non-decreasing (its pixels are consecutive), so its last position has the largest r.
 __attribute__((target("avx2"))) void ShufflePatternAvx2(const int16_t* rel, int p_begin,
