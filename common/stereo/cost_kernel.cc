@@ -691,8 +691,7 @@ __attribute__((target("avx512f,avx512bw,fma"))) void GatherTapsAvx512(
 // loads and stores, 16 of each per lane, were most of the pre-warp's time on AVX2.
 __attribute__((target("avx2"))) void GatherTapsAvx2(const float* image, const int64_t* corner,
                                                     const int32_t* bicubic, const float* zeros,
-                                                    int stride, int blocks,
-                                                    float* __restrict out) {
+                                                    int stride, int blocks, float* __restrict out) {
   static_assert(kPrewarpLanes == 16);
   for (int b = 0; b < blocks; ++b) {
     float* o = out + size_t(b) * 16 * 16;
@@ -801,8 +800,7 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
       GatherTapsAvx512(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks,
                        tap.data());
     } else if (simd == SimdLevel::kAvx2) {
-      GatherTapsAvx2(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks,
-                     tap.data());
+      GatherTapsAvx2(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks, tap.data());
     } else {
       GatherTapsScalar(nb.image, corner.data(), bicubic.data(), zeros, nb.width, blocks,
                        tap.data());
@@ -883,16 +881,15 @@ void FillPrewarp(const KernelNeighbour& nb, SimdLevel simd, Prewarped* pw) {
 // their columns relative to the block (`rel`): per position, the bytes of its left tap
 // among the 8 columns loaded from its group's first column, 2 r and 2 r + 1 for r = its
 // column - the group's first column (at most 7), and per block whether a group's taps,
-// right taps included, reach past those 8 columns (`scalar`: r above 6). Sixteen positions a step: a scalar loop over the
-// positions took about a tenth of the AVX2 kernel's time. A group's columns are
-// non-decreasing (its pixels are consecutive), so its last position has the largest r.
-__attribute__((target("avx2"))) void ShufflePatternAvx2(const int16_t* rel, int p_begin,
-                                                        int p_end, uint8_t* shuffle,
-                                                        uint8_t* scalar) {
+// right taps included, reach past those 8 columns (`scalar`: r above 6). Sixteen
+// positions a step: a scalar loop over the positions took about a tenth of the AVX2
+// kernel's time. A group's columns are non-decreasing (its pixels are consecutive), so
+// its last position has the largest r.
+__attribute__((target("avx2"))) void ShufflePatternAvx2(const int16_t* rel, int p_begin, int p_end,
+                                                        uint8_t* shuffle, uint8_t* scalar) {
   // Per 128-bit lane, positions 0..3 and 4..7: each position takes its group's first.
-  const __m256i first_of_group =
-      _mm256_setr_epi8(0, 1, 0, 1, 0, 1, 0, 1, 8, 9, 8, 9, 8, 9, 8, 9, 0, 1, 0, 1, 0, 1, 0, 1, 8,
-                       9, 8, 9, 8, 9, 8, 9);
+  const __m256i first_of_group = _mm256_setr_epi8(0, 1, 0, 1, 0, 1, 0, 1, 8, 9, 8, 9, 8, 9, 8, 9, 0,
+                                                  1, 0, 1, 0, 1, 0, 1, 8, 9, 8, 9, 8, 9, 8, 9);
   const __m256i seven = _mm256_set1_epi16(7), six = _mm256_set1_epi16(6);
   // 2 r | (2 r + 1) << 8 = 514 r + 256.
   const __m256i times = _mm256_set1_epi16(514), plus = _mm256_set1_epi16(256);
