@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <map>
@@ -38,9 +39,15 @@ runtime::ControlReply Request(zmq::context_t* context, const std::string& endpoi
   runtime::Envelope env;
   *env.mutable_control() = request;
   const std::string bytes = net::EncodeEnvelope(env);
-  socket.send(zmq::buffer(bytes), zmq::send_flags::none);
+  // The send has the time limit too: the whole request never waits longer.
+  const auto start = Clock::now();
+  const bool sent = net::SendWithin(&socket, bytes, timeout_ms);
+  const int left =
+      timeout_ms -
+      int(std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start).count());
   zmq::message_t reply;
-  if (!net::WaitForInput(&socket, timeout_ms) || !socket.recv(reply, zmq::recv_flags::dontwait)) {
+  if (!sent || !net::WaitForInput(&socket, std::max(left, 0)) ||
+      !socket.recv(reply, zmq::recv_flags::dontwait)) {
     // A refused CURVE handshake looks the same from here: no answer.
     throw core::InputError(
         where, "no answer within " + std::to_string(timeout_ms) +

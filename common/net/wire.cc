@@ -240,6 +240,19 @@ bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> f
   return true;
 }
 
+bool SendWithin(zmq::socket_t* socket, std::string_view bytes, int timeout_ms) {
+  const int before = socket->get(zmq::sockopt::sndtimeo);
+  socket->set(zmq::sockopt::sndtimeo, timeout_ms);
+  bool sent = false;
+  try {
+    sent = socket->send(zmq::buffer(bytes.data(), bytes.size()), zmq::send_flags::none).has_value();
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+  }
+  socket->set(zmq::sockopt::sndtimeo, before);
+  return sent;
+}
+
 std::vector<zmq::message_t> ReceiveFrames(zmq::socket_t* socket) {
   std::vector<zmq::message_t> frames;
   zmq::message_t m;

@@ -80,6 +80,13 @@ std::string PeerName(std::string_view routing_id);
 // Sends a multipart message; false when the socket would block (peer gone, HWM).
 bool SendFrames(zmq::socket_t* socket, std::initializer_list<std::string_view> frames);
 
+// Sends one message, waiting at most timeout_ms for the socket to take it; false when
+// it did not (or a signal cut the wait short). A send without a limit waits for good
+// while the socket has no connection that takes messages: a client whose CURVE key the
+// master refused is one (libzmq drops the connection's queue within milliseconds of the
+// refusal, before the request went out if the client was slow to send it).
+bool SendWithin(zmq::socket_t* socket, std::string_view bytes, int timeout_ms);
+
 // Every part of the next message, received without blocking; empty when none waits.
 std::vector<zmq::message_t> ReceiveFrames(zmq::socket_t* socket);
 

@@ -203,9 +203,9 @@ class SecureMaster : public ::testing::Test {
   testing::TempDir dir_;
   // Never terminated, left to the process's exit: the tests here leave CURVE handshakes
   // that a refusing master cut off, and libzmq 4.3's context termination can wait on
-  // such a socket for good (libzmq issue 2733). A CI run timed out in this suite with no
-  // expectation failed, the only call without a time limit being that termination.
-  // Every socket is still closed, with linger 0 or 100 ms.
+  // such a socket for good (libzmq issue 2733). Every socket is still closed, with
+  // linger 0 or 100 ms. (The CI runs that timed out in this suite waited on a send:
+  // ARefusedClientsSendGivesUpAtItsLimit.)
   zmq::context_t& context_ = *new zmq::context_t;
   std::unique_ptr<ChildProcess> master_;
   std::string workers_, control_, events_;
@@ -336,6 +336,30 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   req.mutable_status()->set_session_id(id);
   EXPECT_EQ(client::Request(&context_, control_, req, 10000, Keys("client")).sessions(0).state(),
             "done");
+}
+
+// A client whose handshake the master refused cannot send: within milliseconds libzmq
+// drops the connection's queue and the socket takes no message. A CI run hung in the
+// test above when its request went out just after that (its send had no time limit);
+// client::Request now sends with net::SendWithin, which gives up at its limit.
+TEST_F(SecureMaster, ARefusedClientsSendGivesUpAtItsLimit) {
+  zmq::socket_t socket(context_, zmq::socket_type::req);
+  net::ConfigureSocket(&socket, Keys("stranger"));
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(control_);
+  const auto end = Clock::now() + std::chrono::seconds(20);
+  while ((socket.get(zmq::sockopt::events) & ZMQ_POLLOUT) != 0 && Clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_EQ(socket.get(zmq::sockopt::events) & ZMQ_POLLOUT, 0) << master_->Log();
+  const auto start = Clock::now();
+  EXPECT_FALSE(net::SendWithin(&socket, "request", 300));
+  const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+  EXPECT_GE(waited_s, 0.28);
+  EXPECT_LT(waited_s, 5.0);
+  EXPECT_NE(
+      master_->Log().find("public key " + PublicKey("stranger") + " is not on the allow-list"),
+      std::string::npos);
 }
 
 // A key acts only in the roles its allow-list line gives it: a worker's key cannot

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include "net/blob_cache.h"
 #include "net/content_hash.h"
 #include "testing/expect_error.h"
@@ -91,6 +93,31 @@ TEST(Wire, ReceiveFramesTakesEveryPartOfOneMessage) {
   const auto second = ReceiveFrames(&b);
   ASSERT_EQ(second.size(), 1u);
   EXPECT_EQ(second[0].to_string(), "next");
+}
+
+// A socket that cannot take a message (here: "immediate" and no peer to connect to) makes
+// SendWithin give up at its limit, where a send without one would wait for good; the
+// socket's own send time-out is as it was afterwards.
+TEST(Wire, SendWithinGivesUpAtItsLimit) {
+  zmq::context_t context;
+  zmq::socket_t req(context, zmq::socket_type::req);
+  req.set(zmq::sockopt::linger, 0);
+  req.set(zmq::sockopt::immediate, 1);
+  req.connect("tcp://127.0.0.1:1");
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(SendWithin(&req, "request", 200));
+  const double waited_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GE(waited_s, 0.18);
+  EXPECT_LT(waited_s, 5.0);
+  EXPECT_EQ(req.get(zmq::sockopt::sndtimeo), -1);
+  // A socket that can take it sends at once.
+  zmq::socket_t a(context, zmq::socket_type::pair), b(context, zmq::socket_type::pair);
+  a.bind("inproc://send-within");
+  b.connect("inproc://send-within");
+  EXPECT_TRUE(SendWithin(&a, "hello", 200));
+  ASSERT_TRUE(WaitForInput(&b, 1000));
+  EXPECT_EQ(ReceiveFrames(&b)[0].to_string(), "hello");
 }
 
 TEST(BlobCache, EvictsLeastRecentlyUsedWithinTheBound) {
