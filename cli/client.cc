@@ -197,12 +197,20 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
       std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
       continue;
     }
+    // The event of the session's end has the control socket asked at once, not at the
+    // next poll (up to poll_ms later: the end of every `dome run` waited on it).
+    bool ended = false;
     sub->Drain(
-        poll_ms, [&](const runtime::StatusEvent& ev) {
+        poll_ms,
+        [&](const runtime::StatusEvent& ev) {
           if (out != nullptr && ev.has_capture()) {
             std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
             std::fflush(out);
             return;
+          }
+          if (ev.session_id() == id && ev.stage().empty() &&
+              (ev.state() == "done" || ev.state() == "failed" || ev.state() == "cancelled")) {
+            ended = true;
           }
           if (ev.session_id() != id || out == nullptr) return;
           if (ev.stage().empty()) {
@@ -226,7 +234,9 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
                        std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
                        ev.done(), ev.total(), ev.jobs_done(), ev.jobs_total(), rate, eta);
           std::fflush(out);
-        });
+        },
+        &ended);
+    if (ended) next_poll = Clock::now();
   }
 }
 

@@ -124,7 +124,8 @@ void EventSubscription::Refresh() {
 }
 
 void EventSubscription::Drain(int wait_ms,
-                              const std::function<void(const runtime::StatusEvent&)>& on_event) {
+                              const std::function<void(const runtime::StatusEvent&)>& on_event,
+                              const bool* stop_when) {
   const auto end = Clock::now() + std::chrono::milliseconds(wait_ms);
   while (true) {
     if (Clock::now() >= next_refresh_) Refresh();
@@ -142,7 +143,7 @@ void EventSubscription::Drain(int wait_ms,
       }
       if (env.has_status()) on_event(env.status());
     }
-    if (Clock::now() >= end) return;
+    if (Clock::now() >= end || (stop_when != nullptr && *stop_when)) return;
   }
 }
 

@@ -75,8 +75,10 @@ class EventSubscription {
   EventSubscription& operator=(const EventSubscription&) = delete;
 
   // Waits up to wait_ms for events and hands each to on_event, refreshing the
-  // subscription when it is due. Messages that do not decode are skipped.
-  void Drain(int wait_ms, const std::function<void(const runtime::StatusEvent&)>& on_event);
+  // subscription when it is due. Messages that do not decode are skipped. With `stop_when`,
+  // returns after the events at hand once on_event has set *stop_when.
+  void Drain(int wait_ms, const std::function<void(const runtime::StatusEvent&)>& on_event,
+             const bool* stop_when = nullptr);
   zmq::socket_t& socket() { return socket_; }
 
  private:

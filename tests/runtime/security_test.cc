@@ -242,6 +242,25 @@ TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
   EXPECT_EQ(master_->Stop(), 0);
 }
 
+// A watch (dome run, dome watch) asks the control socket when the session's end event
+// comes, not at its next poll: with a poll every minute it still returns in seconds, the
+// outcome from the control socket (quiet: no output either).
+TEST_F(SecureMaster, AWatchEndsOnTheSessionsEndEventNotAtItsNextPoll) {
+  ChildProcess worker(
+      "dome-worker",
+      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
+       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
+      dir_.File("worker.log"));
+  const std::string id = SubmitNoop("client", 5);
+  const auto start = Clock::now();
+  const auto st =
+      client::WaitForSession(&context_, control_, events_, id, nullptr, 60000, Keys("client"));
+  const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+  EXPECT_EQ(st.state(), "done") << st.error() << master_->Log();
+  EXPECT_EQ(st.jobs_done(), 5);
+  EXPECT_LT(waited_s, 30.0) << "returned at the next poll, not on the end event";
+}
+
 TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   // A stranger's request gets no answer; the master names its key and address.
   ExpectInputError([&] { List("stranger", 1500); }, {"no answer", "allow-list"});
