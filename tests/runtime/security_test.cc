@@ -192,6 +192,15 @@ class SecureMaster : public ::testing::Test {
     req.mutable_list();
     return client::Request(&context_, control_, req, timeout_ms, Keys(who));
   }
+  // A dome-worker with an allowed key ("kw", one thread).
+  std::unique_ptr<ChildProcess> AllowedWorker() {
+    return std::make_unique<ChildProcess>(
+        "dome-worker",
+        std::vector<std::string>{"--master", workers_, "--threads", "1", "--heartbeat-ms", "200",
+                                 "--name", "kw", "--master-key", dir_.File("master.pub"), "--key",
+                                 dir_.File("worker.key")},
+        dir_.File("worker.log"));
+  }
   std::string SubmitNoop(const std::string& who, int jobs) {
     runtime::ControlRequest req;
     req.mutable_submit()->mutable_session()->set_out(
@@ -213,11 +222,7 @@ class SecureMaster : public ::testing::Test {
 };
 
 TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
-  ChildProcess worker(
-      "dome-worker",
-      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
-       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
-      dir_.File("worker.log"));
+  const auto worker = AllowedWorker();
   const std::string id = SubmitNoop("client", 40);
   // Progress through the (CURVE) status socket and the final state from the control one.
   const fs::path progress = dir_ / "progress.txt";
@@ -238,7 +243,7 @@ TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
   EXPECT_NE(list.output.find(id), std::string::npos) << list.output;
   EXPECT_NE(list.output.find("done"), std::string::npos) << list.output;
   EXPECT_EQ(master_->Log().find("refused"), std::string::npos) << master_->Log();
-  EXPECT_EQ(worker.Stop(), 0);
+  EXPECT_EQ(worker->Stop(), 0);
   EXPECT_EQ(master_->Stop(), 0);
 }
 
@@ -246,11 +251,7 @@ TEST_F(SecureMaster, AllowedWorkerAndClientCompleteASessionOverCurve) {
 // comes, not at its next poll: with a poll every minute it still returns in seconds, the
 // outcome from the control socket (quiet: no output either).
 TEST_F(SecureMaster, AWatchEndsOnTheSessionsEndEventNotAtItsNextPoll) {
-  ChildProcess worker(
-      "dome-worker",
-      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
-       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
-      dir_.File("worker.log"));
+  const auto worker = AllowedWorker();
   const std::string id = SubmitNoop("client", 5);
   const auto start = Clock::now();
   const auto st =
@@ -314,11 +315,7 @@ TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   for (int i = 0; i < 10; ++i) {  // subscriptions travel
     for (auto& s : subs) s->Drain(50, [](const runtime::StatusEvent&) {});
   }
-  ChildProcess worker(
-      "dome-worker",
-      {"--master", workers_, "--threads", "1", "--heartbeat-ms", "200", "--name", "kw",
-       "--master-key", dir_.File("master.pub"), "--key", dir_.File("worker.key")},
-      dir_.File("worker.log"));
+  const auto worker = AllowedWorker();
   const std::string id = SubmitNoop("client", 10);
   std::vector<int> heard(subs.size(), 0), answered(dealers.size(), 0);
   const auto end = Clock::now() + std::chrono::seconds(3);
