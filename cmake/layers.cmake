@@ -7,9 +7,9 @@
 # libraries (DOME_ALGORITHMS) hold no generated protobuf type: wire and file formats are
 # converted at the edges (schema, net, ingest, pipeline and the programs).
 set(DOME_LAYERS
-  core geometry io schema take silhouette eval capture synth calib fusion mesh sequence stereo view
+  core geometry io video schema take silhouette eval capture synth calib fusion mesh sequence stereo view
   net ingest pipeline scheduler worker capture_agent cli)
-set(DOME_ALGORITHMS core geometry io take silhouette eval capture synth calib fusion mesh sequence stereo
+set(DOME_ALGORITHMS core geometry io video take silhouette eval capture synth calib fusion mesh sequence stereo
   view)
 # The master and the worker are peers on the wire: neither links or includes the other
 # (the embedded cluster of cli/ links both).

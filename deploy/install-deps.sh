@@ -13,7 +13,7 @@ packages=(
   libgtest-dev libgmock-dev
   libbenchmark-dev
   libcli11-dev
-  libtiff-dev
+  libtiff-dev libpng-dev libjpeg-dev  # image files (io/image_codecs.h)
   libembree-dev
   python3-open3d python3-scipy python3-numpy
   libmeshoptimizer-dev python3-skimage

@@ -11,8 +11,6 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "io/image_io.h"
 #include "timed_files.h"
 
@@ -24,9 +22,11 @@ int main(int argc, char** argv) {
     return 1;
   const int repeats = args.repeats;
   for (const std::string& path : args.paths) {
-    const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-    if (image.empty()) {
-      std::fprintf(stderr, "%s: not an image OpenCV decodes\n", path.c_str());
+    cv::Mat image;
+    try {
+      image = dome::io::ReadImage(path, dome::io::ImageMode::kUnchanged);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s\n", e.what());
       return 1;
     }
     std::vector<double> ms[2];

@@ -2,14 +2,14 @@
 
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "core/error.h"
+#include "video/video.h"
 
 namespace dome::capture {
 
 struct OpenCvDigitizer::Impl {
-  cv::VideoCapture capture;
+  std::unique_ptr<video::Source> source;
 };
 
 OpenCvDigitizer::OpenCvDigitizer(const std::string& spec)
@@ -21,18 +21,19 @@ OpenCvDigitizer::OpenCvDigitizer(const std::string& spec)
                 "expected file:PATH or v4l2:/dev/videoN");
   if (kind == "file") {
     core::Require(std::filesystem::is_regular_file(target), spec, "no such video file");
-    impl_->capture.open(target, cv::CAP_FFMPEG);
-  } else {
-    impl_->capture.open(target, cv::CAP_V4L2);
   }
-  core::Require(impl_->capture.isOpened(), spec, "cannot open the video source");
+  try {
+    impl_->source = kind == "file" ? video::OpenFile(target) : video::OpenDevice(target);
+  } catch (const core::InputError& e) {
+    throw e.Under(spec);
+  }
 }
 
 OpenCvDigitizer::~OpenCvDigitizer() = default;
 
 bool OpenCvDigitizer::Next(cv::Mat* frame) {
   cv::Mat raw;
-  if (!impl_->capture.read(raw) || raw.empty()) return false;
+  if (!impl_->source->Read(&raw)) return false;
   if (raw.channels() == 3) {
     cv::extractChannel(raw, last_, 0);  // grey video arrives as equal B, G, R
   } else if (raw.channels() == 1) {

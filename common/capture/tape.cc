@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "io/image_io.h"
 #include "take/timecode.h"
+#include "video/video.h"
 
 namespace dome::capture {
 
@@ -54,7 +54,7 @@ cv::Mat TapePicture(const cv::Mat& tape_frame, const TapeLayout& layout) {
 }
 
 struct TapeWriter::Impl {
-  cv::VideoWriter writer;
+  std::unique_ptr<video::Sink> sink;
   std::filesystem::path path;
   cv::Size size;
 };
@@ -64,20 +64,18 @@ TapeWriter::TapeWriter(const std::filesystem::path& path, cv::Size frame_size,
     : impl_(std::make_unique<Impl>()) {
   impl_->path = path;
   impl_->size = frame_size;
-  impl_->writer.open(path.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'),
-                     FramesPerSecond(standard), frame_size, /*isColor=*/false);
-  core::Require(impl_->writer.isOpened(), path.string(),
-                "cannot open for writing an FFV1 video (OpenCV with FFmpeg, writable folder)");
+  impl_->sink = video::CreateFfv1(path.string(), frame_size, FramesPerSecond(standard),
+                                  /*colour=*/false);
 }
 
 TapeWriter::~TapeWriter() = default;
 
 void TapeWriter::Write(const cv::Mat& frame) {
   DOME_CHECK(frame.type() == CV_8UC1 && frame.size() == impl_->size, "tape frame size and type");
-  impl_->writer.write(frame);
+  impl_->sink->Write(frame);
 }
 
-void TapeWriter::Close() { impl_->writer.release(); }
+void TapeWriter::Close() { impl_->sink->Close(); }
 
 int WriteTakeTapes(const std::filesystem::path& take_dir, const TapeLayout& layout, int threads) {
   namespace fs = std::filesystem;
@@ -118,12 +116,10 @@ int WriteTakeTapes(const std::filesystem::path& take_dir, const TapeLayout& layo
 
 std::vector<cv::Mat> ReadTapeFrames(const std::filesystem::path& path) {
   core::Require(std::filesystem::is_regular_file(path), path.string(), "no such tape file");
-  cv::VideoCapture capture(path.string(), cv::CAP_FFMPEG);
-  core::Require(capture.isOpened(), path.string(),
-                "cannot open as a video (expected FFV1 grey video)");
+  const std::unique_ptr<video::Source> source = video::OpenFile(path.string());
   std::vector<cv::Mat> frames;
   cv::Mat frame;
-  while (capture.read(frame)) {
+  while (source->Read(&frame)) {
     cv::Mat grey;
     if (frame.channels() == 3) {
       cv::extractChannel(frame, grey, 0);  // grey video comes back as equal B, G, R

@@ -1,11 +1,8 @@
 #include "io/depth_tiff.h"
 
-#include <tiffio.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -14,6 +11,7 @@
 #include "core/error.h"
 #include "io/file_util.h"
 #include "io/image_io.h"
+#include "io/tiff_memory.h"
 
 namespace dome::io {
 namespace {
@@ -29,77 +27,8 @@ std::string FormatValue(float v) {
   return buf;
 }
 
-// libtiff reports problems through callbacks; these collect the first error (the
-// most specific one) per file instead of printing, so it can go into the
-// InputError. Per-handle handlers (libtiff >= 4.5) keep this thread-safe.
-struct TiffMessages {
-  std::string error;
-};
-
-int OnTiffError(TIFF*, void* user_data, const char* module, const char* fmt, va_list ap) {
-  auto* messages = static_cast<TiffMessages*>(user_data);
-  if (messages->error.empty()) {
-    char buf[512];
-    std::vsnprintf(buf, sizeof(buf), fmt, ap);
-    messages->error = buf;
-  }
-  return 1;  // handled: do not call the global handler (which prints to stderr)
-}
-
-int OnTiffWarning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
-
-struct TiffCloser {
-  void operator()(TIFF* tif) const { TIFFClose(tif); }
-};
-using TiffHandle = std::unique_ptr<TIFF, TiffCloser>;
-
-// A TIFF file in memory: libtiff reads and writes it through these callbacks, so a
-// depth map can be encoded on one machine and written (or checked) on another.
-struct MemoryFile {
-  std::string bytes;  // the file
-  toff_t pos = 0;
-};
-
-tmsize_t MemRead(thandle_t h, void* buf, tmsize_t n) {
-  auto* f = static_cast<MemoryFile*>(h);
-  const toff_t left = f->pos < f->bytes.size() ? f->bytes.size() - f->pos : 0;
-  const tmsize_t k = static_cast<tmsize_t>(std::min<toff_t>(left, static_cast<toff_t>(n)));
-  if (k > 0) std::memcpy(buf, f->bytes.data() + f->pos, static_cast<size_t>(k));
-  f->pos += static_cast<toff_t>(k);
-  return k;
-}
-
-tmsize_t MemWrite(thandle_t h, void* buf, tmsize_t n) {
-  auto* f = static_cast<MemoryFile*>(h);
-  if (n < 0) return -1;
-  const size_t end = static_cast<size_t>(f->pos) + static_cast<size_t>(n);
-  if (end > f->bytes.size()) f->bytes.resize(end);
-  std::memcpy(f->bytes.data() + f->pos, buf, static_cast<size_t>(n));
-  f->pos = end;
-  return n;
-}
-
-toff_t MemSeek(thandle_t h, toff_t off, int whence) {
-  auto* f = static_cast<MemoryFile*>(h);
-  const toff_t base = whence == SEEK_CUR ? f->pos : (whence == SEEK_END ? f->bytes.size() : 0);
-  f->pos = base + off;
-  return f->pos;
-}
-
-int MemClose(thandle_t) { return 0; }
-toff_t MemSize(thandle_t h) { return static_cast<MemoryFile*>(h)->bytes.size(); }
-int MemMap(thandle_t, void**, toff_t*) { return 0; }
-void MemUnmap(thandle_t, void*, toff_t) {}
-
 TiffHandle OpenTiff(MemoryFile* file, const char* mode, TiffMessages* messages) {
-  TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
-  TIFFOpenOptionsSetErrorHandlerExtR(opts, OnTiffError, messages);
-  TIFFOpenOptionsSetWarningHandlerExtR(opts, OnTiffWarning, messages);
-  TIFFOpenOptionsSetMaxSingleMemAlloc(opts, static_cast<tmsize_t>(kMaxPixels) * 4);
-  TiffHandle tif(TIFFClientOpenExt("depth map", mode, file, MemRead, MemWrite, MemSeek, MemClose,
-                                   MemSize, MemMap, MemUnmap, opts));
-  TIFFOpenOptionsFree(opts);
-  return tif;
+  return OpenMemoryTiff(file, mode, "depth map", kMaxPixels * 4, messages);
 }
 
 std::string Lower(std::string s) {

@@ -3,13 +3,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cstring>
-#include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "core/error.h"
 #include "io/file_util.h"
+#include "io/image_codecs.h"
 
 namespace dome::io {
 namespace {
@@ -57,20 +56,7 @@ const char* ImageModeName(ImageMode mode) {
 }
 
 cv::Mat DecodeImage(std::string_view bytes, ImageMode mode, const std::string& where) {
-  core::Require(!bytes.empty(), where, "is empty, expected an image");
-  core::Require(bytes.size() < static_cast<size_t>(std::numeric_limits<int>::max()), where,
-                "is larger than 2 GiB, which OpenCV's decoders cannot take");
-  // imdecode wants a Mat header over the bytes; it does not modify them.
-  const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
-  cv::Mat stored;
-  try {
-    stored = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw core::InputError(
-        where, "not a decodable image (corrupt or unsupported format): " + std::string(e.what()));
-  }
-  core::Require(!stored.empty(), where,
-                "not a decodable image (corrupt, truncated or unsupported format)");
+  const cv::Mat stored = codecs::Decode(bytes, where);
   if (mode == ImageMode::kUnchanged) {
     return stored;
   }
@@ -154,15 +140,9 @@ std::string EncodePng(const cv::Mat& image, PngEncoding encoding) {
              "EncodePng: PNG holds 8- or 16-bit samples, got " + Describe(image));
   DOME_CHECK(image.channels() == 1 || image.channels() == 3 || image.channels() == 4,
              "EncodePng: PNG holds 1, 3 or 4 channels, got " + Describe(image));
-  // A level given to OpenCV turns on libpng's per-row filter choice and zlib's default
-  // strategy; level 3 costs a fraction of the time of the 9-ish levels for ~5 % larger
-  // files. No level: OpenCV's encoding tuned for speed (see PngEncoding).
-  const std::vector<int> params = encoding == PngEncoding::kSmall
-                                      ? std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 3}
-                                      : std::vector<int>{};
-  std::vector<uchar> encoded;
-  DOME_CHECK(cv::imencode(".png", image, encoded, params), "EncodePng: encoder failed");
-  return std::string(encoded.begin(), encoded.end());
+  // kSmall: each row's best filter at zlib level 3 costs a fraction of the time of the
+  // 9-ish levels for ~5 % larger files. kFast: see PngEncoding.
+  return codecs::EncodePng(image, encoding == PngEncoding::kSmall);
 }
 
 void WriteImage(const std::filesystem::path& path, const cv::Mat& image, PngEncoding encoding) {

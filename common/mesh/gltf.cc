@@ -4,13 +4,13 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <unordered_map>
 #include <vector>
 
 #include "core/error.h"
 #include "core/json.h"
 #include "io/file_util.h"
+#include "io/image_io.h"
 
 namespace dome::mesh {
 
@@ -120,8 +120,7 @@ int GlbBuilder::AddTexturedMesh(const TexturedMesh& textured, core::Json* docume
       index.push_back(uint32_t(3 * f + m));
     }
   }
-  std::vector<uchar> png;
-  core::Require(cv::imencode(".png", textured.atlas, png), "glTF: atlas", "PNG encoding failed");
+  const std::string png = io::EncodePng(textured.atlas, io::PngEncoding::kFast);
   const size_t nv = xyz.size() / 3;
   const int pos = AddAccessor(AddView(xyz.data(), xyz.size() * 4, kArrayTarget), kFloat, nv,
                               "VEC3", false, MinMax(xyz));
@@ -290,10 +289,9 @@ TexturedMesh DecodeTexturedGlb(std::string_view glb, const std::string& where) {
     const size_t at = view.value("byteOffset", size_t(0)), length = view.at("byteLength");
     core::Require(at <= bin.size() && length <= bin.size() - at, where,
                   "image runs past the end of the BIN chunk");
-    const cv::Mat encoded(1, int(length), CV_8UC1, const_cast<char*>(bin.data() + at));
     TexturedMesh out;
-    out.atlas = cv::imdecode(encoded, cv::IMREAD_COLOR);
-    core::Require(!out.atlas.empty(), where, "image is not a PNG or JPEG OpenCV can decode");
+    out.atlas = io::DecodeImage(std::string_view(bin.data() + at, length), io::ImageMode::kBgr8,
+                                where + ": the atlas image");
 
     std::vector<float> p(nv * 3), t(nv * 2);
     std::vector<uint32_t> corner(ni);

@@ -1,5 +1,6 @@
 // The texture atlases of a sequence as frames of one H.264 video stream (ffmpeg's
-// libavcodec with libx264; Debian's libavcodec-dev), and its reference decoder.
+// libavcodec with libx264, in dome's video module: video/video.h), and its reference
+// decoder.
 //
 // Frames: BGR (OpenCV) atlases at the top-left of a fixed W x H frame (even sizes, the
 // rest black), converted to 4:2:0 YUV with BT.601 limited-range coefficients
@@ -15,6 +16,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "video/video.h"
 
 namespace dome::sequence {
 
@@ -33,11 +36,8 @@ struct VideoOptions {
   void Check() const;
 };
 
-struct VideoPacket {
-  int64_t frame = 0;  // index of the frame it holds
-  bool keyframe = false;
-  std::string bytes;  // Annex B
-};
+// One frame's packet: its frame index, whether it is a keyframe, its Annex B bytes.
+using VideoPacket = video::H264Packet;
 
 class VideoEncoder {
  public:
@@ -56,7 +56,8 @@ class VideoEncoder {
   const std::string& codec() const { return codec_; }
 
  private:
-  std::vector<VideoPacket> Drain();
+  // Sends `frame` (empty: the end) and takes the packets that are ready.
+  std::vector<VideoPacket> Drain(const cv::Mat& frame);
   struct State;
   std::unique_ptr<State> state_;
   std::string codec_;
@@ -76,7 +77,8 @@ class VideoDecoder {
   std::vector<cv::Mat> Flush();
 
  private:
-  std::vector<cv::Mat> Receive(const std::string& where);
+  // Sends `packet` (empty: the end) and takes the frames that are ready.
+  std::vector<cv::Mat> Receive(std::string_view packet, const std::string& where);
   struct State;
   std::unique_ptr<State> state_;
 };

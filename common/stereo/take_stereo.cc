@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
 #include "core/parallel_for.h"
@@ -138,9 +137,7 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
                       "is not the result's depth map");
         break;
       case 1: {
-        const cv::Mat rel = cv::imdecode(
-            cv::Mat(1, int(f.bytes.size()), CV_8UC1, const_cast<char*>(f.bytes.data())),
-            cv::IMREAD_UNCHANGED);
+        const cv::Mat rel = io::DecodeImage(f.bytes, io::ImageMode::kUnchanged, what);
         core::Require(same(rel, r.reliability), what, "is not the result's reliability map");
         break;
       }

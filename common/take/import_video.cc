@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <opencv2/videoio.hpp>
 #include <set>
 
 #include "core/error.h"
@@ -10,6 +9,7 @@
 #include "take/import.h"
 #include "take/import_frames.h"
 #include "take/timecode.h"
+#include "video/video.h"
 
 namespace dome::take {
 namespace {
@@ -57,16 +57,14 @@ struct Source {
 };
 
 Source Probe(const fs::path& path, const geometry::TsaiCamera& camera) {
-  cv::VideoCapture video(path.string(), cv::CAP_FFMPEG);
-  Require(video.isOpened(), path.string(),
-          "cannot be opened as a video (not a video file, or a codec FFmpeg does not decode)");
+  const std::unique_ptr<video::Source> clip = video::OpenFile(path.string());
   Source s;
   s.path = path;
-  s.fps = video.get(cv::CAP_PROP_FPS);
-  const double count = video.get(cv::CAP_PROP_FRAME_COUNT);
+  s.fps = clip->fps();
+  const double count = clip->frame_count();
   if (count > 0) s.count = std::lround(count);
-  const int w = int(video.get(cv::CAP_PROP_FRAME_WIDTH));
-  const int h = int(video.get(cv::CAP_PROP_FRAME_HEIGHT));
+  const int w = clip->size().width;
+  const int h = clip->size().height;
   Require(w == camera.width_px && h == camera.height_px, path.string(),
           "frames are " + std::to_string(w) + "x" + std::to_string(h) + ", but camera '" +
               camera.id + "' is calibrated for " + std::to_string(camera.width_px) + "x" +
@@ -181,13 +179,12 @@ Take ImportVideo(const geometry::Rig& rig, const fs::path& video_dir, const fs::
   for (size_t c = 0; c < sources.size(); ++c) {
     const Source& s = sources[c];
     const geometry::TsaiCamera& camera = rig.cameras[c].model;
-    cv::VideoCapture capture(s.path.string(), cv::CAP_FFMPEG);
-    Require(capture.isOpened(), s.path.string(), "cannot be opened as a video");
+    const std::unique_ptr<video::Source> capture = video::OpenFile(s.path.string());
     size_t next = 0;
     cv::Mat frame;
     for (long i = 0; next < wanted.size(); ++i) {
       const bool take_it = i + s.offset == wanted[next];
-      const bool ok = take_it ? capture.read(frame) : capture.grab();
+      const bool ok = take_it ? capture->Read(&frame) : capture->Skip();
       Require(ok, s.path.string(),
               "ended or failed to decode at frame " + std::to_string(i) + " (timeline " +
                   std::to_string(i + s.offset) + "), before frame " +

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <sstream>
 
 #include "core/error.h"
+#include "io/image_io.h"
 #include "schema/rig_json.h"
 #include "take/timecode.h"
 
@@ -28,10 +28,16 @@ class Checker {
   void CheckImage(const fs::path& path, const geometry::TsaiCamera* camera, Kind kind,
                   bool decode) {
     if (!decode) return;
-    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
     ++report_->images_checked;
-    if (image.empty()) {
-      Problem(path, "unreadable or corrupt image");
+    cv::Mat image;
+    try {
+      image = io::ReadImage(path, io::ImageMode::kUnchanged);
+    } catch (const core::InputError& e) {
+      // The decoder's message names the path again; keep what it says was wrong.
+      const std::string why = e.what();
+      const size_t at = why.find(path.string() + ": ");
+      Problem(path, "unreadable or corrupt image (" +
+                        (at == 0 ? why.substr(path.string().size() + 2) : why) + ")");
       return;
     }
     if (kind == Kind::kFrame) {

@@ -4,12 +4,12 @@
 #include <bit>
 #include <cstring>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "eval/triangle_bvh.h"
 #include "io/depth_tiff.h"
+#include "io/image_io.h"
 #include "io/ply.h"
 #include "silhouette/take_masks.h"
 #include "take/take.h"
@@ -55,9 +55,7 @@ std::string DepthPreviewFile(const ViewerIndex& index, int instant, int camera) 
   core::Require(!path.empty(), e.name + "/" + index.cameras[camera].id,
                 "no depth map for this camera and instant");
   const cv::Mat preview = io::DepthPreview(io::ReadDepthMap(path));
-  std::vector<uchar> png;
-  core::Require(cv::imencode(".png", preview, png), path.string(), "could not encode the preview");
-  return std::string(png.begin(), png.end());
+  return io::EncodePng(preview, io::PngEncoding::kFast);
 }
 
 std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera) {
@@ -79,10 +77,7 @@ std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera) {
   const cv::Mat mask = masks.Mask(e.name, id);
   const cv::Mat frame =
       silhouette::ReadFrame(masks.take().FramePath(e.name, id), mask.size(), id).colour;
-  std::vector<uchar> png;
-  core::Require(cv::imencode(".png", silhouette::MaskPreview(frame, mask), png), e.name + "/" + id,
-                "could not encode the mask preview");
-  return std::string(png.begin(), png.end());
+  return io::EncodePng(silhouette::MaskPreview(frame, mask), io::PngEncoding::kFast);
 }
 
 }  // namespace dome::view
