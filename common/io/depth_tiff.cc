@@ -177,35 +177,8 @@ cv::Mat DecodeDepthTiff(std::string bytes, const std::string& where) {
     throw core::InputError(where, "corrupt TIFF data (" + what + ")" +
                                       (messages.error.empty() ? "" : ": " + messages.error));
   };
-  if (TIFFIsTiled(t)) {
-    uint32_t tw = 0, th = 0;
-    TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
-    TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
-    if (tw == 0 || th == 0 || TIFFTileSize(t) != static_cast<tmsize_t>(tw) * th * 4) {
-      fail("bad tile geometry");
-    }
-    std::vector<float> tile(static_cast<size_t>(tw) * th);
-    for (uint32_t ty = 0; ty < height; ty += th) {
-      for (uint32_t tx = 0; tx < width; tx += tw) {
-        if (TIFFReadTile(t, tile.data(), tx, ty, 0, 0) < 0) {
-          fail("tile at (" + std::to_string(tx) + ", " + std::to_string(ty) + ")");
-        }
-        const uint32_t h = std::min(th, height - ty), w = std::min(tw, width - tx);
-        for (uint32_t r = 0; r < h; ++r) {
-          std::memcpy(depth.ptr<float>(ty + r) + tx, tile.data() + size_t{r} * tw, w * 4);
-        }
-      }
-    }
-  } else {
-    if (TIFFScanlineSize(t) != static_cast<tmsize_t>(width) * 4) {
-      fail("bad scanline size");
-    }
-    for (uint32_t y = 0; y < height; ++y) {
-      if (TIFFReadScanline(t, depth.ptr<float>(y), y, 0) != 1) {
-        fail("row " + std::to_string(y));
-      }
-    }
-  }
+  const std::string failed = ReadTiffPixels(t, 4, &depth);
+  if (!failed.empty()) fail(failed);
   CheckDepthMap(depth, where);
   return depth;
 }

@@ -260,33 +260,8 @@ cv::Mat DecodeTiff(std::string_view bytes, const std::string& where) {
     // Read as stored: rows (or tiles) straight into the image.
     const int depth = bps == 8 ? CV_8U : bps == 16 ? CV_16U : CV_32F;
     cv::Mat out(int(height), int(width), CV_MAKETYPE(depth, spp));
-    const size_t pixel = size_t(spp) * bps / 8;
-    if (TIFFIsTiled(t)) {
-      uint32_t tw = 0, th = 0;
-      TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
-      TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
-      if (tw == 0 || th == 0 || TIFFTileSize(t) != tmsize_t(size_t(tw) * th * pixel)) {
-        fail("bad tile geometry");
-      }
-      std::vector<uint8_t> tile(size_t(tw) * th * pixel);
-      for (uint32_t ty = 0; ty < height; ty += th) {
-        for (uint32_t tx = 0; tx < width; tx += tw) {
-          if (TIFFReadTile(t, tile.data(), tx, ty, 0, 0) < 0) {
-            fail("tile at (" + std::to_string(tx) + ", " + std::to_string(ty) + ")");
-          }
-          const uint32_t h = std::min(th, height - ty), w = std::min(tw, width - tx);
-          for (uint32_t r = 0; r < h; ++r) {
-            std::memcpy(out.ptr(int(ty + r)) + tx * pixel, tile.data() + size_t(r) * tw * pixel,
-                        w * pixel);
-          }
-        }
-      }
-    } else {
-      if (TIFFScanlineSize(t) != tmsize_t(width * pixel)) fail("bad scanline size");
-      for (uint32_t y = 0; y < height; ++y) {
-        if (TIFFReadScanline(t, out.ptr(int(y)), y, 0) != 1) fail("row " + std::to_string(y));
-      }
-    }
+    const std::string failed = ReadTiffPixels(t, size_t(spp) * bps / 8, &out);
+    if (!failed.empty()) fail(failed);
     if (spp == 3) cv::cvtColor(out, out, cv::COLOR_RGB2BGR);
     if (spp == 4) cv::cvtColor(out, out, cv::COLOR_RGBA2BGRA);
     return out;

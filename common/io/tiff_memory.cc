@@ -4,6 +4,7 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
+#include <vector>
 
 namespace dome::io {
 namespace {
@@ -52,6 +53,37 @@ int MemMap(thandle_t, void**, toff_t*) { return 0; }
 void MemUnmap(thandle_t, void*, toff_t) {}
 
 }  // namespace
+
+std::string ReadTiffPixels(TIFF* t, size_t pixel, cv::Mat* out) {
+  const uint32_t width = uint32_t(out->cols), height = uint32_t(out->rows);
+  if (!TIFFIsTiled(t)) {
+    if (TIFFScanlineSize(t) != tmsize_t(width * pixel)) return "bad scanline size";
+    for (uint32_t y = 0; y < height; ++y) {
+      if (TIFFReadScanline(t, out->ptr(int(y)), y, 0) != 1) return "row " + std::to_string(y);
+    }
+    return "";
+  }
+  uint32_t tw = 0, th = 0;
+  TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
+  TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
+  if (tw == 0 || th == 0 || TIFFTileSize(t) != tmsize_t(size_t(tw) * th * pixel)) {
+    return "bad tile geometry";
+  }
+  std::vector<uint8_t> tile(size_t(tw) * th * pixel);
+  for (uint32_t ty = 0; ty < height; ty += th) {
+    for (uint32_t tx = 0; tx < width; tx += tw) {
+      if (TIFFReadTile(t, tile.data(), tx, ty, 0, 0) < 0) {
+        return "tile at (" + std::to_string(tx) + ", " + std::to_string(ty) + ")";
+      }
+      const uint32_t h = std::min(th, height - ty), w = std::min(tw, width - tx);
+      for (uint32_t r = 0; r < h; ++r) {
+        std::memcpy(out->ptr(int(ty + r)) + tx * pixel, tile.data() + size_t(r) * tw * pixel,
+                    w * pixel);
+      }
+    }
+  }
+  return "";
+}
 
 TiffHandle OpenMemoryTiff(MemoryFile* file, const char* mode, const char* name,
                           int64_t max_alloc_bytes, TiffMessages* messages) {

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 
 namespace dome::io {
@@ -36,5 +37,11 @@ struct MemoryFile {
 // when libtiff cannot open it; messages->error then says why.
 TiffHandle OpenMemoryTiff(MemoryFile* file, const char* mode, const char* name,
                           int64_t max_alloc_bytes, TiffMessages* messages);
+
+// Reads the open image's pixels, stored interleaved (PLANARCONFIG_CONTIG) at
+// `pixel_bytes` a pixel, from its tiles or strips into `out`, allocated by the caller at
+// the image's size with rows of width x pixel_bytes. Returns "" or what failed ("bad tile
+// geometry", "tile at (x, y)", "bad scanline size", "row y").
+std::string ReadTiffPixels(TIFF* tif, size_t pixel_bytes, cv::Mat* out);
 
 }  // namespace dome::io

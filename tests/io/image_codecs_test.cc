@@ -120,6 +120,25 @@ TEST(ImageCodecs, EveryLayoutOpenCvWritesDecodesTheSame) {
   }
 }
 
+TEST(ImageCodecs, TiledTiffsDecodeAsOpenCvDecodesThem) {
+  // OpenCV writes strips only; libtiff writes these tiles of 16 x 16 (partial at the
+  // right and bottom edges).
+  ::dome::testing::TempDir dir;
+  for (const int type : {CV_8UC3, CV_16UC1}) {
+    SCOPED_TRACE(type);
+    const cv::Mat image = Picture(23, 37, type, 11);
+    const auto path = dir.path() / "tiled.tif";
+    const cv::Mat rgb = image.channels() == 3 ? image.clone() : image;
+    if (image.channels() == 3) cv::cvtColor(image, rgb, cv::COLOR_BGR2RGB);
+    ::dome::testing::WriteRawTiff(path, image.cols, image.rows, image.channels(),
+                                  int(image.elemSize1()) * 8, SAMPLEFORMAT_UINT, rgb.data,
+                                  /*tiled=*/true);
+    const cv::Mat ours = ReadImage(path, ImageMode::kUnchanged);
+    EXPECT_TRUE(Same(ours, image));
+    EXPECT_TRUE(Same(ours, cv::imread(path.string(), cv::IMREAD_UNCHANGED)));
+  }
+}
+
 TEST(ImageCodecs, PngBytesAreOpenCvsForBothEncodings) {
   unsigned seed = 7;
   for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_16UC3}) {
