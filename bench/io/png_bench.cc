@@ -4,7 +4,7 @@
 //
 //   png_bench IMAGE... [--repeats N]
 //
-// Images are read as they are (any format OpenCV decodes: a take's frames, masks,
+// Images are read as they are (PNG, JPEG, TIFF or BMP: a take's frames, masks,
 // depth previews, an atlas). Prints one line per image and encoding.
 #include <chrono>
 #include <cstdio>

@@ -36,7 +36,7 @@ enum class ImageMode {
 // "gray8", "bgr8", "bgra8", "unchanged": for messages.
 const char* ImageModeName(ImageMode mode);
 
-// Reads `path` (any format OpenCV decodes: PNG, JPEG, TIFF, BMP, PNM, ...).
+// Reads `path`: PNG, JPEG, TIFF or BMP (io/image_codecs.h says which kinds of each).
 cv::Mat ReadImage(const std::filesystem::path& path, ImageMode mode);
 
 // Decodes an encoded image held in memory (e.g. a blob received from a peer);
