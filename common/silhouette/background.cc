@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <string>
 
@@ -329,6 +330,152 @@ cv::Mat MedianImage(const std::vector<cv::Mat>& images) {
                        samples.end());
       o[v] = samples[rank];
     }
+  }
+  return out;
+}
+
+void ConsensusOptions::Check() const {
+  Require(agree_false_alarm > 0.0 && agree_false_alarm < 0.5, "ConsensusOptions: agree_false_alarm",
+          "expected a probability in (0, 0.5), got " + std::to_string(agree_false_alarm));
+  Require(fill_tolerance >= 1.0 && fill_tolerance < 100.0, "ConsensusOptions: fill_tolerance",
+          "expected a multiple of the agreement threshold in [1, 100), got " +
+              std::to_string(fill_tolerance));
+  Require(sigma_floor > 0.0 && sigma_floor < 64.0, "ConsensusOptions: sigma_floor",
+          "expected grey levels in (0, 64), got " + std::to_string(sigma_floor));
+}
+
+cv::Mat FillFromSettled(const cv::Mat& values, const cv::Mat& known) {
+  DOME_CHECK(values.depth() == CV_32F && known.type() == CV_8UC1 && known.size() == values.size(),
+             "FillFromSettled: float values and an 8-bit mask of their size");
+  // Push: premultiplied values and weights averaged down the pyramid (the same filter
+  // for both, so V / W is a normalized convolution) until no level-pixel lacks data.
+  std::vector<cv::Mat> v_levels, w_levels;
+  cv::Mat w;
+  known.convertTo(w, CV_32F, 1.0 / 255.0);
+  cv::threshold(w, w, 0.0, 1.0, cv::THRESH_BINARY);
+  std::vector<cv::Mat> planes;
+  cv::split(values, planes);
+  for (auto& p : planes) p = p.mul(w);
+  cv::Mat v;
+  cv::merge(planes, v);
+  v_levels.push_back(v);
+  w_levels.push_back(w);
+  double least = 0.0;
+  cv::minMaxLoc(w, &least);
+  while (least <= 0.0 && (w.cols > 1 || w.rows > 1)) {
+    cv::Mat v2, w2;
+    cv::pyrDown(v_levels.back(), v2);
+    cv::pyrDown(w_levels.back(), w2);
+    v_levels.push_back(v2);
+    w_levels.push_back(w2);
+    cv::minMaxLoc(w2, &least);
+    w = w2;
+  }
+  // Pull: the top level normalized, then each level is its own data where it has it
+  // and the coarser estimate where not: V + (1 - W) up (W is the share of data, 0..1).
+  cv::Mat estimate;
+  {
+    const cv::Mat& vt = v_levels.back();
+    const cv::Mat& wt = w_levels.back();
+    cv::split(vt, planes);
+    for (auto& p : planes) {
+      cv::Mat safe = cv::max(wt, 1e-12);
+      p = p / safe;
+      p.setTo(0.0, wt <= 0.0);
+    }
+    cv::merge(planes, estimate);
+  }
+  for (int l = static_cast<int>(v_levels.size()) - 2; l >= 0; --l) {
+    cv::Mat up;
+    cv::resize(estimate, up, v_levels[l].size(), 0, 0, cv::INTER_LINEAR);
+    cv::Mat rest = 1.0 - cv::min(w_levels[l], 1.0);
+    cv::split(up, planes);
+    for (auto& p : planes) p = p.mul(rest);
+    cv::merge(planes, up);
+    estimate = v_levels[l] + up;
+  }
+  return estimate;
+}
+
+cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusOptions& options,
+                            ConsensusStats* stats) {
+  options.Check();
+  const cv::Mat median = MedianImage(images);  // checks sizes and types
+  const int channels = median.channels();
+  const int n = static_cast<int>(images.size());
+  // The noise of one image about the median, per channel: the median over the images.
+  std::vector<double> sigma(channels, options.sigma_floor);
+  {
+    std::vector<std::vector<double>> per_image(channels);
+    for (const auto& image : images) {
+      const std::vector<double> s =
+          NoiseSigma(image, median, cv::Mat(), 1.0, options.sigma_floor, /*skip_zero=*/true);
+      for (int c = 0; c < channels; ++c) per_image[c].push_back(s[c]);
+    }
+    for (int c = 0; c < channels; ++c) {
+      auto& s = per_image[c];
+      std::nth_element(s.begin(), s.begin() + (n - 1) / 2, s.end());
+      sigma[c] = s[(n - 1) / 2];
+    }
+  }
+  std::vector<float> inv_sigma(channels);
+  for (int c = 0; c < channels; ++c) inv_sigma[c] = static_cast<float>(1.0 / sigma[c]);
+  const float t = static_cast<float>(TwoSidedNormalQuantile(options.agree_false_alarm / channels));
+  const int need = (3 * n + 3) / 4;  // three quarters, rounded up
+
+  // Per pixel, the largest channel distance in noise units.
+  auto distance = [&](const uint8_t* a, const float* b) {
+    float d = 0.0f;
+    for (int c = 0; c < channels; ++c) d = std::max(d, std::abs(float(a[c]) - b[c]) * inv_sigma[c]);
+    return d;
+  };
+  cv::Mat settled(median.size(), CV_8UC1);
+  int64_t settled_count = 0;
+  for (int y = 0; y < median.rows; ++y) {
+    const uint8_t* m = median.ptr<uint8_t>(y);
+    uint8_t* s = settled.ptr<uint8_t>(y);
+    for (int x = 0; x < median.cols; ++x) {
+      float mf[4];
+      for (int c = 0; c < channels; ++c) mf[c] = m[x * channels + c];
+      int agree = 0;
+      for (const auto& image : images)
+        agree += distance(image.ptr<uint8_t>(y) + x * channels, mf) <= t;
+      s[x] = agree >= need ? 255 : 0;
+      settled_count += agree >= need;
+    }
+  }
+  cv::Mat median_f;
+  median.convertTo(median_f, CV_32F);
+  const cv::Mat fill = FillFromSettled(median_f, settled);
+  cv::Mat out = median.clone();
+  int64_t chosen = 0;
+  const float band = static_cast<float>(options.fill_tolerance) * t;
+  for (int y = 0; y < median.rows; ++y) {
+    const uint8_t* s = settled.ptr<uint8_t>(y);
+    const float* f = fill.ptr<float>(y);
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int x = 0; x < median.cols; ++x) {
+      if (s[x] != 0) continue;
+      const float* fx = f + x * channels;
+      float best = std::numeric_limits<float>::infinity();
+      const uint8_t* best_value = nullptr;
+      for (const auto& image : images) {
+        const uint8_t* v = image.ptr<uint8_t>(y) + x * channels;
+        const float d = distance(v, fx);
+        if (d < best) best = d, best_value = v;
+      }
+      // None within the band: a texture the fill cannot follow (or people in every
+      // image); the median stands.
+      if (best <= band) {
+        for (int c = 0; c < channels; ++c) o[x * channels + c] = best_value[c];
+        ++chosen;
+      }
+    }
+  }
+  if (stats != nullptr) {
+    const double pixels = static_cast<double>(median.total());
+    stats->settled_fraction = settled_count / pixels;
+    stats->chosen_fraction = chosen / pixels;
   }
   return out;
 }

@@ -247,7 +247,7 @@ cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, M
 cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels) {
   std::vector<cv::Mat> images;
   for (const auto& c : colours) images.push_back(ToChannels(c, channels));
-  return MedianImage(images);
+  return ConsensusBackground(images, ConsensusOptions{});
 }
 
 cv::Mat MaskAgainst(const Frame& frame, const cv::Mat& background, MaskSource source,

@@ -7,11 +7,12 @@
 //              (8-bit gray, BGR or BGRA like the frames); each frame is compared with it
 //              (silhouette/background.h).
 //   3. median: neither exists -- the background is the per-pixel median of the camera's
-//              frames over the take's instants. Where the person stands in one instant
-//              they are elsewhere in most others, if the instants are far enough apart in
-//              time and there are at least kMinMedianInstants of them; with fewer, no
-//              median exists and opening the masks fails, naming the take and the folders
-//              that would help.
+//              frames over the take's instants, arbitrated by the smooth background
+//              where the instants disagree (background.h ConsensusBackground). Where the person
+//              stands in one instant they are elsewhere in most others, if the instants are far
+//              enough apart in time and there are at least kMinMedianInstants of them; with fewer,
+//              no median exists and opening the masks fails, naming the take and the folders that
+//              would help.
 // A given mask or plate of another size than rig.json's camera is an error naming the
 // file and both sizes. Frames with alpha: pixels with alpha 0 have no data and are
 // background in every mask.
@@ -125,8 +126,8 @@ Frame SplitFrame(const cv::Mat& raw, cv::Size size, const std::string& camera,
 cv::Mat MaskImage(const cv::Mat& raw, cv::Size size, const std::string& camera,
                   const std::string& where);
 
-// The per-pixel median of one camera's frame colours (ReadFrame), in `channels`
-// channels: the median background TakeMasks uses.
+// The consensus of one camera's frame colours (ReadFrame), in `channels` channels
+// (background.h ConsensusBackground): the median background TakeMasks uses.
 cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels);
 // The mask of `frame` against `background` (a plate, or a median background when
 // `source` is kMedian), as TakeMasks::Mask makes it: classified (background.h), then

@@ -126,6 +126,93 @@ TEST(Median, IsThePerPixelMiddleValue) {
             (std::vector<std::string>{"a", "c", "e"}));
 }
 
+TEST(FillFromSettled, KnownPixelsStayAndAGradientIsFilledAcrossAHole) {
+  // A horizontal ramp 40..200 over 200 columns with a 60x60 hole: the fill across it
+  // follows the ramp to within a third of its rise there (push-pull blends the hole's
+  // borders, so it is flatter than the ramp).
+  cv::Mat values(120, 200, CV_32FC3), known(120, 200, CV_8UC1, cv::Scalar(255));
+  for (int y = 0; y < values.rows; ++y)
+    for (int x = 0; x < values.cols; ++x)
+      values.at<cv::Vec3f>(y, x) = cv::Vec3f::all(40 + 0.8f * x);
+  known(cv::Rect(70, 30, 60, 60)).setTo(0);
+  cv::Mat holed = values.clone();
+  holed(cv::Rect(70, 30, 60, 60)).setTo(cv::Scalar::all(0));
+  const cv::Mat fill = FillFromSettled(holed, known);
+  double worst_known = 0, worst_hole = 0;
+  for (int y = 0; y < values.rows; ++y) {
+    for (int x = 0; x < values.cols; ++x) {
+      const double d =
+          cv::norm(fill.at<cv::Vec3f>(y, x) - values.at<cv::Vec3f>(y, x), cv::NORM_INF);
+      (known.at<uint8_t>(y, x) ? worst_known : worst_hole) =
+          std::max(known.at<uint8_t>(y, x) ? worst_known : worst_hole, d);
+    }
+  }
+  EXPECT_EQ(worst_known, 0.0);
+  EXPECT_LT(worst_hole, 16.0);  // a third of the 48 levels the ramp rises across the hole
+  // Nothing known: zeros.
+  const cv::Mat none = FillFromSettled(values, cv::Mat::zeros(values.size(), CV_8UC1));
+  EXPECT_EQ(cv::norm(none, cv::NORM_INF), 0.0);
+}
+
+// Three images of a smooth floor with noise; two dark people stand on the same spot in
+// images 0 and 1 (their colours a little apart), a third elsewhere in image 2. The
+// plain median there is a person's colour; the consensus is the floor everywhere.
+TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
+  const cv::Size size(200, 150);
+  cv::Mat floor(size, CV_8UC3);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      floor.at<cv::Vec3b>(y, x) = cv::Vec3b(70 + x / 10, 80 + y / 10, 90);
+  const cv::Rect spot(60, 40, 40, 70), elsewhere(140, 30, 30, 60);
+  std::vector<cv::Mat> images;
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat im = floor.clone();
+    if (k == 0) im(spot).setTo(cv::Scalar(25, 28, 30));
+    if (k == 1) im(spot).setTo(cv::Scalar(30, 30, 27));
+    if (k == 2) im(elsewhere).setTo(cv::Scalar(20, 150, 200));
+    images.push_back(AddNoise(im, 1.5, 7 + k));
+  }
+  const cv::Mat median = MedianImage(images);
+  ConsensusStats stats;
+  const cv::Mat consensus = ConsensusBackground(images, ConsensusOptions{}, &stats);
+  auto error = [&](const cv::Mat& background, const cv::Rect& r) {
+    cv::Mat diff;
+    cv::absdiff(background(r), floor(r), diff);
+    return cv::norm(diff, cv::NORM_INF);
+  };
+  EXPECT_GT(error(median, spot), 40.0);    // the plain median holds the people
+  EXPECT_LE(error(consensus, spot), 8.0);  // image 2's floor, noise only
+  EXPECT_LE(error(consensus, elsewhere), 8.0);
+  EXPECT_NEAR(stats.settled_fraction, 1.0 - (spot.area() + elsewhere.area()) / double(size.area()),
+              0.01);
+  EXPECT_NEAR(stats.chosen_fraction, (spot.area() + elsewhere.area()) / double(size.area()), 0.01);
+  // The masks of image 2 against each: a phantom where the people stood with the
+  // median, none with the consensus.
+  const cv::Mat with_median =
+      ClassifyForeground(images[2], median, cv::Mat(), ForegroundOptions{}, true);
+  const cv::Mat with_consensus =
+      ClassifyForeground(images[2], consensus, cv::Mat(), ForegroundOptions{}, true);
+  EXPECT_GT(cv::countNonZero(with_median(spot)), spot.area() / 2);
+  EXPECT_EQ(cv::countNonZero(with_consensus(spot)), 0);
+  // And image 0's person is found with the consensus only.
+  EXPECT_LT(cv::countNonZero(
+                ClassifyForeground(images[0], median, cv::Mat(), ForegroundOptions{}, true)(spot)),
+            spot.area() / 2);
+  EXPECT_GT(cv::countNonZero(ClassifyForeground(images[0], consensus, cv::Mat(),
+                                                ForegroundOptions{}, true)(spot)),
+            spot.area() * 95 / 100);
+}
+
+TEST(ConsensusOptions, OutOfRangeIsNamed) {
+  ConsensusOptions o;
+  o.agree_false_alarm = 0.7;
+  ExpectInputError([&] { ConsensusBackground({cv::Mat(4, 4, CV_8UC1)}, o); },
+                   {"ConsensusOptions: agree_false_alarm", "(0, 0.5)"});
+  o = ConsensusOptions{};
+  o.fill_tolerance = 0.5;
+  ExpectInputError([&] { o.Check(); }, {"ConsensusOptions: fill_tolerance", "[1, 100)"});
+}
+
 // A take of 3 cameras whose colour frames show a square moving over a textured
 // background: given `instants`, the square at a different place in each.
 struct MovingSquareTake {
