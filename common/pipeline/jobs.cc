@@ -149,7 +149,7 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
 // The visual hull of the rig's cameras from the masks at blobs[first..], rig order.
 std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
                                                   size_t first, const geometry::Rig& rig,
-                                                  int carve_votes, bool distances) {
+                                                  int carve_votes, int min_views, bool distances) {
   core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
                     ") after blob " + std::to_string(first) + ", got " +
@@ -169,6 +169,7 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   options.num_threads = threads;
   options.distances = distances;
   options.carve_votes = carve_votes;  // checked by the hull
+  options.min_views = min_views;
   // Fusion's hull (the one with distances) is never asked for ray bounds.
   if (distances) options.ray_block_px = 1;
   return std::make_unique<silhouette::VisualHull>(cameras, masks, options);
@@ -397,6 +398,7 @@ StageDescriptor StereoStage() {
     if (plan.options.silhouettes.stereo) {
       sj.set_hull_bounds(true);
       sj.set_carve_votes(plan.options.silhouettes.carve_votes);
+      sj.set_min_views(plan.options.silhouettes.min_views);
       AddMaskBlobs(ctx, &blobs);
     }
     SetJob(sj, std::move(blobs), job);
@@ -457,10 +459,11 @@ StageDescriptor StereoStage() {
       // built once for the process's workers (shared_hulls.h), keyed by the masks, the
       // rule and the threads.
       std::string key = "stereo hull\n" + std::to_string(job.threads()) + '\n' +
-                        std::to_string(sj.carve_votes());
+                        std::to_string(sj.carve_votes()) + ' ' + std::to_string(sj.min_views());
       for (int b = int(first_mask); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
       hull = SharedHull(key, [&] {
-        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), /*distances=*/false);
+        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), sj.min_views(),
+                         /*distances=*/false);
       });
     }
     std::optional<TemporalInput> temporal;
@@ -548,6 +551,7 @@ StageDescriptor FusionStage() {
     if (o.silhouettes.fusion) {
       fj.set_hull(true);
       fj.set_carve_votes(o.silhouettes.carve_votes);
+      fj.set_min_views(o.silhouettes.min_views);
       fj.set_hull_surface(o.silhouettes.hull_surface);
       AddMaskBlobs(ctx, &blobs);
     }
@@ -600,10 +604,10 @@ StageDescriptor FusionStage() {
       if (fj.hull()) {
         const size_t first_mask = n + 1 + num_temporal;
         std::string key = "fusion hull\n" + std::to_string(job.threads()) + '\n' +
-                          std::to_string(fj.carve_votes());
+                          std::to_string(fj.carve_votes()) + ' ' + std::to_string(fj.min_views());
         for (size_t b = first_mask; b < blobs.size(); ++b) key += '\n' + job.blobs(int(b)).sha256();
         hull = SharedHull(key, [&] {
-          return HullBlobs(job, blobs, first_mask, rig, fj.carve_votes(), true);
+          return HullBlobs(job, blobs, first_mask, rig, fj.carve_votes(), fj.min_views(), true);
         });
       }
       auto prepared = PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);

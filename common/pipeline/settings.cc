@@ -107,8 +107,7 @@ const std::vector<SettingField<TemporalUse>>& TemporalSettingFields() {
 const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
   using O = SilhouetteUse;
   static const std::vector<SettingField<O>> fields = {
-      {"volume", "!--no-volume-masks",
-       "do not shrink the derived volume to the masks' visual hull",
+      {"volume", "!--no-volume-masks", "do not shrink the derived volume to the masks' visual hull",
        +[](O& o) -> bool& { return o.volume; }},
       {"stereo", "!--no-stereo-masks",
        "search every pixel over its whole range, not the foreground within the hull",
@@ -123,6 +122,9 @@ const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
       {"carve_votes", "--carve-votes",
        "cameras that must see a point as background to carve it from the hull (>= 1)",
        +[](O& o) -> int& { return o.carve_votes; }},
+      {"min_views", "--min-views",
+       "cameras that must see a point as foreground for it to be in the hull (>= 2)",
+       +[](O& o) -> int& { return o.min_views; }},
   };
   return fields;
 }
@@ -289,6 +291,8 @@ std::string StereoOptionsToJson(const TakeStereoOptions& o) {
 void SilhouetteUse::Check() const {
   core::Require(carve_votes >= 1, "silhouettes.carve_votes",
                 "must be at least 1 camera, got " + std::to_string(carve_votes));
+  core::Require(min_views >= 2, "silhouettes.min_views",
+                "must be at least 2 cameras, got " + std::to_string(min_views));
 }
 
 runtime::SilhouetteSettings ToSilhouetteSettings(const SilhouetteUse& use) {

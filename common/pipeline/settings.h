@@ -51,9 +51,10 @@ struct SilhouetteUse {
   bool stereo = false;
   bool fusion = false;
   // How the hull is used where it is (fusion/hull_fusion.h fill_unseen,
-  // silhouette/hull.h carve_votes); derived from the rig (pipeline/derive.h).
+  // silhouette/hull.h carve_votes and min_views); derived from the rig (pipeline/derive.h).
   bool hull_surface = false;
   int carve_votes = 2;
+  int min_views = 2;  // silhouette/hull.h min_views; derived from the rig
   bool Any() const { return volume || stereo || fusion; }
   // Throws core::InputError naming the field when out of range.
   void Check() const;

@@ -38,6 +38,8 @@ void HullOptions::Check() const {
               std::to_string(margin_fraction));
   Require(carve_votes >= 1, "HullOptions: carve_votes",
           "expected at least 1, got " + std::to_string(carve_votes));
+  Require(min_views >= 2, "HullOptions: min_views",
+          "expected at least 2 cameras, got " + std::to_string(min_views));
   Require(ray_block_px >= 1 && ray_block_px <= 64, "HullOptions: ray_block_px",
           "expected 1..64 pixels, got " + std::to_string(ray_block_px));
   Require(ray_leaf_px >= 1 && ray_leaf_px <= 64, "HullOptions: ray_leaf_px",
@@ -140,7 +142,7 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
     }
   }
   s.inside_mm = std::isfinite(inside) ? inside : 0.0;
-  s.inside = s.seen - s.background >= 2 && s.background < options_.carve_votes;
+  s.inside = s.seen - s.background >= options_.min_views && s.background < options_.carve_votes;
   return s;
 }
 
@@ -237,6 +239,7 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
                                       : std::clamp(int(std::ceil(longest)) + 1, 2, 1 << 14);
   const double dw = (w_near - w_far) / (samples - 1);
   const int votes = options_.carve_votes;
+  const int min_views = options_.min_views;
   const int block = options_.ray_block_px;
   const int leaf = block > 1 ? std::min(options_.ray_leaf_px, block) : 1;  // 1: none
   // Reference pixel offsets -> normalised offsets at unit depth (K has no skew).
@@ -272,7 +275,7 @@ cv::Mat VisualHull::RayBounds(int index, double z_min_mm, double z_max_mm, int n
           ++s;
           if (!v.fg.at<uint8_t>(r, u)) std::swap(order[m], order[size_t(bg++)]);
         }
-        return s - bg >= 2 && bg < votes;
+        return s - bg >= min_views && bg < votes;
       };
       int first = lo;
       while (first <= hi && !inside(first)) ++first;

@@ -11,10 +11,10 @@
 // the mask's own edge error); a point is *seen* by a camera when it lies in front of it
 // and projects inside its image (where the undistorted image has data); a camera *votes
 // background* for it when it sees it outside its dilated mask. A point is in the hull
-// when at least two cameras see it in their foreground (stereo needs two views) and
-// fewer than carve_votes vote background. With carve_votes = 2 (the default) one camera
-// whose mask misses a part (a limb the colour of the background behind it, a person a
-// median background holds) never removes it.
+// when at least min_views cameras (two: stereo needs two views) see it in their
+// foreground and fewer than carve_votes vote background. With carve_votes = 2 (the default) one
+// camera whose mask misses a part (a limb the colour of the background behind it, a person a median
+// background holds) never removes it.
 //
 // Distances: per camera the signed distance (pixels) to its dilated mask's edge,
 // positive outside the mask, from two distance transforms. A point's distance to the
@@ -41,6 +41,11 @@ struct HullOptions {
   double margin_fraction = 0.002;
   // Background votes that carve a point (count, >= 1; see above).
   int carve_votes = 2;
+  // Cameras that must see a point in their foreground for it to be inside (count, >= 2).
+  // With a few far-apart cameras the space that only two or three of them see (near the
+  // edges of their views) is mostly ghosts: two silhouettes alone place a person
+  // anywhere along two cones (pipeline/derive.cc derives it per rig).
+  int min_views = 2;
   int num_threads = 0;  // <= 0: all hardware threads
   // Compute the distances (two distance transforms per camera). false: only the votes
   // (Inside, RayBounds; Sample's distances are 0 and its radius must be 0), for a stereo

@@ -107,29 +107,40 @@ TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
 }
 
 // The small dome's six cameras are a sparse rig (median nearest axis angle 70 degrees):
-// with masks from its plates, the hull's surface stands in where stereo saw nothing and
-// one background vote carves; given values win, and a count below one is named.
-TEST_F(Derive, SparseRigGetsTheHullSurfaceAndOneCarvingVote) {
+// with masks from its plates, the hull's surface stands in where stereo saw nothing,
+// one background vote carves and a point needs five foreground views (all cameras but
+// one); given values win, and counts out of range are named.
+TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   runtime::Session s = Fresh();
   const Derivation d = DeriveSession({}, &s);
   EXPECT_TRUE(s.silhouettes().fusion());
   EXPECT_TRUE(s.silhouettes().hull_surface());
   EXPECT_EQ(s.silhouettes().carve_votes(), 1);
+  EXPECT_EQ(s.silhouettes().min_views(), 5);
   bool note = false;
   for (const auto& n : d.notes)
-    note |= n.find("hull surface true, carve votes 1 (masks: 6 plate; the cameras' median "
-                   "nearest axis angle 70.4 deg, sparse above 30)") != std::string::npos;
+    note |=
+        n.find(
+            "hull surface true, carve votes 1, min views 5 (masks: 6 plate; the "
+            "cameras' median nearest axis angle 70.4 deg, sparse above 30)") != std::string::npos;
   EXPECT_TRUE(note);
   runtime::Session t = Fresh();
   t.mutable_silhouettes()->set_hull_surface(false);
   t.mutable_silhouettes()->set_carve_votes(3);
+  t.mutable_silhouettes()->set_min_views(2);
   DeriveSession({}, &t);
   EXPECT_FALSE(t.silhouettes().hull_surface());
   EXPECT_EQ(t.silhouettes().carve_votes(), 3);
+  EXPECT_EQ(t.silhouettes().min_views(), 2);
   EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.carve_votes, 3);
+  EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.min_views, 2);
   t.mutable_silhouettes()->set_carve_votes(0);
   dome::testing::ExpectInputError([&] { ResolveSessionOptions(t, "session"); },
                                   {"session: silhouettes.carve_votes", "at least 1 camera, got 0"});
+  t.mutable_silhouettes()->set_carve_votes(1);
+  t.mutable_silhouettes()->set_min_views(1);
+  dome::testing::ExpectInputError([&] { ResolveSessionOptions(t, "session"); },
+                                  {"session: silhouettes.min_views", "at least 2 cameras, got 1"});
 }
 
 TEST_F(Derive, GivenValuesAndTheBoxWin) {

@@ -327,6 +327,51 @@ TEST(SearchBounds, BadBoundsAreNamedWithTheirPixel) {
                                   {"pixel (3, 2)"});
 }
 
+// min_views: a point is inside when at least that many cameras see it in their
+// foreground (and fewer than carve_votes say background). With three of the six
+// cameras turned to look away, the person is seen by the other three only: inside with
+// up to three views required, outside with four. With all six and five views (the
+// sparse rigs' rule, all but one) the person stays inside. Over a grid of the room the
+// verdict follows the count exactly.
+TEST_F(HullTest, MinViewsCountsTheForegroundViews) {
+  const std::string instant = take_->instants.front();
+  const std::vector<Eigen::Vector3d> person = PersonVertices(instant);
+  std::vector<geometry::TsaiCamera> turned = Cameras();
+  const Eigen::Matrix3d half_turn = Eigen::Vector3d(-1, 1, -1).asDiagonal();
+  for (size_t c = 3; c < turned.size(); ++c) {
+    turned[c].rotation = half_turn * turned[c].rotation;  // same centre, looking away
+    turned[c].translation_mm = half_turn * turned[c].translation_mm;
+  }
+  auto person_inside = [&](const std::vector<geometry::TsaiCamera>& cameras, int views) {
+    HullOptions o;
+    o.carve_votes = 1;
+    o.min_views = views;
+    const VisualHull hull(cameras, TruthMasks(instant), o);
+    const Eigen::Vector3d lo(-4000, -4000, 0), hi(4000, 4000, 4000);
+    for (int k = 0; k < 20; ++k) {
+      for (int j = 0; j < 20; ++j) {
+        for (int i = 0; i < 20; ++i) {
+          const HullSample s = hull.Sample(
+              lo + (hi - lo).cwiseProduct(Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5) / 20.0));
+          EXPECT_EQ(s.inside, s.seen - s.background >= views && s.background < 1);
+        }
+      }
+    }
+    size_t inside = 0;
+    for (const auto& p : person) inside += hull.Inside(p);
+    return double(inside) / person.size();
+  };
+  EXPECT_GE(person_inside(turned, 2), 0.99);
+  EXPECT_GE(person_inside(turned, 3), 0.99);
+  EXPECT_EQ(person_inside(turned, 4), 0.0);
+  // Near the edges of a view a few of the person's vertices are seen by fewer.
+  EXPECT_GE(person_inside(Cameras(), 5), 0.99);
+  HullOptions bad;
+  bad.min_views = 1;
+  dome::testing::ExpectInputError([&] { bad.Check(); },
+                                  {"HullOptions: min_views", "at least 2 cameras, got 1"});
+}
+
 TEST(HullOptions, RayLeafOutOfRangeIsNamed) {
   HullOptions o;
   o.ray_leaf_px = 65;
