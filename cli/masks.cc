@@ -2,7 +2,8 @@
 // instant (silhouette/take_masks.h), written for inspection as DIR/<instant>/<camera>.png
 // (255 = foreground); with --previews also DIR/preview/<instant>/<camera>.png, the frame
 // darkened outside the mask with its outline (at most 960 pixels wide). Prints per camera
-// where its masks came from and the fraction of foreground, and, where the take has truth
+// where its masks came from and the fraction of foreground (for a median background also
+// how much of it the instants agreed on and how much the fill chose), and, where the take has truth
 // masks (TAKE/truth/<instant>/mask/<camera>.png, synthetic takes), the intersection over
 // union with them.
 #include <algorithm>
@@ -103,6 +104,11 @@ void AddMasksCommand(CLI::App* app, int* exit_code) {
       if (first.source != silhouette::MaskSource::kGiven) {
         std::printf("  noise %s levels, gain %.3f (first instant)", noise.c_str(),
                     first.stats.gain);
+      }
+      if (first.source == silhouette::MaskSource::kMedian) {
+        const silhouette::ConsensusStats b = masks.BackgroundConsensus(cameras[c].model.id);
+        std::printf("  background: %.1f%% agreed, %.1f%% from the fill", 100.0 * b.settled_fraction,
+                    100.0 * b.changed_fraction);
       }
       if (!ious[c].empty()) {
         double iou_sum = 0, iou_min = 1;

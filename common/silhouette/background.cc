@@ -448,7 +448,7 @@ cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusO
   median.convertTo(median_f, CV_32F);
   const cv::Mat fill = FillFromSettled(median_f, settled);
   cv::Mat out = median.clone();
-  int64_t chosen = 0;
+  int64_t chosen = 0, changed = 0;
   const float band = static_cast<float>(options.fill_tolerance) * t;
   for (int y = 0; y < median.rows; ++y) {
     const uint8_t* s = settled.ptr<uint8_t>(y);
@@ -467,6 +467,9 @@ cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusO
       // None within the band: a texture the fill cannot follow (or people in every
       // image); the median stands.
       if (best <= band) {
+        float m[4];
+        for (int c = 0; c < channels; ++c) m[c] = o[x * channels + c];
+        changed += distance(best_value, m) > t;
         for (int c = 0; c < channels; ++c) o[x * channels + c] = best_value[c];
         ++chosen;
       }
@@ -476,6 +479,7 @@ cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusO
     const double pixels = static_cast<double>(median.total());
     stats->settled_fraction = settled_count / pixels;
     stats->chosen_fraction = chosen / pixels;
+    stats->changed_fraction = changed / pixels;
   }
   return out;
 }

@@ -170,7 +170,8 @@ struct ConsensusOptions {
 // What ConsensusBackground found, for reports and tests.
 struct ConsensusStats {
   double settled_fraction = 0.0;  // pixels settled by agreement
-  double chosen_fraction = 0.0;   // unsettled pixels where the fill overruled the median
+  double chosen_fraction = 0.0;   // unsettled pixels that took the image nearest the fill
+  double changed_fraction = 0.0;  // of those, where it is more than t noise units from M
 };
 
 // `images`: at least one, same size and type (CV_8UC1 or CV_8UC3).

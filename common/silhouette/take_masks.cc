@@ -177,6 +177,7 @@ TakeMasks::TakeMasks(take::Take take, const MaskOptions& options)
     const std::string& id = rc.model.id;
     const cv::Size size(rc.model.width_px, rc.model.height_px);
     backgrounds_[id];  // every camera's slot exists, so Mask() never inserts
+    consensus_[id];
     if (sources_.at(id) == MaskSource::kGiven) {
       // Given masks are all or nothing per camera: half given, half derived would mix
       // two definitions of the silhouette in one camera.
@@ -211,7 +212,7 @@ const cv::Mat& TakeMasks::Background(const std::string& camera, int channels) {
       for (const auto& instant : MedianInstants(take_.instants, options_.median_max_instants)) {
         images.push_back(ReadFrame(take_.FramePath(instant, camera), size, camera).colour);
       }
-      slot = MedianBackground(images, channels);
+      slot = MedianBackground(images, channels, &consensus_.at(camera));
     }
   }
   return slot;
@@ -244,10 +245,16 @@ cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, M
   return mask;
 }
 
-cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels) {
+ConsensusStats TakeMasks::BackgroundConsensus(const std::string& camera) const {
+  const auto it = consensus_.find(camera);
+  Require(it != consensus_.end(), take_.RigPath().string(), "no camera '" + camera + "'");
+  return it->second;
+}
+
+cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels, ConsensusStats* stats) {
   std::vector<cv::Mat> images;
   for (const auto& c : colours) images.push_back(ToChannels(c, channels));
-  return ConsensusBackground(images, ConsensusOptions{});
+  return ConsensusBackground(images, ConsensusOptions{}, stats);
 }
 
 cv::Mat MaskAgainst(const Frame& frame, const cv::Mat& background, MaskSource source,

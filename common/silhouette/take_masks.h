@@ -73,6 +73,9 @@ class TakeMasks {
 
   const take::Take& take() const { return take_; }
   MaskSource Source(const std::string& camera) const;
+  // What the consensus found for a median camera's background (background.h), once a
+  // Mask() of that camera has made it; zeros before, and for plates and given masks.
+  ConsensusStats BackgroundConsensus(const std::string& camera) const;
 
   // The mask (CV_8UC1, 255 / 0, the camera's size) of `camera` at `instant`. Reads the
   // frames it needs; the median background is computed on first use and kept.
@@ -101,6 +104,7 @@ class TakeMasks {
   MaskOptions options_;
   std::map<std::string, MaskSource> sources_;
   std::map<std::string, cv::Mat> backgrounds_;  // one entry per camera, filled on use
+  std::map<std::string, ConsensusStats> consensus_;  // the same, for median cameras
   FrameSeen frame_seen_;
 };
 
@@ -128,7 +132,8 @@ cv::Mat MaskImage(const cv::Mat& raw, cv::Size size, const std::string& camera,
 
 // The consensus of one camera's frame colours (ReadFrame), in `channels` channels
 // (background.h ConsensusBackground): the median background TakeMasks uses.
-cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels);
+cv::Mat MedianBackground(const std::vector<cv::Mat>& colours, int channels,
+                         ConsensusStats* stats = nullptr);
 // The mask of `frame` against `background` (a plate, or a median background when
 // `source` is kMedian), as TakeMasks::Mask makes it: classified (background.h), then
 // cleaned; `info` gets its source, statistics and foreground fraction.

@@ -186,6 +186,8 @@ TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
   EXPECT_NEAR(stats.settled_fraction, 1.0 - (spot.area() + elsewhere.area()) / double(size.area()),
               0.01);
   EXPECT_NEAR(stats.chosen_fraction, (spot.area() + elsewhere.area()) / double(size.area()), 0.01);
+  // Only on the spot does the chosen colour differ from the median's.
+  EXPECT_NEAR(stats.changed_fraction, spot.area() / double(size.area()), 0.005);
   // The masks of image 2 against each: a phantom where the people stood with the
   // median, none with the consensus.
   const cv::Mat with_median =
@@ -250,6 +252,10 @@ TEST(TakeMasks, MedianOfThreeInstantsFindsTheMovingSquare) {
       EXPECT_GT(MaskIoU(mask, t.truth[k]), 0.98) << cam.model.id << " " << instants[k];
       EXPECT_NEAR(info.fraction, 25.0 * 60 / (160 * 120), 0.01);
     }
+    // The three squares' pixels disagree; the median is right there and stands.
+    const ConsensusStats b = masks.BackgroundConsensus(cam.model.id);
+    EXPECT_NEAR(b.settled_fraction, 1.0 - 3 * 25.0 * 60 / (160 * 120), 0.02) << cam.model.id;
+    EXPECT_LT(b.changed_fraction, 0.005) << cam.model.id;
   }
 }
 
