@@ -444,6 +444,10 @@ cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusO
       settled_count += agree >= need;
     }
   }
+  if (stats != nullptr) *stats = ConsensusStats{settled_count / double(median.total()), 0.0, 0.0};
+  // No pixel agreed (the camera moved between the instants, or the light changed
+  // everywhere): nothing to fill from, the median stands.
+  if (settled_count == 0) return median;
   cv::Mat median_f;
   median.convertTo(median_f, CV_32F);
   const cv::Mat fill = FillFromSettled(median_f, settled);

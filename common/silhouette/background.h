@@ -143,7 +143,7 @@ cv::Mat MedianImage(const std::vector<cv::Mat>& images);
 //      FillFromSettled), and the background there is the image whose colour is nearest
 //      that fill (largest channel difference in noise units), if it lies within
 //      fill_tolerance x t of it; else the median stands (a texture the fill cannot
-//      follow, or people in every image).
+//      follow, or people in every image). Where no pixel is settled the median stands.
 // The dome's floor and walls are smooth over the extent of a person, which is what
 // makes the fill a fair arbiter. It errs where the background is not smooth at that
 // scale: a person in front of a dark doorway in one image, the doorway in two, and the

@@ -205,6 +205,19 @@ TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
             spot.area() * 95 / 100);
 }
 
+// Three images that agree nowhere (each a different flat grey): no pixel is settled,
+// nothing to fill from, and the background is the median (not the image nearest an
+// empty fill's zeros, the darkest).
+TEST(ConsensusBackground, NothingAgreedLeavesTheMedian) {
+  std::vector<cv::Mat> images;
+  for (int v : {5, 120, 200}) images.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar::all(v)));
+  ConsensusStats stats;
+  const cv::Mat b = ConsensusBackground(images, ConsensusOptions{}, &stats);
+  EXPECT_EQ(cv::norm(b, MedianImage(images), cv::NORM_INF), 0.0);
+  EXPECT_EQ(stats.settled_fraction, 0.0);
+  EXPECT_EQ(stats.chosen_fraction, 0.0);
+}
+
 TEST(ConsensusOptions, OutOfRangeIsNamed) {
   ConsensusOptions o;
   o.agree_false_alarm = 0.7;
