@@ -150,6 +150,11 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
 std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
                                                   size_t first, const geometry::Rig& rig,
                                                   int carve_votes, int min_views, bool distances) {
+  // The hull's rule as the master sent it (SilhouetteSettings), named by its job field.
+  core::Require(carve_votes >= 1, JobWhere(job),
+                "carve_votes: expected at least 1 camera, got " + std::to_string(carve_votes));
+  core::Require(min_views >= 2, JobWhere(job),
+                "min_views: expected at least 2 cameras, got " + std::to_string(min_views));
   core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
                     ") after blob " + std::to_string(first) + ", got " +
@@ -168,7 +173,7 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
   silhouette::HullOptions options;
   options.num_threads = threads;
   options.distances = distances;
-  options.carve_votes = carve_votes;  // checked by the hull
+  options.carve_votes = carve_votes;
   options.min_views = min_views;
   // Fusion's hull (the one with distances) is never asked for ray bounds.
   if (distances) options.ray_block_px = 1;

@@ -1,5 +1,5 @@
-// Helpers shared by the io and eval tests (and a TIFF writer for the io tests) (the temporary
-// folder and the InputError check come from tests/testing/).
+// Helpers shared by the io and eval tests, and a TIFF writer for the io tests (the
+// temporary folder and the InputError check come from tests/testing/).
 #pragma once
 
 #include <gtest/gtest.h>

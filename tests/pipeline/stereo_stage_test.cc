@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <tuple>
 #include <vector>
 
 #include "io/file_util.h"
@@ -34,8 +36,10 @@ class StereoStage : public SmallTakeSuite {
  protected:
   // The stereo job of camera `id` at the first instant with `settings`, run as a worker
   // runs it; returns the first window's depth (mm, 0 = none).
+  // `edit`, when given, changes the job's settings message before it is sent.
   static cv::Mat RunStereoJob(const std::string& id, const runtime::StereoSettings& settings,
-                              JobMemo* memo = nullptr, std::string* stereo_blob = nullptr) {
+                              JobMemo* memo = nullptr, std::string* stereo_blob = nullptr,
+                              const std::function<void(runtime::StereoJob*)>& edit = {}) {
     const take::Take take = take::OpenTake(TakeDir());
     const std::string instant = take.instants.front();
     const stereo::TakeStereoOptions options = FromStereoSettings(settings, "test");
@@ -60,6 +64,7 @@ class StereoStage : public SmallTakeSuite {
       sj->add_neighbours(v.camera.id);
       add(take.FramePath(instant, v.camera.id));
     }
+    if (edit) edit(sj);
     job.set_settings(stereo_job.SerializeAsString());
     for (int i = 0; i < job.blobs_size(); ++i)
       job.mutable_blobs(i)->set_sha256(net::Sha256Hex(*blobs[size_t(i)]));
@@ -172,6 +177,25 @@ TEST_F(StereoStage, FramesDecodedBeforeTheSessionAreTakenOnceByAJobWithAMemo) {
 // Each frame's ideal grey is made once for the process's stereo jobs (ideal_greys.h): a
 // job whose frames were seen by an earlier one adds only its new greys, and its outputs
 // are the bytes of the job run with none kept.
+// A stereo job bounded by the hull whose rule is out of range (a master of another
+// release, a corrupted message) is refused naming the job and the field.
+TEST_F(StereoStage, HullRuleOutOfRangeIsNamedWithTheJob) {
+  const runtime::StereoSettings settings = DefaultSettings();
+  for (const auto& [votes, views, field] :
+       {std::tuple{0, 2, "carve_votes: expected at least 1 camera, got 0"},
+        std::tuple{1, 0, "min_views: expected at least 2 cameras, got 0"}}) {
+    ExpectInputError(
+        [&] {
+          RunStereoJob("c00", settings, nullptr, nullptr, [&](runtime::StereoJob* sj) {
+            sj->set_hull_bounds(true);
+            sj->set_carve_votes(votes);
+            sj->set_min_views(views);
+          });
+        },
+        {"job s/", "/stereo/c00", field});
+  }
+}
+
 TEST_F(StereoStage, IdealGreysKeptForTheProcessGiveTheSameOutputs) {
   ExpectKeptGreysGiveTheSameOutputs(DefaultSettings());
 }
