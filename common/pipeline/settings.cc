@@ -86,9 +86,9 @@ const std::vector<SettingField<TemporalUse>>& TemporalSettingFields() {
       {"min_depth_fraction", "--temporal-min-depth-fraction",
        "a still tile is bounded when this fraction of it had a depth (default 0.25)",
        +[](O& o) -> double& { return o.bounds.min_depth_fraction; }},
-      {"fusion", "--temporal-fusion",
+      {"fusion", "--temporal-fusion,!--no-temporal-fusion",
        "add the previous instant's fused evidence to each instant after the first where no "
-       "camera's image changed (default: off)",
+       "camera's image changed (default: on for several instants without fusion masks)",
        +[](O& o) -> bool& { return o.fusion; }},
       {"fusion_decay", "--temporal-fusion-decay",
        "the previous instant's evidence weighted by this factor, (0, 1] (default 1)",

@@ -469,6 +469,36 @@ TEST(Cli, TemporalFusionRunAgainRemakesThePreviousSlabsItNeeds) {
   }
 }
 
+// Without masks a take of several instants gets time-aware fusion (derived:
+// pipeline/derive.cc): the second instant's surface adds the first's evidence, the first
+// is fused alone either way; --no-temporal-fusion turns it off.
+TEST(Cli, TimeAwareFusionIsDerivedWithoutMasksAndTurnsOff) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take", on = tmp / "on", off = tmp / "off";
+  ASSERT_TRUE(SynthSmallTake(take, 2));
+  const std::string flags = " --workers 2 --no-texture --no-preview --no-masks";
+  const Result a = RunDomeBinary("run " + take.string() + " --out " + on.string() + flags);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const Result b = RunDomeBinary("run " + take.string() + " --out " + off.string() + flags +
+                                 " --no-temporal-fusion");
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  EXPECT_NE(a.output.find("derived temporal.fusion: true (several instants without fusion "
+                          "masks: the still parts steadied)"),
+            std::string::npos)
+      << a.output;
+  auto temporal = [](const fs::path& out) {
+    return core::Json::parse(io::ReadFileBytes(out / "session.json"))["temporal"];
+  };
+  EXPECT_EQ(temporal(on)["fusion"], true) << temporal(on);
+  EXPECT_EQ(temporal(off)["fusion"], false) << temporal(off);
+  const std::vector<std::string> instants = SortedInstants(take);
+  ASSERT_EQ(instants.size(), 2u);
+  EXPECT_EQ(io::ReadFileBytes(on / instants[0] / "mesh.ply"),
+            io::ReadFileBytes(off / instants[0] / "mesh.ply"));
+  EXPECT_NE(io::ReadFileBytes(on / instants[1] / "mesh.ply"),
+            io::ReadFileBytes(off / instants[1] / "mesh.ply"));
+}
+
 TEST(Cli, RunFlagsAreRefusedWithTheMessagesOfTheSameSessionFields) {
   const testing::TempDir tmp;
   const fs::path take = tmp / "take", out = tmp / "out";

@@ -8,6 +8,8 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <functional>
+#include <string>
 
 #include "io/file_util.h"
 #include "io/ply.h"
@@ -164,6 +166,58 @@ TEST_F(Derive, GivenValuesAndTheBoxWin) {
   DeriveSession({}, &again);
   EXPECT_EQ(Grid(again).origin_mm, g.origin_mm);
   EXPECT_EQ(Grid(again).nx, g.nx);
+}
+
+// Time-aware fusion is derived from the take: on for several instants whose fusion
+// has no masks (the still parts are fused, and steadied), off with fusion masks (the
+// still parts are free space) and for one instant; a given value wins.
+class DeriveSequence : public SmallTakeSuiteOf<2> {};
+
+TEST_F(DeriveSequence, TemporalFusionIsOnForSeveralInstantsWithoutFusionMasks) {
+  auto derive = [](const std::function<void(runtime::Session*)>& given, std::string* note) {
+    runtime::Session s;
+    s.set_take(TakeDir().string());
+    s.set_out("/nonexistent/out");
+    given(&s);
+    const Derivation d = DeriveSession({}, &s);
+    note->clear();
+    for (const auto& n : d.notes)
+      if (n.rfind("temporal.fusion", 0) == 0) *note = n;
+    return s;
+  };
+  std::string note;
+  // The small dome's plates give masks: fusion masks, no time-aware fusion.
+  runtime::Session s = derive([](runtime::Session*) {}, &note);
+  EXPECT_TRUE(s.silhouettes().fusion());
+  EXPECT_FALSE(s.temporal().fusion());
+  EXPECT_EQ(note, "temporal.fusion: false (fusion masks: the still parts are free space)");
+  EXPECT_FALSE(ResolveSessionOptions(s, "session").temporal.fusion);
+  // Without fusion masks: on, and the session resolves to it.
+  s = derive([](runtime::Session* g) { g->mutable_silhouettes()->set_fusion(false); }, &note);
+  EXPECT_TRUE(s.temporal().fusion());
+  EXPECT_EQ(note,
+            "temporal.fusion: true (several instants without fusion masks: the still parts "
+            "steadied)");
+  EXPECT_TRUE(ResolveSessionOptions(s, "session").temporal.fusion);
+  EXPECT_FALSE(s.temporal().stereo());  // time-aware stereo stays as given (off)
+  // A given value wins, and is not noted as derived.
+  s = derive(
+      [](runtime::Session* g) {
+        g->mutable_silhouettes()->set_fusion(false);
+        g->mutable_temporal()->set_fusion(false);
+      },
+      &note);
+  EXPECT_FALSE(s.temporal().fusion());
+  EXPECT_EQ(note, "");
+  // One instant of the two: nothing before it to carry.
+  s = derive(
+      [](runtime::Session* g) {
+        g->mutable_silhouettes()->set_fusion(false);
+        g->add_instants(take::OpenTake(TakeDir()).instants.at(0));
+      },
+      &note);
+  EXPECT_FALSE(s.temporal().fusion());
+  EXPECT_EQ(note, "temporal.fusion: false (one instant)");
 }
 
 TEST_F(Derive, VoxelThatOverflowsTheGridIsNamed) {
