@@ -26,10 +26,18 @@ import sys
 import time
 
 
+def call(cmd):
+    """Runs cmd; on failure stops naming it, with the end of what it printed."""
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        tail = (r.stdout + r.stderr).strip().splitlines()[-20:]
+        sys.exit(f"sequence_ab: {shlex.join(cmd)} exited {r.returncode}:\n" + "\n".join(tail))
+    return r.stdout
+
+
 def run(dome, take, out, flags):
     t0 = time.monotonic()
-    subprocess.run([dome, "run", take, "--out", out, "--workers", "2"] + flags, check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    call([dome, "run", take, "--out", out, "--workers", "2"] + flags)
     wall = time.monotonic() - t0
     report = json.load(open(os.path.join(out, "report.json")))
     later = report["per_instant"][1:]
@@ -40,12 +48,11 @@ def run(dome, take, out, flags):
 
 def score(dome, take, out):
     here = os.path.dirname(os.path.abspath(__file__))
-    flicker = json.loads(subprocess.run(
-        ["/usr/bin/python3", os.path.join(here, "flicker.py"), take, out], check=True,
-        capture_output=True, text=True).stdout.strip().splitlines()[-1])
+    flicker = json.loads(
+        call(["/usr/bin/python3", os.path.join(here, "flicker.py"), take, out])
+        .strip().splitlines()[-1])
     batter = os.path.join(os.path.dirname(dome), "batter_eval")
-    lines = subprocess.run([batter, take, out], check=True, capture_output=True,
-                           text=True).stdout.splitlines()
+    lines = call([batter, take, out]).splitlines()
     box = [json.loads(l)["vs_truth_person_box"] for l in lines if l.startswith("{")]
     return {"out": out, "flicker_mm": flicker["flicker_rms_mm_median"],
             "moving_acc_mm": flicker["moving_accuracy_mm_median"],
