@@ -342,6 +342,16 @@ void ConsensusOptions::Check() const {
               std::to_string(fill_tolerance));
   Require(sigma_floor > 0.0 && sigma_floor < 64.0, "ConsensusOptions: sigma_floor",
           "expected grey levels in (0, 64), got " + std::to_string(sigma_floor));
+  Require(fill_open_fraction >= 0.0 && fill_open_fraction <= 0.05,
+          "ConsensusOptions: fill_open_fraction",
+          "expected a fraction of the image diagonal in [0, 0.05], got " +
+              std::to_string(fill_open_fraction));
+}
+
+int ConsensusOptions::FillOpenRadiusPx(cv::Size size) const {
+  if (fill_open_fraction == 0.0) return 0;
+  return std::max(
+      1, static_cast<int>(std::lround(fill_open_fraction * std::hypot(size.width, size.height))));
 }
 
 cv::Mat FillFromSettled(const cv::Mat& values, const cv::Mat& known) {
@@ -448,9 +458,21 @@ cv::Mat ConsensusBackground(const std::vector<cv::Mat>& images, const ConsensusO
   // No pixel agreed (the camera moved between the instants, or the light changed
   // everywhere): nothing to fill from, the median stands.
   if (settled_count == 0) return median;
+  // The fill's data: the settled pixels less their specks (ConsensusOptions::
+  // fill_open_fraction). An opening that leaves nothing (an image of specks) keeps them.
+  cv::Mat fill_from = settled;
+  if (const int r = options.FillOpenRadiusPx(settled.size()); r > 0) {
+    const cv::Mat disc =
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
+    cv::Mat opened;
+    // OpenCV's default border neither erodes nor dilates: the image's edge keeps its
+    // settled pixels.
+    cv::morphologyEx(settled, opened, cv::MORPH_OPEN, disc);
+    if (cv::countNonZero(opened) > 0) fill_from = opened;
+  }
   cv::Mat median_f;
   median.convertTo(median_f, CV_32F);
-  const cv::Mat fill = FillFromSettled(median_f, settled);
+  const cv::Mat fill = FillFromSettled(median_f, fill_from);
   cv::Mat out = median.clone();
   int64_t chosen = 0, changed = 0;
   const float band = static_cast<float>(options.fill_tolerance) * t;

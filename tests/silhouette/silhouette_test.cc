@@ -205,6 +205,43 @@ TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
             spot.area() * 95 / 100);
 }
 
+// Image 0 shows a dark person over a floor that images 1 and 2 show; a small dark mark
+// on the floor lies under the person, where the person's colour matches it in every
+// image, so those pixels are settled. As the fill's only data inside the person they
+// would pull it dark and make the person the background around the mark
+// (fill_open_fraction 0); the opening leaves the fill to the floor around.
+TEST(ConsensusBackground, SettledSpecksInsideAPersonDoNotMakeThePersonTheBackground) {
+  const cv::Size size(200, 150);
+  cv::Mat floor(size, CV_8UC3);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      floor.at<cv::Vec3b>(y, x) = cv::Vec3b(150 + x / 10, 160 + y / 10, 170);
+  const cv::Rect person(60, 40, 60, 70), mark(86, 71, 8, 8);
+  floor(mark).setTo(cv::Scalar(26, 28, 30));
+  std::vector<cv::Mat> images;
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat im = floor.clone();
+    if (k == 0) im(person).setTo(cv::Scalar(26, 28, 30));
+    images.push_back(AddNoise(im, 1.5, 11 + k));
+  }
+  // Pixels of the person's rectangle whose background is not the floor's (noise aside).
+  auto wrong = [&](const ConsensusOptions& options) {
+    const cv::Mat b = ConsensusBackground(images, options);
+    cv::Mat diff;
+    cv::absdiff(b(person), floor(person), diff);
+    cv::Mat worst;
+    cv::transform(diff, worst, cv::Matx13f(1, 0, 0));  // blue: the largest difference here
+    return cv::countNonZero(worst > 8);
+  };
+  ConsensusOptions no_opening;
+  no_opening.fill_open_fraction = 0.0;
+  EXPECT_GT(wrong(no_opening), 100);
+  EXPECT_EQ(wrong(ConsensusOptions{}), 0);
+  ConsensusOptions o;
+  o.fill_open_fraction = 0.2;
+  ExpectInputError([&] { o.Check(); }, {"ConsensusOptions: fill_open_fraction", "[0, 0.05]"});
+}
+
 // Three images that agree nowhere (each a different flat grey): no pixel is settled,
 // nothing to fill from, and the background is the median (not the image nearest an
 // empty fill's zeros, the darkest).
