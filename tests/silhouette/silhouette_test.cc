@@ -154,15 +154,21 @@ TEST(FillFromSettled, KnownPixelsStayAndAGradientIsFilledAcrossAHole) {
   EXPECT_EQ(cv::norm(none, cv::NORM_INF), 0.0);
 }
 
+// A smooth BGR floor: blue rises along x and green along y from `base`, red is base + 20.
+cv::Mat SmoothFloor(cv::Size size, int base) {
+  cv::Mat floor(size, CV_8UC3);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      floor.at<cv::Vec3b>(y, x) = cv::Vec3b(base + x / 10, base + 10 + y / 10, base + 20);
+  return floor;
+}
+
 // Three images of a smooth floor with noise; two dark people stand on the same spot in
 // images 0 and 1 (their colours a little apart), a third elsewhere in image 2. The
 // plain median there is a person's colour; the consensus is the floor everywhere.
 TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
   const cv::Size size(200, 150);
-  cv::Mat floor(size, CV_8UC3);
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x)
-      floor.at<cv::Vec3b>(y, x) = cv::Vec3b(70 + x / 10, 80 + y / 10, 90);
+  const cv::Mat floor = SmoothFloor(size, 70);
   const cv::Rect spot(60, 40, 40, 70), elsewhere(140, 30, 30, 60);
   std::vector<cv::Mat> images;
   for (int k = 0; k < 3; ++k) {
@@ -212,10 +218,7 @@ TEST(ConsensusBackground, TwoPeopleOnOneSpotLeaveTheFloorNotTheirColour) {
 // (fill_open_fraction 0); the opening leaves the fill to the floor around.
 TEST(ConsensusBackground, SettledSpecksInsideAPersonDoNotMakeThePersonTheBackground) {
   const cv::Size size(200, 150);
-  cv::Mat floor(size, CV_8UC3);
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x)
-      floor.at<cv::Vec3b>(y, x) = cv::Vec3b(150 + x / 10, 160 + y / 10, 170);
+  cv::Mat floor = SmoothFloor(size, 150);
   const cv::Rect person(60, 40, 60, 70), mark(86, 71, 8, 8);
   floor(mark).setTo(cv::Scalar(26, 28, 30));
   std::vector<cv::Mat> images;
