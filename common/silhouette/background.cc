@@ -33,6 +33,13 @@ int HistogramMedian(const std::vector<int64_t>& histogram, int64_t count) {
   return static_cast<int>(histogram.size()) - 1;
 }
 
+// A radius given as a fraction of the image diagonal, in whole pixels: 0 for 0, else at
+// least one pixel.
+int DiagonalFractionPx(double fraction, cv::Size size) {
+  if (fraction == 0.0) return 0;
+  return std::max(1, static_cast<int>(std::lround(fraction * std::hypot(size.width, size.height))));
+}
+
 // The two-sided standard normal quantile: t with P(|z| > t) = p, by bisection on erfc.
 double TwoSidedNormalQuantile(double p) {
   double lo = 0.0, hi = 40.0;
@@ -86,9 +93,7 @@ void CleanupOptions::Check() const {
 }
 
 int CleanupOptions::CloseRadiusPx(cv::Size size) const {
-  const double diagonal = std::hypot(size.width, size.height);
-  if (close_radius_fraction == 0.0) return 0;
-  return std::max(1, static_cast<int>(std::lround(close_radius_fraction * diagonal)));
+  return DiagonalFractionPx(close_radius_fraction, size);
 }
 
 double GlobalGain(const cv::Mat& image, const cv::Mat& background, const cv::Mat& valid) {
@@ -349,9 +354,7 @@ void ConsensusOptions::Check() const {
 }
 
 int ConsensusOptions::FillOpenRadiusPx(cv::Size size) const {
-  if (fill_open_fraction == 0.0) return 0;
-  return std::max(
-      1, static_cast<int>(std::lround(fill_open_fraction * std::hypot(size.width, size.height))));
+  return DiagonalFractionPx(fill_open_fraction, size);
 }
 
 cv::Mat FillFromSettled(const cv::Mat& values, const cv::Mat& known) {
