@@ -692,40 +692,45 @@ std::pair<double, double> DistanceTo(const io::Mesh& a, const io::Mesh& b) {
 }
 
 // The regions (their count from the face count only) give the same mesh, byte for byte,
-// whatever the thread count; and they are used (the result is not the one pass's).
+// whatever the thread count; and they are used (the result is not the one pass's). 8 and
+// 32 regions: both with the second round, which cuts 3 and 9 regions.
 TEST(Decimate, RegionsGiveTheSameMeshOnAnyThreadCount) {
   const io::Mesh m = NoisySphere(/*floaters=*/true);
   ASSERT_GT(m.faces.size(), 8000u);
   DecimationOptions o;
   o.target_ratio = 0.1;
-  o.faces_per_region = int64_t(m.faces.size()) / 9;  // 8 regions
-  std::vector<io::Mesh> out;
-  for (int threads : {1, 2, 4}) {
-    o.num_threads = threads;
-    out.push_back(Decimate(m, o));
-  }
-  for (size_t i = 1; i < out.size(); ++i) {
-    EXPECT_EQ(out[i].vertices, out[0].vertices) << i;
-    EXPECT_EQ(out[i].colors, out[0].colors) << i;
-    EXPECT_EQ(out[i].faces, out[0].faces) << i;
-  }
   o.faces_per_region = 0;
   const io::Mesh one_pass = Decimate(m, o);
-  EXPECT_EQ(one_pass.faces.size(), out[0].faces.size());
-  EXPECT_NE(one_pass.vertices, out[0].vertices);
+  for (int64_t regions : {8, 32}) {
+    o.faces_per_region = int64_t(m.faces.size()) / (regions + 1);
+    std::vector<io::Mesh> out;
+    for (int threads : {1, 2, 4}) {
+      o.num_threads = threads;
+      out.push_back(Decimate(m, o));
+    }
+    for (size_t i = 1; i < out.size(); ++i) {
+      EXPECT_EQ(out[i].vertices, out[0].vertices) << regions << " regions, " << i;
+      EXPECT_EQ(out[i].colors, out[0].colors) << regions << " regions, " << i;
+      EXPECT_EQ(out[i].faces, out[0].faces) << regions << " regions, " << i;
+    }
+    EXPECT_EQ(one_pass.faces.size(), out[0].faces.size()) << regions;
+    EXPECT_NE(one_pass.vertices, out[0].vertices) << regions;
+  }
 }
 
-// Cut in 4 regions, a closed sphere stays closed: the seams are joined with no border,
-// non-manifold or inconsistently wound edge, the Euler characteristic stays 2, and the
-// pass over the joined regions reaches the exact count.
+// Cut in 4 regions, or in 16 (and the second round's 5), a closed sphere stays closed:
+// the seams are joined with no border, non-manifold or inconsistently wound edge, the
+// Euler characteristic stays 2, and the pass over the joined regions reaches the exact
+// count.
 TEST(Decimate, RegionSeamsStayWatertightAndTheCountIsExact) {
   const io::Mesh m = NoisySphere(/*floaters=*/false);
   ASSERT_EQ(AnalyzeTopology(m).boundary_edges, 0);
   ASSERT_EQ(EulerCharacteristic(m), 2);
-  for (int64_t target : {2000, 600}) {
+  const std::pair<int64_t, int64_t> cases[] = {{2000, 4}, {600, 4}, {2000, 16}};
+  for (const auto& [target, regions] : cases) {
     DecimationOptions o;
+    o.faces_per_region = int64_t(m.faces.size()) / (regions + 1);
     o.target_triangles = target;
-    o.faces_per_region = int64_t(m.faces.size()) / 5;  // 4 regions
     DecimationSummary s;
     const io::Mesh d = Decimate(m, o, &s);
     EXPECT_EQ(int64_t(d.faces.size()), target);
@@ -739,9 +744,9 @@ TEST(Decimate, RegionSeamsStayWatertightAndTheCountIsExact) {
   }
 }
 
-// At 10% of the noisy sphere with floaters, 8 regions stay as close to the input as one
-// pass (mean and largest distance both ways, the sphere's, within 10%), delete the
-// floaters too, and keep to an error bound.
+// At 10% of the noisy sphere with floaters, 8 regions (and the second round's 3) stay as
+// close to the input as one pass (mean and largest distance both ways, the sphere's,
+// within 10%), delete the floaters too, and keep to an error bound.
 TEST(Decimate, RegionsStayAsCloseToTheInputAsOnePass) {
   const io::Mesh m = NoisySphere(/*floaters=*/true), sphere = NoisySphere(/*floaters=*/false);
   DecimationOptions o;
