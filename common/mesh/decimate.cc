@@ -1573,7 +1573,7 @@ constexpr int kRegionsPerGroup = 4;
 // ratio, what the first round would have made of them, and leaves the rest of the
 // region as it is. (Sharing the whole remaining reduction out instead, in proportion to
 // those faces, collapsed too far in places: on a Robovision surface the mean distance
-// to the input rose by a third.)
+// to the input rose by two fifths.)
 // Last, one pass over the whole joined mesh, seams free, takes it to the target: the
 // seams' faces of the last round, and what the regions fell short of (with locked
 // seams, a narrow region cannot always reach its share). That pass is serial; the

@@ -99,10 +99,11 @@ struct DecimationOptions {
   // parallel, then the joined regions (see Decimate); 0 = one region. The count comes
   // from the face count only, so the output is the same for any num_threads. 20000: a
   // region's records then stay nearer the core's caches (a 358 k-face Robovision surface
-  // took 0.75x the CPU time in 8 regions as in 4, its mean distance to the input 0.92x),
-  // and with fewer faces a region the seams' faces, left to the passes over the joined
-  // mesh, grow faster than the regions' own work shrinks (templeSparseRing's 470 k faces,
-  // one pass after the regions: 1.2x the wall time in 32 regions as in 16). Faces, >= 0.
+  // took 0.75x the CPU time in 8 regions as in 4 with one pass after them, its mean
+  // distance to the input 0.92x), and with fewer faces a region the seams' faces, left
+  // to the passes over the joined mesh, grow faster than the regions' own work shrinks
+  // (templeSparseRing's 470 k faces, one pass after the regions: 1.2x the wall time in 32
+  // regions as in 16). Faces, >= 0.
   int64_t faces_per_region = 20000;
   // Threads the regions run on; <= 0: the hardware's. Does not change the output.
   int num_threads = 0;
