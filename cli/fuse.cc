@@ -179,7 +179,7 @@ void AddFuseCommand(CLI::App* app, int* exit_code) {
       pipeline::TextureResult textured = pipeline::Texture(
           std::move(decimated), mesh::LoadTextureViews(take, instant), tex, a->texture);
       if (textured.atlas) {
-        for (const auto& f : pipeline::TexturedFiles(*textured.atlas)) {
+        for (const auto& f : pipeline::TexturedFiles(*textured.atlas, a->threads)) {
           if (a->glb || f.name != pipeline::kTexturedGlb)
             io::WriteFileAtomically(dir / f.name, f.bytes);
         }

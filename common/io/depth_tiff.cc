@@ -52,7 +52,7 @@ const char* SampleFormatName(uint16_t f) {
 
 }  // namespace
 
-void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where) {
+void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where, cv::Point origin) {
   core::Require(depth_mm.type() == CV_32FC1, where,
                 "depth map must be single-channel 32-bit float (CV_32FC1) in mm");
   for (int y = 0; y < depth_mm.rows; ++y) {
@@ -61,8 +61,8 @@ void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where) {
       const float v = row[x];
       // One comparison for the common case; NaN fails it too.
       if (!(v >= 0.0f && v <= std::numeric_limits<float>::max())) {
-        throw core::InputError(where, "depth at pixel (" + std::to_string(x) + ", " +
-                                          std::to_string(y) + ") is " + FormatValue(v) +
+        throw core::InputError(where, "depth at pixel (" + std::to_string(origin.x + x) + ", " +
+                                          std::to_string(origin.y + y) + ") is " + FormatValue(v) +
                                           "; depths must be finite and >= 0 mm (0 = invalid)");
       }
     }

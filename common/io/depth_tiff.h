@@ -32,8 +32,9 @@
 namespace dome::io {
 
 // Throws core::InputError naming `where` unless `depth_mm` is CV_32FC1 with every
-// value finite and >= 0 (the message gives the first bad pixel as (x, y) and its value).
-void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where);
+// value finite and >= 0 (the message gives the first bad pixel as (x, y) and its value;
+// `origin` is added to it when `depth_mm` is a rectangle of a larger map at `origin`).
+void CheckDepthMap(const cv::Mat& depth_mm, const std::string& where, cv::Point origin = {0, 0});
 
 // How a float TIFF depth map is compressed.
 //  kSmall: Deflate (zlib's fastest level) with the floating-point predictor (3). For

@@ -100,7 +100,8 @@ int Append(core::Json* document, const char* key, core::Json value) {
 
 }  // namespace
 
-int GlbBuilder::AddTexturedMesh(const TexturedMesh& textured, core::Json* document) {
+int GlbBuilder::AddTexturedMesh(const TexturedMesh& textured, core::Json* document,
+                                const std::string* atlas_png) {
   const io::Mesh& mesh = textured.mesh;
   core::Require(mesh.Inconsistency().empty(), "glTF: mesh", mesh.Inconsistency());
   core::Require(textured.uv.size() == mesh.faces.size() * 3, "glTF: uv",
@@ -120,7 +121,9 @@ int GlbBuilder::AddTexturedMesh(const TexturedMesh& textured, core::Json* docume
       index.push_back(uint32_t(3 * f + m));
     }
   }
-  const std::string png = io::EncodePng(textured.atlas, io::PngEncoding::kFast);
+  const std::string encoded =
+      atlas_png ? std::string() : io::EncodePng(textured.atlas, io::PngEncoding::kFast);
+  const std::string& png = atlas_png ? *atlas_png : encoded;
   const size_t nv = xyz.size() / 3;
   const int pos = AddAccessor(AddView(xyz.data(), xyz.size() * 4, kArrayTarget), kFloat, nv,
                               "VEC3", false, MinMax(xyz));
@@ -149,10 +152,10 @@ int GlbBuilder::AddTexturedMesh(const TexturedMesh& textured, core::Json* docume
                     {"mode", 4}}}}});
 }
 
-std::string EncodeGlb(const TexturedMesh& textured) {
+std::string EncodeGlb(const TexturedMesh& textured, const std::string* atlas_png) {
   GlbBuilder b;
   core::Json document = core::Json::object();
-  b.AddTexturedMesh(textured, &document);
+  b.AddTexturedMesh(textured, &document, atlas_png);
   return b.Finish(SceneOf(std::move(document)));
 }
 

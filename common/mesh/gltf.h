@@ -43,7 +43,10 @@ class GlbBuilder {
   // Appends the triangles of `textured` to `document` as one more mesh (its vertices,
   // texture coordinates, indices, and a material with the atlas as a PNG texture);
   // returns the mesh's index in document["meshes"].
-  int AddTexturedMesh(const TexturedMesh& textured, core::Json* document);
+  // `atlas_png`: the atlas already encoded as PNG (its pixels must be textured.atlas's);
+  // null: encoded here (PngEncoding::kFast).
+  int AddTexturedMesh(const TexturedMesh& textured, core::Json* document,
+                      const std::string* atlas_png = nullptr);
   // The GLB container of `document` with the asset, buffers, views and accessors added.
   std::string Finish(const core::Json& document);
 
@@ -60,7 +63,8 @@ inline constexpr int kGltfArrayBuffer = 34962, kGltfElementArrayBuffer = 34963;
 // metres, y up.
 core::Json WorldToGltfMatrix();
 
-std::string EncodeGlb(const TexturedMesh& textured);
+// `atlas_png` as in GlbBuilder::AddTexturedMesh.
+std::string EncodeGlb(const TexturedMesh& textured, const std::string* atlas_png = nullptr);
 std::string EncodeGlb(const io::Mesh& mesh);
 
 // Atomic writes (io/file_util.h); core::InputError naming the file on failure.

@@ -667,11 +667,11 @@ std::optional<TexturedMesh> ColourAndAtlas(io::Mesh* mesh, const std::vector<Tex
   return AtlasWith(prepared, options, *mesh);
 }
 
-TexturedObjFiles EncodeTexturedObj(const TexturedMesh& t, const std::string& stem) {
-  TexturedObjFiles files;
-  files.png = io::EncodePng(t.atlas);
-  files.mtl = "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem + ".png\n";
-  std::string& obj = files.obj;
+namespace {
+
+// The OBJ text of EncodeTexturedObj.
+std::string TexturedObjText(const TexturedMesh& t, const std::string& stem) {
+  std::string obj;
   obj = "# dome textured mesh, world frame, mm\nmtllib " + stem + ".mtl\nusemtl dome\n";
   obj.reserve(t.mesh.vertices.size() * 40 + t.uv.size() * 30 + t.mesh.faces.size() * 40);
   // std::to_chars writes what printf's "%.6g" / "%.7g" / "%d" would, without parsing a
@@ -720,6 +720,25 @@ TexturedObjFiles EncodeTexturedObj(const TexturedMesh& t, const std::string& ste
     *at++ = '\n';
     obj.append(line, at);
   }
+  return obj;
+}
+
+}  // namespace
+
+TexturedObjFiles EncodeTexturedObj(const TexturedMesh& t, const std::string& stem,
+                                   int num_threads) {
+  TexturedObjFiles files;
+  files.mtl = "newmtl dome\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " + stem + ".png\n";
+  // The PNG takes longer than the text (a 1072 x 1072 atlas about 70 ms, the text of a
+  // 36,000-triangle mesh about 20 ms): the two side by side.
+  core::ParallelFor(0, 2, num_threads, [&](int64_t b, int64_t e) {
+    for (int64_t k = b; k < e; ++k) {
+      if (k == 0)
+        files.png = io::EncodePng(t.atlas);
+      else
+        files.obj = TexturedObjText(t, stem);
+    }
+  });
   return files;
 }
 

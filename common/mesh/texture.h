@@ -97,10 +97,13 @@ std::optional<TexturedMesh> ColourAndAtlas(io::Mesh* mesh, const std::vector<Tex
 // The OBJ + MTL + PNG of a textured mesh whose files are named <stem>.obj, <stem>.mtl
 // and <stem>.png (the OBJ names the MTL, the MTL the PNG): world frame, mm; per-face
 // texture coordinates, OBJ convention.
+// The PNG (PngEncoding::kSmall: the atlas is delivered) is encoded beside the OBJ text
+// when `num_threads` is 2 or more (<= 0: the hardware's); the bytes do not depend on it.
 struct TexturedObjFiles {
   std::string obj, mtl, png;
 };
-TexturedObjFiles EncodeTexturedObj(const TexturedMesh& textured, const std::string& stem);
+TexturedObjFiles EncodeTexturedObj(const TexturedMesh& textured, const std::string& stem,
+                                   int num_threads = 1);
 
 // Writes `obj_path` (.obj), the .mtl and the .png beside it (same stem), atomically.
 void WriteTexturedObj(const std::filesystem::path& obj_path, const TexturedMesh& textured);

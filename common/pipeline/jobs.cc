@@ -84,9 +84,9 @@ cv::Rect NonZeroRect(const cv::Mat& a, const cv::Mat& b) {
   return cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
 }
 
-// `crop` put back at (x0, y0) of its full_cols x full_rows image of zeros.
-cv::Mat PlaceRect(const runtime::StereoRangeImage& ri, const cv::Mat& crop,
-                  const std::string& where) {
+// Where `crop` lies in its full map: at (x0, y0) of full_cols x full_rows; checked to fit.
+stereo::MapCut CheckedCut(const runtime::StereoRangeImage& ri, const cv::Mat& crop,
+                          const std::string& where) {
   const int64_t rows = ri.full_rows(), cols = ri.full_cols(), x0 = ri.x0(), y0 = ri.y0();
   core::Require(ri.has_full_rows() && ri.has_full_cols() && ri.has_x0() && ri.has_y0(), where,
                 "needs all of full_rows, full_cols, x0 and y0, or none");
@@ -97,8 +97,13 @@ cv::Mat PlaceRect(const runtime::StereoRangeImage& ri, const cv::Mat& crop,
                     " rectangle at " + std::to_string(x0) + ", " + std::to_string(y0) +
                     " does not fit a " + std::to_string(cols) + "x" + std::to_string(rows) +
                     " image");
-  cv::Mat full(int(rows), int(cols), CV_32FC1, cv::Scalar(0));
-  if (!crop.empty()) crop.copyTo(full(cv::Rect(int(x0), int(y0), crop.cols, crop.rows)));
+  return {cv::Point(int(x0), int(y0)), cv::Size(int(cols), int(rows))};
+}
+
+// `crop` put back at its place in a full map of zeros.
+cv::Mat PlaceRect(const stereo::MapCut& cut, const cv::Mat& crop) {
+  cv::Mat full(cut.full, CV_32FC1, cv::Scalar(0));
+  if (!crop.empty()) crop.copyTo(full(cv::Rect(cut.at, crop.size())));
   return full;
 }
 
@@ -509,7 +514,9 @@ StageDescriptor StereoStage() {
   };
   d.store = [](const StoreContext& ctx, const runtime::JobResult& r) {
     const std::string& bytes = OutputBytes(r, kStereoOutput, ctx.where);
-    const stereo::StereoResult result = DecodeStereoOutput(bytes, ctx.where);
+    // The rectangles, compared with the files as placed in them (no whole maps made).
+    std::vector<stereo::MapCut> cuts;
+    const stereo::StereoResult result = DecodeStereoRects(bytes, ctx.where, &cuts);
     const std::string& camera = ctx.plan.cameras[ctx.part];
     core::Require(result.camera == camera, ctx.where, "is for camera '" + result.camera + "'");
     // Checking the files the worker encoded costs a fraction of encoding them.
@@ -517,7 +524,8 @@ StageDescriptor StereoStage() {
     for (const auto& o : r.outputs()) {
       if (o.name() != kStereoOutput) files.push_back({o.name(), o.data()});
     }
-    stereo::CheckStereoFiles(result, ctx.plan.options.stereo.write_previews, files, ctx.where);
+    stereo::CheckStereoFiles(result, ctx.plan.options.stereo.write_previews, files, ctx.where,
+                             cuts);
     stereo::WriteStereoFiles(files, ctx.plan.instants[ctx.instant], ctx.dir.parent_path());
     return StoredResult{{ctx.blobs->Keep(bytes, kStereoOutput)}, nullptr};
   };
@@ -589,13 +597,18 @@ StageDescriptor FusionStage() {
       core::ParallelFor(0, int64_t(n), build_threads, [&](int64_t c0, int64_t c1) {
         for (int64_t c = c0; c < c1; ++c) {
           const size_t b = size_t(c) + 1;
-          const stereo::StereoResult r = DecodeStereoOutput(*blobs[b], BlobName(job, b));
+          std::vector<stereo::MapCut> cuts;
+          const stereo::StereoResult r = DecodeStereoRects(*blobs[b], BlobName(job, b), &cuts);
           core::Require(r.camera == rig.cameras[size_t(c)].model.id, BlobName(job, b),
                         "expected the stereo output of camera '" +
                             rig.cameras[size_t(c)].model.id + "', got '" + r.camera + "'");
-          for (const auto& ri : r.range_images) {
-            per_camera[size_t(c)].push_back(
-                {rig.cameras[size_t(c)].model, ri.depth_mm, cv::Mat(), BlobName(job, b)});
+          // Each map made the range image PrepareFusion would cut from the whole map,
+          // from its rectangle (no whole map made: 20 MB each on Robovision).
+          for (size_t k = 0; k < r.range_images.size(); ++k) {
+            std::optional<fusion::RangeImage> image =
+                CutRangeImage(rig.cameras[size_t(c)].model, r.range_images[k].depth_mm, cuts[k],
+                              BlobName(job, b));
+            if (image) per_camera[size_t(c)].push_back(std::move(*image));
           }
         }
       });
@@ -808,7 +821,7 @@ StageDescriptor TextureStage() {
     outputs[0].set_name(kDecimatedPly);
     outputs[0].set_data(EncodeMeshPly(textured.coloured));
     if (textured.atlas) {
-      for (NamedFile& f : TexturedFiles(*textured.atlas)) {
+      for (NamedFile& f : TexturedFiles(*textured.atlas, job.threads())) {
         runtime::Output& o = outputs.emplace_back();
         o.set_name(std::move(f.name));
         o.set_data(std::move(f.bytes));
@@ -885,6 +898,24 @@ std::string EncodeStereoOutput(const stereo::StereoResult& result) {
 }
 
 stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::string& where) {
+  std::vector<stereo::MapCut> cuts;
+  stereo::StereoResult result = DecodeStereoRects(bytes, where, &cuts);
+  for (size_t k = 0; k < result.range_images.size(); ++k) {
+    stereo::RangeImage& r = result.range_images[k];
+    const stereo::MapCut& cut = cuts[k];
+    if (cut.at == cv::Point(0, 0) && r.depth_mm.size() == cut.full &&
+        (r.reliability.empty() || r.reliability.size() == cut.full)) {
+      continue;  // whole
+    }
+    r.depth_mm = PlaceRect(cut, r.depth_mm);
+    r.reliability = PlaceRect(cut, r.reliability);
+  }
+  return result;
+}
+
+stereo::StereoResult DecodeStereoRects(const std::string& bytes, const std::string& where,
+                                       std::vector<stereo::MapCut>* cuts) {
+  cuts->clear();
   runtime::StereoOutput out;
   core::Require(out.ParseFromString(bytes), where, "not a stereo output (StereoOutput protobuf)");
   stereo::StereoResult result;
@@ -896,8 +927,10 @@ stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::str
     r.depth_mm = DecodeFloatImage(ri.depth_mm(), where + ": depth_mm");
     r.reliability = DecodeFloatImage(ri.reliability(), where + ": reliability");
     if (ri.has_full_rows() || ri.has_full_cols() || ri.has_x0() || ri.has_y0()) {
-      r.depth_mm = PlaceRect(ri, r.depth_mm, where + ": depth_mm");
-      r.reliability = PlaceRect(ri, r.reliability, where + ": reliability");
+      cuts->push_back(CheckedCut(ri, r.depth_mm, where + ": depth_mm"));
+      CheckedCut(ri, r.reliability, where + ": reliability");
+    } else {
+      cuts->push_back({cv::Point(0, 0), r.depth_mm.size()});
     }
     r.density = ri.density();
     result.range_images.push_back(std::move(r));

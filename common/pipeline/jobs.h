@@ -18,8 +18,10 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "stereo/multi_baseline.h"
+#include "stereo/take_stereo.h"
 
 namespace dome::pipeline {
 
@@ -27,8 +29,16 @@ inline constexpr const char* kMaskOutput = "mask";  // a mask PNG, 255 = foregro
 inline constexpr const char* kStereoOutput = "stereo";
 inline constexpr const char* kSlabOutput = "slab";
 
-// Stereo results <-> the "stereo" blob (runtime.StereoOutput).
+// Stereo results <-> the "stereo" blob (runtime.StereoOutput). The blob carries each
+// range image's maps as the rectangle of their non-zero values; DecodeStereoOutput gives
+// the whole maps back (zeros around the rectangle).
 std::string EncodeStereoOutput(const stereo::StereoResult& result);
 stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::string& where);
+// The same without placing the maps in whole images of zeros (a Robovision map is 20 MB,
+// its rectangle a fraction): the maps are the rectangles, and `cuts` (one per range
+// image) says where they lie (a map that travelled whole: at 0, 0, its own size). Checks
+// what DecodeStereoOutput checks.
+stereo::StereoResult DecodeStereoRects(const std::string& bytes, const std::string& where,
+                                       std::vector<stereo::MapCut>* cuts);
 
 }  // namespace dome::pipeline

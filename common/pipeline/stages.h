@@ -91,6 +91,17 @@ std::unique_ptr<PreparedFusion> PrepareFusion(
     const fusion::FusionOptions& options,
     std::shared_ptr<const silhouette::VisualHull> hull = nullptr,
     const fusion::HullFusionOptions& hull_options = {});
+// A camera's depth map given as a rectangle of its full map (a stereo result as it
+// travels, pipeline/jobs.h DecodeStereoRects) made the range image PrepareFusion keeps of
+// the full map, without making the full map: the rectangle of its depths grown by a
+// pixel and clipped to the image, the camera cut to match; nullopt when it holds no
+// depth. Throws core::InputError naming `where` when the full map is not the camera's
+// size or a value is not a depth (the pixel given in the full map), as PrepareFusion
+// would.
+std::optional<fusion::RangeImage> CutRangeImage(const geometry::TsaiCamera& camera,
+                                                const cv::Mat& depth_rect,
+                                                const stereo::MapCut& cut,
+                                                const std::string& where);
 // Fuses planes [k0, k1) into `slab` (its buffers reused when the size repeats),
 // corrected by the hull when there is one, then, with `previous` (the same planes at the
 // previous instant, as this function returned them then) and change views, steadied by
@@ -141,8 +152,10 @@ struct NamedFile {
 };
 
 // The textured mesh's files: textured.obj, textured.mtl, textured.png (OBJ + MTL + PNG
-// atlas, naming each other) and textured.glb (the same mesh, one binary glTF).
-std::vector<NamedFile> TexturedFiles(const mesh::TexturedMesh& textured);
+// atlas, naming each other) and textured.glb (the same mesh, one binary glTF, holding
+// the same PNG), made on `num_threads` threads (<= 0: the hardware's; the same bytes on
+// any number).
+std::vector<NamedFile> TexturedFiles(const mesh::TexturedMesh& textured, int num_threads = 1);
 inline constexpr const char* kMeshPly = "mesh.ply";
 inline constexpr const char* kDecimatedPly = "mesh_decimated.ply";
 inline constexpr const char* kTexturedObj = "textured.obj";

@@ -106,7 +106,10 @@ std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write
 }
 
 void CheckStereoFiles(const StereoResult& result, bool write_previews,
-                      const std::vector<StereoFile>& files, const std::string& where) {
+                      const std::vector<StereoFile>& files, const std::string& where,
+                      const std::vector<MapCut>& cuts) {
+  DOME_CHECK(cuts.empty() || cuts.size() == result.range_images.size(),
+             "one cut per range image, or none");
   std::vector<std::string> expected;
   for (size_t k = 0; k < result.range_images.size(); ++k) {
     const std::string sfx = Suffix(k, result.range_images[k].window_px);
@@ -117,10 +120,29 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
   core::Require(files.size() == expected.size(), where,
                 "expected " + std::to_string(expected.size()) + " stereo files, got " +
                     std::to_string(files.size()));
-  const auto same = [](const cv::Mat& a, const cv::Mat& b) {
-    if (a.type() != b.type() || a.size() != b.size()) return false;
+  // Whether the full map `a` is `b` placed at `cut` (zero bits around it), bit for bit.
+  const auto same = [](const cv::Mat& a, const cv::Mat& b, const MapCut& cut) {
+    if (a.type() != b.type() || a.size() != cut.full) return false;
+    const cv::Rect rect(cut.at, b.size());
+    if ((rect & cv::Rect(cv::Point(0, 0), cut.full)) != rect) return false;
+    const size_t pixel = a.elemSize();
+    const auto zero = [](const uchar* p, size_t n) {
+      for (size_t i = 0; i < n; ++i)
+        if (p[i] != 0) return false;
+      return true;
+    };
     for (int y = 0; y < a.rows; ++y) {
-      if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
+      const uchar* row = a.ptr(y);
+      if (y < rect.y || y >= rect.br().y) {
+        if (!zero(row, size_t(a.cols) * pixel)) return false;
+        continue;
+      }
+      if (!zero(row, size_t(rect.x) * pixel) ||
+          std::memcmp(row + size_t(rect.x) * pixel, b.ptr(y - rect.y), size_t(b.cols) * pixel) !=
+              0 ||
+          !zero(row + size_t(rect.br().x) * pixel, size_t(a.cols - rect.br().x) * pixel)) {
+        return false;
+      }
     }
     return true;
   };
@@ -129,23 +151,29 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
     core::Require(f.path == expected[i], where,
                   "stereo file " + std::to_string(i) + " is '" + f.path.substr(0, 200) +
                       "', expected '" + expected[i] + "'");
-    const RangeImage& r = result.range_images[i / (write_previews ? 3 : 2)];
+    const size_t k = i / (write_previews ? 3 : 2);
+    const RangeImage& r = result.range_images[k];
+    const auto cut = [&](const cv::Mat& m) {
+      return cuts.empty() ? MapCut{{0, 0}, m.size()} : MapCut{cuts[k].at, cuts[k].full};
+    };
     const std::string what = where + " " + f.path;
     switch (i % (write_previews ? 3 : 2)) {
       case 0:  // the depth map, bit for bit
-        core::Require(same(io::DecodeDepthTiff(f.bytes, what), r.depth_mm), what,
+        core::Require(same(io::DecodeDepthTiff(f.bytes, what), r.depth_mm, cut(r.depth_mm)), what,
                       "is not the result's depth map");
         break;
       case 1: {
         const cv::Mat rel = io::DecodeImage(f.bytes, io::ImageMode::kUnchanged, what);
-        core::Require(same(rel, r.reliability), what, "is not the result's reliability map");
+        core::Require(same(rel, r.reliability, cut(r.reliability)), what,
+                      "is not the result's reliability map");
         break;
       }
       default: {
         // For eyes only: its header is checked, not its pixels.
         const io::PngHeader png = io::ReadPngHeader(f.bytes, what);
-        core::Require(png.colour_type == 2 && png.bit_depth == 8 && png.width == r.depth_mm.cols &&
-                          png.height == r.depth_mm.rows,
+        const cv::Size full = cut(r.depth_mm).full;
+        core::Require(png.colour_type == 2 && png.bit_depth == 8 && png.width == full.width &&
+                          png.height == full.height,
                       what, "is not an 8-bit colour preview of the depth map's size");
       }
     }

@@ -75,12 +75,23 @@ struct StereoFile {
 std::vector<StereoFile> EncodeStereoFiles(const StereoResult& result, bool write_previews,
                                           int num_threads = 1);
 
+// Where the maps of a range image lie when they are a rectangle cut from the full maps
+// (as a stereo result travels, pipeline/jobs.h DecodeStereoRects): their top-left corner
+// in the full maps, pixels, and the full maps' size. Outside the rectangle every value
+// is 0.
+struct MapCut {
+  cv::Point at;
+  cv::Size full;
+};
+
 // Throws core::InputError naming `where` and the file unless `files` are exactly the
 // files of `result`: the layout's paths, the depth and reliability maps decoding to the
 // result's values bit for bit, previews with the PNG header of a colour image of the
-// map's size (their pixels are not checked).
+// map's size (their pixels are not checked). With `cuts` (one per range image) the
+// result's maps are rectangles of the full maps (MapCut), compared as placed there.
 void CheckStereoFiles(const StereoResult& result, bool write_previews,
-                      const std::vector<StereoFile>& files, const std::string& where);
+                      const std::vector<StereoFile>& files, const std::string& where,
+                      const std::vector<MapCut>& cuts = {});
 
 // Writes files under `out_dir`/`instant`; returns the depth paths written.
 std::vector<std::filesystem::path> WriteStereoFiles(const std::vector<StereoFile>& files,

@@ -19,6 +19,7 @@
 #include "io/file_util.h"
 #include "mesh/marching_cubes.h"
 #include "mesh/mesh_test_util.h"
+#include "mesh/texture.h"
 #include "testing/expect_error.h"
 #include "testing/temp_dir.h"
 
@@ -294,6 +295,23 @@ TEST(Gltf, TexturedGlbDecodesToTheMeshItWasWrittenFrom) {
     EXPECT_EQ(back.uv[c].x(), t.uv[c].x());
     EXPECT_FLOAT_EQ(back.uv[c].y(), t.uv[c].y());
   }
+  ASSERT_EQ(back.atlas.size(), t.atlas.size());
+  EXPECT_EQ(cv::norm(back.atlas, t.atlas, cv::NORM_INF), 0.0);
+}
+
+// The OBJ files are the same bytes on one thread or two, and a GLB given their PNG holds
+// exactly those bytes (the atlas encoded once) and decodes to the same mesh and atlas.
+TEST(Gltf, GlbHoldsTheObjFilesPngWhenGivenIt) {
+  const TexturedMesh t = TwoTriangles();
+  const TexturedObjFiles one = EncodeTexturedObj(t, "textured", 1);
+  const TexturedObjFiles two = EncodeTexturedObj(t, "textured", 2);
+  EXPECT_EQ(one.obj, two.obj);
+  EXPECT_EQ(one.mtl, two.mtl);
+  EXPECT_EQ(one.png, two.png);
+  const std::string glb = EncodeGlb(t, &one.png);
+  EXPECT_NE(glb.find(one.png), std::string::npos);
+  const TexturedMesh back = DecodeTexturedGlb(glb, "shared.glb");
+  EXPECT_EQ(back.mesh.faces.size(), t.mesh.faces.size());
   ASSERT_EQ(back.atlas.size(), t.atlas.size());
   EXPECT_EQ(cv::norm(back.atlas, t.atlas, cv::NORM_INF), 0.0);
 }

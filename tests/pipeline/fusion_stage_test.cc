@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,8 +18,8 @@
 #include "io/ply.h"
 #include "net/content_hash.h"
 #include "pipeline/jobs.h"
-#include "pipeline/shared_fusion.h"
 #include "pipeline/settings.h"
+#include "pipeline/shared_fusion.h"
 #include "pipeline/small_take_suite.h"
 #include "pipeline/stage.h"
 #include "pipeline/stages.h"
@@ -304,6 +305,69 @@ TEST(StereoOutput, CarriesTheRectangleOfItsDepthsAndDecodesToTheWholeImages) {
   bad.mutable_range_images(0)->clear_full_rows();
   dome::testing::ExpectInputError([&] { DecodeStereoOutput(bad.SerializeAsString(), "blob 3"); },
                    {"blob 3: depth_mm", "needs all of full_rows, full_cols, x0 and y0, or none"});
+}
+
+// A fusion job makes each range image from the rectangle its stereo output carries
+// (CutRangeImage), never the whole map: the same camera and depths as PrepareFusion's
+// cut of the whole map, at the image's borders too; a map of another size than the
+// camera's, or a bad value, named with the pixel in the whole map.
+TEST_F(FusionStage, RangeImagesFromTheRectanglesAreThoseOfTheWholeMaps) {
+  const take::Take take = take::OpenTake(TakeDir());
+  const geometry::TsaiCamera camera = take.rig.cameras.at(0).model;
+  const int W = camera.width_px, H = camera.height_px;
+  ASSERT_GE(W, 40);
+  ASSERT_GE(H, 30);
+  // Depths inside the image, along its left and top border, and at its bottom-right
+  // corner: the rectangle grown by a pixel is clipped differently in each.
+  for (const cv::Rect depths :
+       {cv::Rect(10, 8, 12, 9), cv::Rect(0, 0, 7, 5), cv::Rect(W - 7, H - 6, 7, 6)}) {
+    stereo::StereoResult r;
+    r.camera = camera.id;
+    stereo::RangeImage ri;
+    ri.window_px = 7;
+    ri.depth_mm = cv::Mat(H, W, CV_32FC1, cv::Scalar(0));
+    cv::RNG rng(11);
+    rng.fill(ri.depth_mm(depths), cv::RNG::UNIFORM, 950.0, 1050.0);
+    ri.depth_mm.at<float>(depths.y + 1, depths.x + 1) = 0.0f;  // a hole
+    ri.reliability = cv::Mat(H, W, CV_32FC1, cv::Scalar(0));
+    ri.reliability.at<float>(depths.y, std::min(depths.br().x + 2, W - 1)) = 1.0f;  // wider
+    r.range_images.push_back(ri);
+    std::vector<stereo::MapCut> cuts;
+    const std::string bytes = EncodeStereoOutput(r);
+    const stereo::StereoResult rects = DecodeStereoRects(bytes, "blob 2", &cuts);
+    const std::optional<fusion::RangeImage> cut =
+        CutRangeImage(camera, rects.range_images[0].depth_mm, cuts[0], "blob 2");
+    ASSERT_TRUE(cut.has_value());
+    fusion::FusionOptions options;
+    options.num_threads = 1;
+    const auto whole = PrepareFusion(Grid(), {{camera, ri.depth_mm, cv::Mat(), "blob 2"}}, options);
+    ASSERT_EQ(whole->images.size(), 1u);
+    const fusion::RangeImage& w = whole->images[0];
+    EXPECT_EQ(cut->camera.cx_px, w.camera.cx_px) << depths;
+    EXPECT_EQ(cut->camera.cy_px, w.camera.cy_px) << depths;
+    EXPECT_EQ(cut->camera.width_px, w.camera.width_px) << depths;
+    EXPECT_EQ(cut->camera.height_px, w.camera.height_px) << depths;
+    ASSERT_EQ(cut->depth_mm.size(), w.depth_mm.size()) << depths;
+    EXPECT_EQ(cv::norm(cut->depth_mm, w.depth_mm, cv::NORM_INF), 0.0) << depths;
+  }
+  // No depth: nothing to fuse.
+  const cv::Mat empty;
+  EXPECT_FALSE(CutRangeImage(camera, empty, {{0, 0}, {W, H}}, "blob 2").has_value());
+  const std::string size = std::to_string(W) + "x" + std::to_string(H);
+  dome::testing::ExpectInputError(
+      [&] {
+        CutRangeImage(camera, cv::Mat(3, 3, CV_32FC1, cv::Scalar(1000)), {{5, 5}, {W + 1, H}},
+                      "blob 2");
+      },
+      {"blob 2", "depth map is " + std::to_string(W + 1) + "x" + std::to_string(H) +
+                     " but camera " + camera.id + " is " + size});
+  cv::Mat bad(3, 3, CV_32FC1, cv::Scalar(1000));
+  bad.at<float>(2, 1) = -4.0f;
+  dome::testing::ExpectInputError(
+      [&] {
+        CutRangeImage(camera, bad, {{5, 7}, {W, H}}, "blob 2");
+      },
+      {"blob 2", "depth at pixel (6, 9)"});
 }
 
 TEST(DecimateStage, RatioOneKeepsTheSurfaceAsExtracted) {

@@ -412,6 +412,63 @@ TEST(SessionOptions, SmoothingAndSpeckleFieldsReadAndAreChecked) {
                    {"s.json: stereo.speckle_step_mm", "positive"});
 }
 
+// The master checks a result's files against the rectangles the stereo output carries
+// (DecodeStereoRects), without placing them in whole maps: the same verdicts as against
+// the whole maps, a value outside the rectangle included.
+TEST(StereoFiles, AreCheckedAgainstTheRectanglesAsPlaced) {
+  stereo::StereoResult result;
+  result.camera = "c03";
+  stereo::RangeImage r;
+  r.window_px = 7;
+  r.depth_mm = cv::Mat(20, 24, CV_32FC1, cv::Scalar(0));
+  r.reliability = cv::Mat(20, 24, CV_32FC1, cv::Scalar(0));
+  for (int y = 4; y < 15; ++y) {
+    for (int x = 6; x < 20; ++x) {
+      r.depth_mm.at<float>(y, x) = 900.0f + 1.5f * x - 0.25f * y;
+      r.reliability.at<float>(y, x) = 0.25f * x;
+    }
+  }
+  result.range_images.push_back(r);
+  stereo::RangeImage none = r;  // no depth: an empty rectangle
+  none.window_px = 11;
+  none.depth_mm = cv::Mat(20, 24, CV_32FC1, cv::Scalar(0));
+  none.reliability = none.depth_mm.clone();
+  result.range_images.push_back(none);
+  std::vector<stereo::MapCut> cuts;
+  const stereo::StereoResult rects = DecodeStereoRects(EncodeStereoOutput(result), "blob", &cuts);
+  ASSERT_EQ(cuts.size(), 2u);
+  EXPECT_EQ(cuts[0].at, cv::Point(6, 4));
+  EXPECT_EQ(cuts[0].full, cv::Size(24, 20));
+  EXPECT_EQ(rects.range_images[0].depth_mm.size(), cv::Size(14, 11));
+  EXPECT_TRUE(rects.range_images[1].depth_mm.empty());
+  for (bool previews : {false, true}) {
+    const std::vector<stereo::StereoFile> files = stereo::EncodeStereoFiles(result, previews);
+    stereo::CheckStereoFiles(rects, previews, files, "worker w2", cuts);
+    // A value outside the rectangle, and one inside it, are both refused.
+    for (const cv::Point at :
+         {cv::Point(2, 1), cv::Point(23, 10), cv::Point(10, 17), cv::Point(8, 8)}) {
+      stereo::StereoResult other = result;
+      other.range_images[0].depth_mm = result.range_images[0].depth_mm.clone();
+      other.range_images[0].depth_mm.at<float>(at) += 0.5f;
+      auto tampered = files;
+      tampered[0] = stereo::EncodeStereoFiles(other, previews)[0];
+      ExpectInputError(
+          [&] { stereo::CheckStereoFiles(rects, previews, tampered, "worker w2", cuts); },
+          {"depth/c03.tiff", "is not the result's depth map"});
+    }
+    // A file of another size is refused too.
+    stereo::StereoResult smaller = result;
+    for (auto& m : smaller.range_images) {
+      m.depth_mm = m.depth_mm(cv::Rect(0, 0, 22, 20)).clone();
+      m.reliability = m.reliability(cv::Rect(0, 0, 22, 20)).clone();
+    }
+    auto resized = files;
+    resized[1] = stereo::EncodeStereoFiles(smaller, previews)[1];
+    ExpectInputError([&] { stereo::CheckStereoFiles(rects, previews, resized, "worker w2", cuts); },
+                     {"reliability/c03.tiff", "is not the result's reliability map"});
+  }
+}
+
 // The clean-output rule's session fields: read, turned into the decimation's mm by the
 // voxel, and checked.
 TEST(SessionOptions, SpeckFieldsReadScaleByTheVoxelAndAreChecked) {
