@@ -240,18 +240,23 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   }
 }
 
-int EmbeddedWorkers(const runtime::Session& session) {
-  if (session.noop_jobs() > 0) return 2;
+EmbeddedWorkers DefaultEmbeddedWorkers(const runtime::Session& session, int hardware_threads) {
+  const int half = std::max(1, hardware_threads / 2);
+  if (session.noop_jobs() > 0) return {2, half};
   int64_t instants = session.instants_size();
   if (instants == 0) instants = int64_t(take::OpenTake(session.take()).instants.size());
-  return instants == 1 ? 1 : 2;
+  return {2, instants == 1 ? std::max(1, hardware_threads) : half};
 }
 
 runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& given,
                                    std::FILE* out) {
   core::Require(given.workers >= 0, "--workers", "must be 0 (from the session) or more");
   EmbeddedOptions options = given;
-  if (options.workers == 0) options.workers = EmbeddedWorkers(session);
+  if (options.workers == 0) {
+    const EmbeddedWorkers layout = DefaultEmbeddedWorkers(session, core::HardwareThreads());
+    options.workers = layout.workers;
+    if (options.threads_per_worker <= 0) options.threads_per_worker = layout.threads_per_worker;
+  }
   zmq::context_t context;
   scheduler::MasterOptions mo = options.master;
   const std::string tag =

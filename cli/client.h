@@ -68,22 +68,31 @@ std::map<std::string, runtime::CaptureStatus> WatchCapture(
     int timeout_ms, const net::SocketOptions& socket = net::SocketOptions{});
 
 struct EmbeddedOptions {
-  // In-process workers (count); 0: from the session (EmbeddedWorkers).
+  // In-process workers (count); 0: from the session (DefaultEmbeddedWorkers).
   int workers = 0;
-  int threads_per_worker = 0;       // <= 0: hardware threads / workers, at least 1
+  // <= 0: from the session when `workers` is 0 too, else hardware threads / workers, at
+  // least 1.
+  int threads_per_worker = 0;
   int64_t cache_mb = 1024;          // each worker's blob cache, MiB
   scheduler::MasterOptions master;  // endpoints are replaced by inproc:// ones
   // The stages the workers run; null: the master's (tests give them another set).
   std::shared_ptr<const pipeline::StageSet> worker_stages;
 };
 
-// The in-process workers for `session` when none are asked for: one for a session of
-// one instant, two otherwise. With one instant no stage of another instant can run
-// beside a stage, so a second worker would only decode the frames and build the
-// fusion tables a second time, and idle in the one-job stages (decimation, texture)
-// while one worker with every thread runs them in parallel; with many instants two
-// workers overlap an instant's single jobs with the next instant's stereo.
-int EmbeddedWorkers(const runtime::Session& session);
+// The in-process workers for `session` when none are asked for, on a machine of
+// `hardware_threads`: two, each with half the threads when the session has several
+// instants (an instant's single jobs overlap the next instant's stereo), each with every
+// thread when it has one. With one instant every stage's jobs run one after another,
+// and a job has parts on one thread (a stereo job's coarse pass, speckle removal and
+// file encoding, about a third of it on Robovision): with one worker the other core
+// idled through them, with two the other worker's job fills it, while the lone
+// decimation and texture jobs still get every thread. (The workers share the decoded
+// frames and the fusion tables: frame_handoff.h, shared_fusion.h.)
+struct EmbeddedWorkers {
+  int workers = 2;
+  int threads_per_worker = 1;
+};
+EmbeddedWorkers DefaultEmbeddedWorkers(const runtime::Session& session, int hardware_threads);
 
 // Runs `session` on an embedded master with in-process workers; progress to `out`.
 runtime::SessionStatus RunEmbedded(const runtime::Session& session, const EmbeddedOptions& options,

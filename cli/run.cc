@@ -249,10 +249,11 @@ void AddRunCommand(CLI::App* app, int* exit_code) {
   auto e = std::make_shared<client::EmbeddedOptions>();
   AddSessionFlags(cmd, a.get(), false);
   cmd->add_option("--workers", e->workers,
-                  "in-process workers when no --master (0: one for a session of one instant, "
-                  "else two)")
+                  "in-process workers when no --master (0: two, each with every thread for a "
+                  "session of one instant, else with half)")
       ->capture_default_str();
-  cmd->add_option("--threads", e->threads_per_worker, "threads per in-process worker (0: share)")
+  cmd->add_option("--threads", e->threads_per_worker,
+                  "threads per in-process worker (0: with --workers 0 as it says, else share)")
       ->capture_default_str();
   cmd->add_option("--heartbeat-liveness", e->master.heartbeat_liveness,
                   "heartbeat intervals (1 s) of silence before an in-process worker or the "

@@ -117,22 +117,28 @@ TEST(StageSet, AWorkerWithoutTheStageFailsTheSessionNamingIt) {
       << status.error();
 }
 
-// `dome run`'s in-process workers when none are asked for: one (with every thread)
-// for a session of one instant, two for more, counted from the take when the session
-// names none; a take that cannot be opened is named.
-TEST(EmbeddedWorkers, OneForOneInstantTwoForMore) {
+// `dome run`'s in-process workers when none are asked for: two, each with every thread
+// for a session of one instant, with half of them for more (instants counted from the
+// take when the session names none); a take that cannot be opened is named.
+TEST(EmbeddedWorkers, TwoWithEveryThreadForOneInstantWithHalfForMore) {
   runtime::Session s;
   s.add_instants("00-00-00-00");
-  EXPECT_EQ(client::EmbeddedWorkers(s), 1);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 2).workers, 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 2).threads_per_worker, 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 8).threads_per_worker, 8);
   s.add_instants("00-00-00-05");
-  EXPECT_EQ(client::EmbeddedWorkers(s), 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 2).workers, 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 2).threads_per_worker, 1);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 8).threads_per_worker, 4);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(s, 1).threads_per_worker, 1);
   runtime::Session noop;
   noop.set_noop_jobs(10);
-  EXPECT_EQ(client::EmbeddedWorkers(noop), 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(noop, 2).workers, 2);
+  EXPECT_EQ(client::DefaultEmbeddedWorkers(noop, 2).threads_per_worker, 1);
   testing::TempDir dir;
   runtime::Session missing;
   missing.set_take((dir / "no-take").string());
-  EXPECT_THROW(client::EmbeddedWorkers(missing), core::InputError);
+  EXPECT_THROW(client::DefaultEmbeddedWorkers(missing, 2), core::InputError);
 }
 
 }  // namespace
