@@ -63,11 +63,19 @@ struct Slab {
 };
 
 // Serialized form of a slab (a job's output, sent to the master): little-endian
-//   "DOMESLAB" u32 version=2, i32 k0 k1 nx ny, then one zstd frame (content size
-//   declared, with its checksum) of f32 distance_mm[n], f32 weight[n].
-// Version 1 had the floats uncompressed (8 bytes a voxel, 11.5 MB for 16 planes of
-// 300 x 300); it is still read. Compression is lossless: the decoded floats are the
-// encoded ones, bit for bit.
+//   "DOMESLAB" u32 version=3, i32 k0 k1 nx ny, then one zstd frame (content size
+//   declared, with its checksum) of the voxels in order as runs: records of a u32 tag
+//   whose low 31 bits are a count c >= 1 and whose top bit says which record it is:
+//   set, one pair f32 distance_mm, f32 weight follows, the value of the next c voxels;
+//   clear, c such pairs follow, one a voxel.
+// A slab is mostly runs of one value (unobserved voxels, free space at the clamp with a
+// count of views): coded as runs first, zstd has about a sixth of the bytes to compress,
+// and a Robovision slab of 11 MB is encoded, and decoded, in about half the time
+// version 2 took (the same compressed size).
+// Version 2 was one zstd frame of f32 distance_mm[n], f32 weight[n]; version 1 had the
+// floats uncompressed (8 bytes a voxel, 11.5 MB for 16 planes of 300 x 300); both are
+// still read. The coding is lossless: the decoded floats are the encoded ones, bit for
+// bit.
 std::string EncodeSlab(const Slab& slab);
 // Either version. Throws core::InputError naming `where` when the bytes are not a
 // slab, are truncated or corrupt, or name more than 2^32 bytes of voxels.

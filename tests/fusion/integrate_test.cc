@@ -1,6 +1,7 @@
 #include "fusion/integrate.h"
 
 #include <gtest/gtest.h>
+#include <zstd.h>
 
 #include <cmath>
 #include <cstring>
@@ -15,6 +16,19 @@
 
 namespace dome::fusion {
 namespace {
+
+// A zstd frame of `raw` (content size declared), and the content of one.
+std::string Zstd(const std::string& raw) {
+  std::string out(ZSTD_compressBound(raw.size()), '\0');
+  const size_t size = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), 1);
+  out.resize(size);
+  return out;
+}
+std::string Unzstd(const std::string& frame) {
+  std::string out(size_t(ZSTD_getFrameContentSize(frame.data(), frame.size())), '\0');
+  out.resize(ZSTD_decompress(out.data(), out.size(), frame.data(), frame.size()));
+  return out;
+}
 
 using testing::ExpectInputError;
 
@@ -332,6 +346,19 @@ TEST(Integrate, SlabsTravelCompressedAndVersionOneStillReads) {
   EXPECT_EQ(back.k1, 32);
   EXPECT_EQ(back.distance_mm, s.distance_mm);
   EXPECT_EQ(back.weight, s.weight);
+  uint32_t version;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  EXPECT_EQ(version, 3u);
+  // Version 2: distances then weights, one zstd frame.
+  std::string raw(reinterpret_cast<const char*>(s.distance_mm.data()), n * 4);
+  raw.append(reinterpret_cast<const char*>(s.weight.data()), n * 4);
+  std::string v2(bytes.substr(0, 28));
+  const uint32_t two = 2;
+  std::memcpy(v2.data() + 8, &two, 4);
+  v2.append(Zstd(raw));
+  const Slab second = DecodeSlab(v2, "v2.bin");
+  EXPECT_EQ(second.distance_mm, s.distance_mm);
+  EXPECT_EQ(second.weight, s.weight);
   // Version 1: the floats as they are.
   std::string v1(bytes.substr(0, 28));
   const uint32_t one = 1;
@@ -350,6 +377,47 @@ TEST(Integrate, SlabsTravelCompressedAndVersionOneStillReads) {
   const int32_t big = 1 << 30;
   std::memcpy(huge.data() + 16, &big, 4);
   ExpectInputError([&] { DecodeSlab(huge, "huge.bin"); }, {"huge.bin", "voxels"});
+}
+
+// Version 3's records: runs of three identical voxels or more as one pair, the rest as
+// they are, bit for bit (a negative zero, a NaN's payload); records that do not code the
+// slab's voxels are named.
+TEST(Integrate, SlabRunsAreTheRecordsTheFormatStates) {
+  Slab s;
+  s.k0 = 0;
+  s.k1 = 1;
+  s.nx = 12;
+  s.ny = 1;
+  uint32_t nan_bits = 0x7fc01234u;
+  float nan;
+  std::memcpy(&nan, &nan_bits, 4);
+  s.distance_mm = {0, 0, 0, 0, 0, 1.5f, -0.0f, 0, 0, 0, nan, 2};
+  s.weight = {0, 0, 0, 0, 0, 2, 3, 0, 0, 0, 1, 1};
+  const std::string bytes = EncodeSlab(s);
+  const std::string runs = Unzstd(bytes.substr(28));
+  // run 5 x (0, 0); literal 2: (1.5, 2) (-0, 3); run 3 x (0, 0); literal 2: (nan, 1) (2, 1)
+  std::string expected;
+  const auto tag = [&](uint32_t t) { expected.append(reinterpret_cast<const char*>(&t), 4); };
+  const auto pair = [&](size_t i) {
+    expected.append(reinterpret_cast<const char*>(&s.distance_mm[i]), 4);
+    expected.append(reinterpret_cast<const char*>(&s.weight[i]), 4);
+  };
+  tag(0x80000000u | 5), pair(0), tag(2), pair(5), pair(6), tag(0x80000000u | 3), pair(7), tag(2),
+      pair(10), pair(11);
+  EXPECT_EQ(runs, expected);
+  const Slab back = DecodeSlab(bytes, "slab.bin");
+  ASSERT_EQ(back.distance_mm.size(), 12u);
+  EXPECT_EQ(std::memcmp(back.distance_mm.data(), s.distance_mm.data(), 48), 0);
+  EXPECT_EQ(std::memcmp(back.weight.data(), s.weight.data(), 48), 0);
+  // Records that code too few or too many voxels, a count of 0, a pair cut short.
+  const auto with_runs = [&](const std::string& r) { return bytes.substr(0, 28) + Zstd(r); };
+  for (const std::string& bad : {expected.substr(0, 44),                             // 10 voxels
+                                 expected + expected.substr(0, 12),                  // 17
+                                 std::string("\0\0\0\x80", 4) + expected.substr(4),  // a run of 0
+                                 expected.substr(0, expected.size() - 3)}) {
+    ExpectInputError([&] { DecodeSlab(with_runs(bad), "bad.bin"); },
+                     {"bad.bin", "do not code the slab's 12 voxels"});
+  }
 }
 
 TEST(Integrate, BadInputGivesClearErrors) {
