@@ -603,7 +603,7 @@ StageDescriptor FusionStage() {
                         "expected the stereo output of camera '" +
                             rig.cameras[size_t(c)].model.id + "', got '" + r.camera + "'");
           // Each map made the range image PrepareFusion would cut from the whole map,
-          // from its rectangle (no whole map made: 20 MB each on Robovision).
+          // from its rectangle (no whole map made: 5 MB each on Robovision).
           for (size_t k = 0; k < r.range_images.size(); ++k) {
             std::optional<fusion::RangeImage> image =
                 CutRangeImage(rig.cameras[size_t(c)].model, r.range_images[k].depth_mm, cuts[k],

@@ -34,7 +34,7 @@ inline constexpr const char* kSlabOutput = "slab";
 // the whole maps back (zeros around the rectangle).
 std::string EncodeStereoOutput(const stereo::StereoResult& result);
 stereo::StereoResult DecodeStereoOutput(const std::string& bytes, const std::string& where);
-// The same without placing the maps in whole images of zeros (a Robovision map is 20 MB,
+// The same without placing the maps in whole images of zeros (a Robovision map is 5 MB,
 // its rectangle a fraction): the maps are the rectangles, and `cuts` (one per range
 // image) says where they lie (a map that travelled whole: at 0, 0, its own size). Checks
 // what DecodeStereoOutput checks.
