@@ -24,6 +24,15 @@ std::string Zstd(const std::string& raw) {
   out.resize(size);
   return out;
 }
+// A slab of planes [k0, k1) of nx x ny voxels, without voxels yet.
+Slab SlabOf(int k0, int k1, int nx, int ny) {
+  Slab s;
+  s.k0 = k0;
+  s.k1 = k1;
+  s.nx = nx;
+  s.ny = ny;
+  return s;
+}
 std::string Unzstd(const std::string& frame) {
   std::string out(size_t(ZSTD_getFrameContentSize(frame.data(), frame.size())), '\0');
   out.resize(ZSTD_decompress(out.data(), out.size(), frame.data(), frame.size()));
@@ -272,11 +281,7 @@ TEST(Integrate, ReusedTableMemoryChangesNothing) {
 }
 
 TEST(Integrate, SlabRoundTripsThroughBytes) {
-  Slab s;
-  s.k0 = 3;
-  s.k1 = 5;
-  s.nx = 2;
-  s.ny = 3;
+  Slab s = SlabOf(3, 5, 2, 3);
   for (int m = 0; m < 12; ++m) {
     s.distance_mm.push_back(m * 0.5f - 2);
     s.weight.push_back(float(m));
@@ -383,11 +388,7 @@ TEST(Integrate, SlabsTravelCompressedAndVersionOneStillReads) {
 // they are, bit for bit (a negative zero, a NaN's payload); records that do not code the
 // slab's voxels are named.
 TEST(Integrate, SlabRunsAreTheRecordsTheFormatStates) {
-  Slab s;
-  s.k0 = 0;
-  s.k1 = 1;
-  s.nx = 12;
-  s.ny = 1;
+  Slab s = SlabOf(0, 1, 12, 1);
   uint32_t nan_bits = 0x7fc01234u;
   float nan;
   std::memcpy(&nan, &nan_bits, 4);
