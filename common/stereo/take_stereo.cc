@@ -126,10 +126,13 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
     const cv::Rect rect(cut.at, b.size());
     if ((rect & cv::Rect(cv::Point(0, 0), cut.full)) != rect) return false;
     const size_t pixel = a.elemSize();
+    // OR-ed without an early exit, so that the compiler vectorizes it (a row of zeros
+    // is the common case, and a byte-by-byte loop that stops at the first non-zero runs
+    // at a byte a cycle).
     const auto zero = [](const uchar* p, size_t n) {
-      for (size_t i = 0; i < n; ++i)
-        if (p[i] != 0) return false;
-      return true;
+      uchar any = 0;
+      for (size_t i = 0; i < n; ++i) any |= p[i];
+      return any == 0;
     };
     for (int y = 0; y < a.rows; ++y) {
       const uchar* row = a.ptr(y);
