@@ -179,6 +179,20 @@ size_t CodeRuns(const float* d, const float* w, size_t n, std::vector<char>* out
   return size_t(at - out->data());
 }
 
+// The content of the zstd frame `payload`, whose declared size the caller has checked;
+// throws core::InputError naming `where` when it does not decompress to that size.
+std::string Decompress(const char* payload, size_t payload_size, uint64_t declared,
+                       const std::string& where) {
+  std::string out(size_t(declared), '\0');
+  const size_t got = ZSTD_decompress(out.data(), out.size(), payload, payload_size);
+  core::Require(!ZSTD_isError(got) && got == out.size(), where,
+                "compressed payload of " + std::to_string(payload_size) +
+                    " bytes does not decompress: " +
+                    (ZSTD_isError(got) ? std::string(ZSTD_getErrorName(got))
+                                       : std::to_string(got) + " bytes out"));
+  return out;
+}
+
 // The n voxels that version 3's records `runs` code, into d and w; false when the
 // records are malformed (a count of 0, past the slab's end, short of it, or cut short).
 bool DecodeRuns(const char* runs, size_t size, size_t n, float* d, float* w) {
@@ -271,13 +285,7 @@ Slab DecodeSlab(const std::string& bytes, const std::string& where) {
                   "compressed payload of " + std::to_string(payload_size) +
                       " bytes does not declare the runs of a slab of " + std::to_string(n) +
                       " voxels");
-    std::string runs(size_t(declared), '\0');
-    const size_t got = ZSTD_decompress(runs.data(), runs.size(), payload, payload_size);
-    core::Require(!ZSTD_isError(got) && got == runs.size(), where,
-                  "compressed payload of " + std::to_string(payload_size) +
-                      " bytes does not decompress: " +
-                      (ZSTD_isError(got) ? std::string(ZSTD_getErrorName(got))
-                                         : std::to_string(got) + " bytes out"));
+    const std::string runs = Decompress(payload, payload_size, declared, where);
     slab.distance_mm.resize(n);
     slab.weight.resize(n);
     core::Require(
@@ -297,13 +305,7 @@ Slab DecodeSlab(const std::string& bytes, const std::string& where) {
                   "compressed payload of " + std::to_string(payload_size) +
                       " bytes does not declare the " + std::to_string(raw_size) +
                       " bytes of a slab of " + std::to_string(n) + " voxels");
-    decompressed.resize(raw_size);
-    const size_t got = ZSTD_decompress(decompressed.data(), raw_size, payload, payload_size);
-    core::Require(!ZSTD_isError(got) && got == raw_size, where,
-                  "compressed payload of " + std::to_string(payload_size) +
-                      " bytes does not decompress: " +
-                      (ZSTD_isError(got) ? std::string(ZSTD_getErrorName(got))
-                                         : std::to_string(got) + " bytes out"));
+    decompressed = Decompress(payload, payload_size, raw_size, where);
     payload = decompressed.data();
   }
   slab.distance_mm.resize(n);

@@ -157,7 +157,7 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
     const size_t k = i / (write_previews ? 3 : 2);
     const RangeImage& r = result.range_images[k];
     const auto cut = [&](const cv::Mat& m) {
-      return cuts.empty() ? MapCut{{0, 0}, m.size()} : MapCut{cuts[k].at, cuts[k].full};
+      return cuts.empty() ? MapCut{{0, 0}, m.size()} : cuts[k];
     };
     const std::string what = where + " " + f.path;
     switch (i % (write_previews ? 3 : 2)) {
