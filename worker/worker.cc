@@ -158,6 +158,8 @@ struct Worker::Impl {
     }
     runtime::Job j = std::move(queue.front());
     queue.pop_front();
+    counted->SetIdle(false);  // before counting the others' idle threads
+    j.set_threads(pipeline::JobThreads(j.stage(), j.threads()));
     running_id = j.id();
     running_cap = j.max_result_bytes() > 0
                       ? std::min(j.max_result_bytes(), options.socket.max_message_bytes)
@@ -340,6 +342,7 @@ struct Worker::Impl {
         Send(env);
       }
       MaybeStart();
+      counted->SetIdle(!running.valid() && queue.empty());
       const auto now = Clock::now();
       if (now >= next_heartbeat) {
         runtime::Envelope hb;

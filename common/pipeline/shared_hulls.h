@@ -31,9 +31,29 @@ class WorkerThreads {
   WorkerThreads(const WorkerThreads&) = delete;
   WorkerThreads& operator=(const WorkerThreads&) = delete;
 
+  // Whether this worker has no job running or queued (the master has nothing for it
+  // yet, since it sends jobs ahead): its threads then count in IdleWorkerThreads. A new
+  // object is not idle.
+  void SetIdle(bool idle);
+
  private:
   int threads_;
+  bool idle_ = false;
 };
+
+// The threads of this process's workers that are idle (above).
+int IdleWorkerThreads();
+
+// The threads a job of `stage` starting now on a worker of `own` threads runs on: for
+// the stages of one job per instant that end an instant (decimate, texture), `own` plus
+// the idle workers' threads, at most the machine's (or `own` when more): at the end of a
+// take the last instants' decimations run one to a worker, and a worker of one thread
+// in `dome run --workers 2` left the other core idle for most of Panoptic's last 14 s.
+// Every job's result is the same on any number of threads, and a lender that gets a job
+// meanwhile runs it beside (the cores are shared for the rest of the borrower's job).
+// The other stages keep `own`: the master keeps every worker busy with their many parts,
+// and their shared hulls and fusion tables are keyed by the job's threads.
+int JobThreads(const std::string& stage, int own);
 
 // The hull kept under `key`, or the one `build` makes (kept). `key` must name all
 // `build` makes the hull from (the masks' addresses, the rule, the options).

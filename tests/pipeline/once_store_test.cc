@@ -1,15 +1,19 @@
 // The process-wide store of values built once (pipeline/once_store.h): concurrent
 // callers of one key share one build and one value; a failed build's error reaches
-// those that waited and is not kept; the oldest keys go beyond the capacity.
+// those that waited and is not kept; the oldest keys go beyond the capacity. The process's
+// worker threads (shared_hulls.h), and the idle ones lent to the stages that end an instant.
 #include "pipeline/once_store.h"
-#include "pipeline/shared_hulls.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <stdexcept>
 #include <thread>
 #include <vector>
+
+#include "core/parallel_for.h"
+#include "pipeline/shared_hulls.h"
 
 namespace dome::pipeline {
 namespace {
@@ -103,6 +107,33 @@ TEST(WorkerThreads, CountTheWorkersThreadsWhileTheyLive) {
     EXPECT_EQ(ProcessWorkerThreads(), before + 1);
   }
   EXPECT_EQ(ProcessWorkerThreads(), before);
+}
+
+TEST(WorkerThreads, IdleWorkersLendTheirThreadsToTheStagesThatEndAnInstant) {
+  ASSERT_EQ(IdleWorkerThreads(), 0);
+  const int hardware = core::HardwareThreads();
+  WorkerThreads running(1), waiting(1);
+  EXPECT_EQ(JobThreads("decimate", 1), 1);  // nobody idle
+  waiting.SetIdle(true);
+  waiting.SetIdle(true);  // counted once
+  EXPECT_EQ(IdleWorkerThreads(), 1);
+  EXPECT_EQ(JobThreads("decimate", 1), std::min(2, std::max(1, hardware)));
+  EXPECT_EQ(JobThreads("texture", 1), std::min(2, std::max(1, hardware)));
+  // The many-part stages keep their own: their hulls and tables are keyed by it.
+  EXPECT_EQ(JobThreads("stereo", 1), 1);
+  EXPECT_EQ(JobThreads("fusion", 1), 1);
+  EXPECT_EQ(JobThreads("masks", 1), 1);
+  // Never beyond the machine's threads, never below the worker's own.
+  EXPECT_EQ(JobThreads("decimate", hardware), hardware);
+  EXPECT_EQ(JobThreads("decimate", hardware + 3), hardware + 3);
+  waiting.SetIdle(false);
+  EXPECT_EQ(JobThreads("decimate", 1), 1);
+  {
+    WorkerThreads gone(2);
+    gone.SetIdle(true);
+    EXPECT_EQ(IdleWorkerThreads(), 2);
+  }
+  EXPECT_EQ(IdleWorkerThreads(), 0);  // a worker that ends idle lends nothing
 }
 
 }  // namespace
