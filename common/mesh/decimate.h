@@ -134,10 +134,11 @@ struct DecimationSummary {
 // kEdgeCollapse on at least 2 x faces_per_region faces (after the component filters and
 // the prepass, if any):
 // the faces are cut into regions (slices of equal face counts along the longest axis of
-// their bounding box), each decimated on its own thread with the vertices it shares with
-// another region locked, to the target's share of its faces away from those seams; the
-// regions are then joined at the seam vertices. From 8 regions on, a second round of
-// regions cut across the middle of the first round's (fewer of them) collapses what the
+// their bounding box; boxes, each face set halved along its longest side in turn, when
+// the slices' seams would hold more than a quarter of the faces), each decimated on its own thread
+// with the vertices it shares with another region locked, to the target's share of its faces away
+// from those seams; the regions are then joined at the seam vertices. From 8 regions on, a second
+// round of regions cut across the middle of the first round's (fewer of them) collapses what the
 // first round's seams kept. Last, one pass over the whole mesh, seams free, brings it to
 // the target. Quadrics stay those of the input surface throughout.
 io::Mesh Decimate(const io::Mesh& mesh, const DecimationOptions& options,
