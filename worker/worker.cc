@@ -159,7 +159,10 @@ struct Worker::Impl {
     runtime::Job j = std::move(queue.front());
     queue.pop_front();
     counted->SetIdle(false);  // before counting the others' idle threads
-    j.set_threads(pipeline::JobThreads(j.stage(), j.threads()));
+    if (const int s = options.stages->Find(j.stage());
+        s >= 0 && options.stages->stages[size_t(s)].borrows_idle_threads) {
+      j.set_threads(pipeline::LentThreads(j.threads()));
+    }
     running_id = j.id();
     running_cap = j.max_result_bytes() > 0
                       ? std::min(j.max_result_bytes(), options.socket.max_message_bytes)

@@ -737,6 +737,7 @@ StageDescriptor SurfaceStage() {
 
 StageDescriptor DecimateStage() {
   StageDescriptor d = Descriptor("decimate", {"surface"}, OnePart);
+  d.borrows_idle_threads = true;
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     const mesh::DecimationOptions o = DecimationFor(ctx.plan.options);
     runtime::DecimateJob dj;
@@ -793,6 +794,7 @@ StageDescriptor DecimateStage() {
 
 StageDescriptor TextureStage() {
   StageDescriptor d = Descriptor("texture", {"decimate"}, OnePart);
+  d.borrows_idle_threads = true;
   d.make_job = [](const JobContext& ctx, runtime::Job* job) {
     // The rig, the decimated mesh, every camera's frame.
     std::vector<runtime::BlobRef> blobs = {ctx.plan.rig, ctx.outputs("decimate", 0).at(0)};

@@ -40,8 +40,7 @@ void WorkerThreads::SetIdle(bool idle) {
 
 int IdleWorkerThreads() { return Idle().load(); }
 
-int JobThreads(const std::string& stage, int own) {
-  if (stage != "decimate" && stage != "texture") return own;
+int LentThreads(int own) {
   return std::max(own, std::min(own + IdleWorkerThreads(), core::HardwareThreads()));
 }
 

@@ -44,16 +44,14 @@ class WorkerThreads {
 // The threads of this process's workers that are idle (above).
 int IdleWorkerThreads();
 
-// The threads a job of `stage` starting now on a worker of `own` threads runs on: for
-// the stages of one job per instant that end an instant (decimate, texture), `own` plus
-// the idle workers' threads, at most the machine's (or `own` when more): at the end of a
-// take the last instants' decimations run one to a worker, and a worker of one thread
-// in `dome run --workers 2` left the other core idle for most of Panoptic's last 14 s.
-// Every job's result is the same on any number of threads, and a lender that gets a job
-// meanwhile runs it beside (the cores are shared for the rest of the borrower's job).
-// The other stages keep `own`: the master keeps every worker busy with their many parts,
-// and their shared hulls and fusion tables are keyed by the job's threads.
-int JobThreads(const std::string& stage, int own);
+// The threads a job that borrows (StageDescriptor::borrows_idle_threads) runs on when it
+// starts now on a worker of `own` threads: `own` plus the idle workers' threads, at most
+// the machine's (or `own` when more). At the end of a take the last instants'
+// decimations run one to a worker, and a worker of one thread in `dome run --workers 2`
+// left the other core idle for most of Panoptic's last 14 s. Every job's result is the
+// same on any number of threads, and a lender that gets a job meanwhile runs it beside
+// (the cores are shared for the rest of the borrower's job).
+int LentThreads(int own);
 
 // The hull kept under `key`, or the one `build` makes (kept). `key` must name all
 // `build` makes the hull from (the masks' addresses, the rule, the options).

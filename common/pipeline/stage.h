@@ -125,6 +125,11 @@ struct StageDescriptor {
   // Many jobs an instant: one may wait on a busy worker behind its running job
   // (master/master.h MasterOptions::jobs_ahead).
   bool send_ahead = false;
+  // One job that ends an instant: it runs on the threads the process's idle workers
+  // lend as well as its worker's own (shared_hulls.h LentThreads). Stages of many parts
+  // keep their own: the master keeps every worker busy with them, and their shared hulls
+  // and tables are keyed by the job's threads.
+  bool borrows_idle_threads = false;
 
   // A master stage instead (one `after` stage, whose outputs it is fed).
   std::function<std::unique_ptr<MasterStageRun>(const MasterStageContext& ctx)> start_on_master;

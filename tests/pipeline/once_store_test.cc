@@ -14,6 +14,7 @@
 
 #include "core/parallel_for.h"
 #include "pipeline/shared_hulls.h"
+#include "pipeline/stage.h"
 
 namespace dome::pipeline {
 namespace {
@@ -113,27 +114,30 @@ TEST(WorkerThreads, IdleWorkersLendTheirThreadsToTheStagesThatEndAnInstant) {
   ASSERT_EQ(IdleWorkerThreads(), 0);
   const int hardware = core::HardwareThreads();
   WorkerThreads running(1), waiting(1);
-  EXPECT_EQ(JobThreads("decimate", 1), 1);  // nobody idle
+  EXPECT_EQ(LentThreads(1), 1);  // nobody idle
   waiting.SetIdle(true);
   waiting.SetIdle(true);  // counted once
   EXPECT_EQ(IdleWorkerThreads(), 1);
-  EXPECT_EQ(JobThreads("decimate", 1), std::min(2, std::max(1, hardware)));
-  EXPECT_EQ(JobThreads("texture", 1), std::min(2, std::max(1, hardware)));
-  // The many-part stages keep their own: their hulls and tables are keyed by it.
-  EXPECT_EQ(JobThreads("stereo", 1), 1);
-  EXPECT_EQ(JobThreads("fusion", 1), 1);
-  EXPECT_EQ(JobThreads("masks", 1), 1);
+  EXPECT_EQ(LentThreads(1), std::min(2, std::max(1, hardware)));
   // Never beyond the machine's threads, never below the worker's own.
-  EXPECT_EQ(JobThreads("decimate", hardware), hardware);
-  EXPECT_EQ(JobThreads("decimate", hardware + 3), hardware + 3);
+  EXPECT_EQ(LentThreads(hardware), hardware);
+  EXPECT_EQ(LentThreads(hardware + 3), hardware + 3);
   waiting.SetIdle(false);
-  EXPECT_EQ(JobThreads("decimate", 1), 1);
+  EXPECT_EQ(LentThreads(1), 1);
   {
     WorkerThreads gone(2);
     gone.SetIdle(true);
     EXPECT_EQ(IdleWorkerThreads(), 2);
   }
   EXPECT_EQ(IdleWorkerThreads(), 0);  // a worker that ends idle lends nothing
+  // The stages that end an instant borrow; the many-part ones keep their own (their
+  // hulls and tables are keyed by it).
+  const auto stages = DefaultStages();
+  for (const auto& d : stages->stages) {
+    EXPECT_EQ(d.borrows_idle_threads, d.name == "decimate" || d.name == "texture") << d.name;
+  }
+  EXPECT_GE(stages->Find("stereo"), 0);
+  EXPECT_GE(stages->Find("fusion"), 0);
 }
 
 }  // namespace
