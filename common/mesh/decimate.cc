@@ -1561,6 +1561,9 @@ constexpr int kRegionsPerGroup = 4;
 struct RegionCut {
   int kd_levels = 0;
   std::vector<double> slices;
+  // Slices give way to as many boxes when their seams hold more than 1 / kMaxSeamShare
+  // of the faces (the first round; below).
+  bool boxes_past_seam_share = false;
 };
 
 // The first round's slices give way to boxes when more than 1 / kMaxSeamShare of the
@@ -1676,7 +1679,7 @@ Collapsed CollapseInRegions(CollapseInput in, const RegionCut& cut, int64_t targ
   if (in.quadrics.empty()) in.quadrics = PlaneQuadrics(in.pos, in.faces);
   std::vector<size_t> bounds;
   std::vector<std::pair<double, int>> order = CutInRegions(in, cut, &bounds);
-  const int regions = int(bounds.size()) - 1;
+  int regions = int(bounds.size()) - 1;
   std::vector<int> region_of(nf);
   std::vector<uint8_t> seam(nv, 0);
   // The seam vertices (used by faces of two regions); returns the faces on them.
@@ -1699,11 +1702,11 @@ Collapsed CollapseInRegions(CollapseInput in, const RegionCut& cut, int64_t targ
       on_seam += (seam[size_t(t[0])] | seam[size_t(t[1])] | seam[size_t(t[2])]) != 0;
     return on_seam;
   };
-  if (mark_seams() > nf / kMaxSeamShare && first_seam == nullptr && cut.kd_levels == 0 &&
-      (regions & (regions - 1)) == 0) {
+  if (mark_seams() > nf / kMaxSeamShare && cut.boxes_past_seam_share) {
     RegionCut boxes;
     while ((1 << boxes.kd_levels) < regions) ++boxes.kd_levels;
     order = CutInRegions(in, boxes, &bounds);
+    regions = int(bounds.size()) - 1;
     mark_seams();
   }
   // The border planes of the input's border edges between two seam vertices (each
@@ -1863,6 +1866,7 @@ Collapsed Collapse(CollapseInput in, int64_t target, const DecimationOptions& op
   if (regions > 1) {
     RegionCut slices;
     for (int r = 1; r < regions; ++r) slices.slices.push_back(double(r) / regions);
+    slices.boxes_past_seam_share = true;
     return CollapseInRegions(std::move(in), slices, target, options);
   }
   return CollapseInOnePass(std::move(in), target, options);

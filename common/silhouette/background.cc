@@ -134,23 +134,23 @@ std::vector<double> NoiseSigma(const cv::Mat& image, const cv::Mat& background,
           uint16_t(std::clamp<long>(std::lround(iv - gain * bv), -255, 255) + 255);
     }
   }
-  const uint16_t skipped = skip_zero ? 255 : 511;  // the bin of a zero difference, or none
+  const int zero_bin = 255;
   for (int c = 0; c < channels; ++c) {
     // Differences -255..255 in a histogram, then their absolute deviations.
-    std::vector<int64_t> diff(512, 0);  // the last bin: the skipped zeros, not counted
+    std::vector<int64_t> diff(511, 0);
+    int64_t count = 0;
     for (int y = 0; y < image.rows; ++y) {
       const uint8_t* i = image.ptr<uint8_t>(y);
       const uint8_t* b = background.ptr<uint8_t>(y);
       const uint8_t* v = valid.empty() ? nullptr : valid.ptr<uint8_t>(y);
       for (int x = 0; x < image.cols; ++x) {
         if (v != nullptr && v[x] == 0) continue;
-        const uint16_t k = bin[size_t(b[x * channels + c]) * 256 + i[x * channels + c]];
-        ++diff[k == skipped ? 511 : k];
+        const int k = bin[size_t(b[x * channels + c]) * 256 + i[x * channels + c]];
+        if (skip_zero && k == zero_bin) continue;
+        ++diff[size_t(k)];
+        ++count;
       }
     }
-    diff.pop_back();
-    int64_t count = 0;
-    for (const int64_t n : diff) count += n;
     if (count == 0) continue;
     const int median = HistogramMedian(diff, count) - 255;
     std::vector<int64_t> deviation(511, 0);
