@@ -15,7 +15,8 @@ void HullFusionOptions::Check() const {
 }
 
 void ApplyHull(const VolumeGrid& grid, const silhouette::VisualHull& hull,
-               const FusionOptions& options, const HullFusionOptions& hull_options, Slab* slab) {
+               const silhouette::PhotoHull* photo, const FusionOptions& options,
+               const HullFusionOptions& hull_options, Slab* slab) {
   hull_options.Check();
   const int votes = hull.options().carve_votes;
   const float clamp = float(options.front_clamp_mm);
@@ -33,13 +34,30 @@ void ApplyHull(const VolumeGrid& grid, const silhouette::VisualHull& hull,
           if (w[v] > 0 && d[v] >= clamp) continue;
           // Once carve_votes cameras say background and one puts the voxel a clamp or
           // more outside, the rest cannot change what it becomes: free space at the clamp.
-          const silhouette::HullSample s =
-              hull.Sample(grid.VoxelCentreMm(i, j, double(k)), 0.0, -1, clamp);
+          const Eigen::Vector3d centre = grid.VoxelCentreMm(i, j, double(k));
+          const silhouette::HullSample s = hull.Sample(centre, 0.0, -1, clamp);
+          bool free = false;
+          float outside = 0;  // free space this far outside (the clamp at most)
+          float inside = truncation;
           if (s.seen >= 1 && s.background >= std::min(votes, s.seen)) {
-            d[v] = std::max(w[v] > 0 ? d[v] : 0.0f, std::min(clamp, float(s.outside_mm)));
+            free = true;
+            outside = std::min(clamp, float(s.outside_mm));
+          } else if (s.inside) {
+            inside = std::min(truncation, float(s.inside_mm));
+            if (photo) {
+              const float carved = float(photo->CarvedDistanceMm(centre));
+              free = carved > 0;
+              if (free)
+                outside = std::min(clamp, carved);
+              else
+                inside = std::min(inside, -carved);
+            }
+          }
+          if (free) {
+            d[v] = std::max(w[v] > 0 ? d[v] : 0.0f, outside);
             if (w[v] <= 0) w[v] = hull_weight;
           } else if (hull_options.fill_unseen && s.inside && w[v] <= 0) {
-            d[v] = -std::min(truncation, float(s.inside_mm));
+            d[v] = -inside;
             w[v] = hull_weight;
           }
         }

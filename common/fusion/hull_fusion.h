@@ -14,14 +14,20 @@
 //    texture) gets the hull's signed distance, minus its distance inside the hull capped
 //    at truncation_mm, with hull_weight, below one range image's weight of 1 (uniform
 //    weights), so that where any range image saw the voxel, stereo decides.
-// Voxels stereo updated inside the hull keep stereo's values. Distances are mm along the
-// surface normal (the cones' lateral distance), d > 0 in front of the surface, as the
+//  * with a photo hull (silhouette/photo_hull.h, the hull carved where the cameras see
+//    inconsistent colours), a voxel in the hull on the carved side of its border is free
+//    space as outside the hull (its distance the photo hull's, at most front_clamp_mm),
+//    and the hull's surface standing in is the photo hull's: a distance inside the hull
+//    is at most the distance to the carved border.
+// Voxels stereo updated inside the hull (and not carved) keep stereo's values. Distances are mm
+// along the surface normal (the cones' lateral distance), d > 0 in front of the surface, as the
 // range images' are along their rays.
 #pragma once
 
 #include "fusion/integrate.h"
 #include "fusion/volume.h"
 #include "silhouette/hull.h"
+#include "silhouette/photo_hull.h"
 
 namespace dome::fusion {
 
@@ -41,8 +47,9 @@ struct HullFusionOptions {
 };
 
 // Applies the rules above to `slab` (planes k0..k1 of `grid`), with fusion's truncation
-// and clamp from `options`.
+// and clamp from `options`; `photo` may be null (no carving).
 void ApplyHull(const VolumeGrid& grid, const silhouette::VisualHull& hull,
-               const FusionOptions& options, const HullFusionOptions& hull_options, Slab* slab);
+               const silhouette::PhotoHull* photo, const FusionOptions& options,
+               const HullFusionOptions& hull_options, Slab* slab);
 
 }  // namespace dome::fusion

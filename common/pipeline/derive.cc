@@ -297,6 +297,11 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     if (!si->has_hull_surface()) si->set_hull_surface(on && sparse);
     if (!si->has_carve_votes()) si->set_carve_votes(sparse ? 1 : 2);
     if (!si->has_min_views()) si->set_min_views(sparse ? std::max(2, cameras - 1) : 2);
+    // Where the hull's surface stands in, it is carved by photo-consistency first
+    // (silhouette/photo_hull.h): a few far-apart cameras' hull of several people holds
+    // ghost volume where each camera sees a different person, which stereo between such
+    // views does not carve. A dense rig's stereo sees the surface; no carving there.
+    if (!si->has_photo_carve()) si->set_photo_carve(si->hull_surface());
     std::string sources;
     if (on) {
       std::map<std::string, int> count;
@@ -305,11 +310,11 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
       for (const auto& [name, n] : count) sources += fmt::format(" {} {}", n, name);
     }
     d.notes.push_back(fmt::format(
-        "silhouettes: volume {}, stereo {}, fusion {}, hull surface {}, carve votes {}, "
-        "min views {} ({}; "
+        "silhouettes: volume {}, stereo {}, fusion {}, hull surface {}, photo carving {}, "
+        "carve votes {}, min views {} ({}; "
         "the cameras' median nearest axis angle {:.1f} deg, sparse above {:g})",
-        si->volume(), si->stereo(), si->fusion(), si->hull_surface(), si->carve_votes(),
-        si->min_views(), on ? "masks:" + sources : "no masks: " + why, axis_deg,
+        si->volume(), si->stereo(), si->fusion(), si->hull_surface(), si->photo_carve(),
+        si->carve_votes(), si->min_views(), on ? "masks:" + sources : "no masks: " + why, axis_deg,
         kSparseAxisAngleDeg));
   }
 

@@ -1,11 +1,12 @@
 #include "pipeline/jobs.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cstring>
 #include <functional>
 #include <opencv2/imgproc.hpp>
 #include <optional>
-#include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -24,6 +25,7 @@
 #include "pipeline/surface_stream.h"
 #include "schema/rig_json.h"
 #include "silhouette/hull.h"
+#include "silhouette/photo_hull.h"
 #include "silhouette/take_masks.h"
 #include "stereo/cluster.h"
 #include "stereo/temporal_bounds.h"
@@ -160,7 +162,9 @@ std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const
                 "carve_votes: expected at least 1 camera, got " + std::to_string(carve_votes));
   core::Require(min_views >= 2, JobWhere(job),
                 "min_views: expected at least 2 cameras, got " + std::to_string(min_views));
-  core::Require(blobs.size() == first + rig.cameras.size(), JobWhere(job),
+  // The masks may be followed by other blobs (a fusion job's frames for its photo hull),
+  // which the caller counts.
+  core::Require(blobs.size() >= first + rig.cameras.size(), JobWhere(job),
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
                     ") after blob " + std::to_string(first) + ", got " +
                     std::to_string(blobs.size() - std::min(blobs.size(), first)));
@@ -567,6 +571,10 @@ StageDescriptor FusionStage() {
       fj.set_min_views(o.silhouettes.min_views);
       fj.set_hull_surface(o.silhouettes.hull_surface);
       AddMaskBlobs(ctx, &blobs);
+      if (o.silhouettes.photo_carve) {
+        fj.set_photo_carve(true);
+        for (const auto& frame : ctx.plan.frames[ctx.instant]) blobs.push_back(frame);
+      }
     }
     SetJob(fj, std::move(blobs), job);
   };
@@ -586,12 +594,14 @@ StageDescriptor FusionStage() {
       options.num_threads = build_threads;  // the tables; each slab runs on job.threads()
       const size_t n = rig.cameras.size();
       const size_t num_masks = fj.hull() ? n : 0;
+      const size_t num_photo = fj.hull() && fj.photo_carve() ? n : 0;
       const size_t num_temporal = fj.has_temporal() ? 1 + 2 * n : 0;
-      core::Require(blobs.size() == n + 1 + num_masks + num_temporal, where,
+      core::Require(blobs.size() == n + 1 + num_masks + num_photo + num_temporal, where,
                     "expected one stereo output per rig camera (" + std::to_string(n) + ")" +
                         (num_masks ? ", one mask each" : "") +
-                        (num_temporal ? ", the previous slab and two frames each" : "") +
-                        ", got " + std::to_string(blobs.size() - 1) + " blobs after the rig");
+                        (num_photo ? ", one frame each for the photo hull" : "") +
+                        (num_temporal ? ", the previous slab and two frames each" : "") + ", got " +
+                        std::to_string(blobs.size() - 1) + " blobs after the rig");
       // Cameras in rig order, windows in the options' order.
       std::vector<std::vector<fusion::RangeImage>> per_camera(n);
       core::ParallelFor(0, int64_t(n), build_threads, [&](int64_t c0, int64_t c1) {
@@ -623,12 +633,37 @@ StageDescriptor FusionStage() {
         const size_t first_mask = n + 1 + num_temporal;
         std::string key = "fusion hull\n" + std::to_string(job.threads()) + '\n' +
                           std::to_string(fj.carve_votes()) + ' ' + std::to_string(fj.min_views());
-        for (size_t b = first_mask; b < blobs.size(); ++b) key += '\n' + job.blobs(int(b)).sha256();
+        for (size_t b = first_mask; b < first_mask + n; ++b)
+          key += '\n' + job.blobs(int(b)).sha256();
         hull = SharedHull(key, [&] {
           return HullBlobs(job, blobs, first_mask, rig, fj.carve_votes(), fj.min_views(), true);
         });
       }
+      std::shared_ptr<const silhouette::PhotoHull> photo_hull;
+      if (num_photo) {
+        const size_t first_frame = n + 1 + num_temporal + num_masks;
+        const std::vector<cv::Mat> frames =
+            FrameBlobs(job, blobs, first_frame, first_frame + n, io::ImageMode::kBgr8, memo);
+        std::vector<geometry::TsaiCamera> cameras;
+        for (const auto& rc : rig.cameras) cameras.push_back(rc.model);
+        silhouette::PhotoHullOptions po;
+        // Cells of two voxels: what decides a cell is a 5x5-pixel mean and a z-buffer of
+        // 4x4-pixel cells, on Panoptic about a voxel across at the people (8.5 mm voxels
+        // from the voxel budget, 2.2 mm pixels), and the carving's cost grows as the
+        // cube of the cells' count a side.
+        po.cell_mm = 2.0 * grid.voxel_size_mm;
+        po.num_threads = build_threads;
+        const Eigen::Vector3d lo = grid.origin_mm;
+        const Eigen::Vector3d hi =
+            lo + Eigen::Vector3d(grid.nx, grid.ny, grid.nz) * grid.voxel_size_mm;
+        auto carved = std::make_shared<silhouette::PhotoHull>(*hull, cameras, frames, lo, hi, po);
+        const silhouette::PhotoHullStats& st = carved->stats();
+        spdlog::debug("{}: photo hull: {} of {} hull cells carved in {} sweep(s)", where,
+                      st.carved_cells, st.hull_cells, st.sweeps);
+        photo_hull = std::move(carved);
+      }
       auto prepared = PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);
+      prepared->photo_hull = std::move(photo_hull);
       if (fj.has_temporal()) {
         // What changed since the previous instant, per camera on its own pixel grid:
         // the temporal bounds' rule (stereo/temporal_bounds.h ChangedTiles) on plain
@@ -673,13 +708,14 @@ StageDescriptor FusionStage() {
     // are the rig, n outputs, the slab, 2 n frames and, with the hull, n masks.
     int previous_slab = -1;
     if (fj.has_temporal()) {
-      const int per_camera = 3 + (fj.hull() ? 1 : 0);
+      const int per_camera = 3 + (fj.hull() ? 1 : 0) + (fj.hull() && fj.photo_carve() ? 1 : 0);
       const int cameras = (job.blobs_size() - 2) / per_camera;
       core::Require(cameras >= 1 && job.blobs_size() == 2 + per_camera * cameras, where,
                     "expected the rig, then per camera a stereo output, the previous slab, "
                     "two frames per camera" +
-                        std::string(fj.hull() ? " and a mask per camera" : "") + ", got " +
-                        std::to_string(job.blobs_size()) + " blobs");
+                        std::string(fj.hull() ? " and a mask per camera" : "") +
+                        std::string(fj.hull() && fj.photo_carve() ? " and a frame" : "") +
+                        ", got " + std::to_string(job.blobs_size()) + " blobs");
       previous_slab = 1 + cameras;
     }
     for (int b = 0; b < job.blobs_size(); ++b)

@@ -125,6 +125,10 @@ const std::vector<SettingField<SilhouetteUse>>& SilhouetteSettingFields() {
       {"min_views", "--min-views",
        "cameras that must see a point as foreground for it to be in the hull (>= 2)",
        +[](O& o) -> int& { return o.min_views; }},
+      {"photo_carve", "!--no-photo-carve",
+       "do not carve the hull where the cameras see its surface in inconsistent colours "
+       "(derived on with the hull surface)",
+       +[](O& o) -> bool& { return o.photo_carve; }},
   };
   return fields;
 }

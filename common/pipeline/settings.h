@@ -55,6 +55,9 @@ struct SilhouetteUse {
   bool hull_surface = false;
   int carve_votes = 2;
   int min_views = 2;  // silhouette/hull.h min_views; derived from the rig
+  // The hull carved by photo-consistency (silhouette/photo_hull.h) where it is used in
+  // fusion; derived: with hull_surface.
+  bool photo_carve = false;
   bool Any() const { return volume || stereo || fusion; }
   // Throws core::InputError naming the field when out of range.
   void Check() const;

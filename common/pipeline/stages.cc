@@ -281,8 +281,8 @@ const fusion::Slab& FuseSlab(const PreparedFusion& prepared, fusion::Slab* slab,
   if (prepared.hull) {
     fusion::HullFusionOptions hull_options = prepared.hull_options;
     hull_options.num_threads = num_threads;
-    fusion::ApplyHull(prepared.integrator->grid(), *prepared.hull, prepared.options,
-                      hull_options, slab);
+    fusion::ApplyHull(prepared.integrator->grid(), *prepared.hull, prepared.photo_hull.get(),
+                      prepared.options, hull_options, slab);
   }
   return *slab;
 }

@@ -75,6 +75,8 @@ struct PreparedFusion {
   std::unique_ptr<fusion::Integrator> integrator;
   // The visual hull that corrects every slab (fusion/hull_fusion.h); null: none.
   std::shared_ptr<const silhouette::VisualHull> hull;
+  // The hull carved by photo-consistency (silhouette/photo_hull.h); null: not carved.
+  std::shared_ptr<const silhouette::PhotoHull> photo_hull;
   fusion::HullFusionOptions hull_options;  // how (its num_threads: options')
   fusion::FusionOptions options;
   // Time-aware fusion (fusion/temporal_carry.h): each camera's changed tiles since the

@@ -111,19 +111,22 @@ TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
 // The small dome's six cameras are a sparse rig (median nearest axis angle 70 degrees):
 // with masks from its plates, the hull's surface stands in where stereo saw nothing,
 // one background vote carves and a point needs five foreground views (all cameras but
-// one); given values win, and counts out of range are named.
+// one), and the hull is carved by photo-consistency; given values win (photo carving
+// follows a given hull surface), and counts out of range are named.
 TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   runtime::Session s = Fresh();
   const Derivation d = DeriveSession({}, &s);
   EXPECT_TRUE(s.silhouettes().fusion());
   EXPECT_TRUE(s.silhouettes().hull_surface());
+  EXPECT_TRUE(s.silhouettes().photo_carve());
   EXPECT_EQ(s.silhouettes().carve_votes(), 1);
   EXPECT_EQ(s.silhouettes().min_views(), 5);
   bool note = false;
   for (const auto& n : d.notes)
     note |=
         n.find(
-            "hull surface true, carve votes 1, min views 5 (masks: 6 plate; the "
+            "hull surface true, photo carving true, carve votes 1, min views 5 (masks: 6 plate; "
+            "the "
             "cameras' median nearest axis angle 70.4 deg, sparse above 30)") != std::string::npos;
   EXPECT_TRUE(note);
   runtime::Session t = Fresh();
@@ -132,6 +135,7 @@ TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   t.mutable_silhouettes()->set_min_views(2);
   DeriveSession({}, &t);
   EXPECT_FALSE(t.silhouettes().hull_surface());
+  EXPECT_FALSE(t.silhouettes().photo_carve());
   EXPECT_EQ(t.silhouettes().carve_votes(), 3);
   EXPECT_EQ(t.silhouettes().min_views(), 2);
   EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.carve_votes, 3);

@@ -468,10 +468,10 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
     slab.distance_mm.assign(size_t(grid.nx) * grid.ny * grid.nz, 0.0f);
     slab.weight.assign(slab.distance_mm.size(), stereo_weight);
     fusion::Slab unfilled = slab;
-    fusion::ApplyHull(grid, hull, options, fusion::HullFusionOptions{}, &unfilled);
+    fusion::ApplyHull(grid, hull, nullptr, options, fusion::HullFusionOptions{}, &unfilled);
     fusion::HullFusionOptions ho;
     ho.fill_unseen = true;
-    fusion::ApplyHull(grid, hull, options, ho, &slab);
+    fusion::ApplyHull(grid, hull, nullptr, options, ho, &slab);
     int free = 0, stand_in = 0, kept = 0;
     for (int k = 0; k < grid.nz; ++k) {
       for (int j = 0; j < grid.ny; ++j) {

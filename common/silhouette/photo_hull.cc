@@ -1,0 +1,216 @@
+#include "silhouette/photo_hull.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include "core/error.h"
+#include "core/parallel_for.h"
+
+namespace dome::silhouette {
+
+void PhotoHullOptions::Check() const {
+  auto positive = [](double v, const char* field) {
+    core::Require(std::isfinite(v) && v > 0, std::string("PhotoHullOptions: ") + field,
+                  "expected a positive value, got " + std::to_string(v));
+  };
+  positive(cell_mm, "cell_mm");
+  positive(max_colour_distance, "max_colour_distance");
+  positive(depth_tolerance_cells, "depth_tolerance_cells");
+  core::Require(colour_box_px >= 1 && colour_box_px % 2 == 1, "PhotoHullOptions: colour_box_px",
+                "expected an odd count >= 1, got " + std::to_string(colour_box_px));
+  core::Require(visibility_px >= 1, "PhotoHullOptions: visibility_px",
+                "expected >= 1, got " + std::to_string(visibility_px));
+  core::Require(std::isfinite(stop_fraction) && stop_fraction >= 0 && stop_fraction < 1,
+                "PhotoHullOptions: stop_fraction",
+                "expected a fraction in [0, 1), got " + std::to_string(stop_fraction));
+  core::Require(max_sweeps >= 1, "PhotoHullOptions: max_sweeps",
+                "expected >= 1, got " + std::to_string(max_sweeps));
+}
+
+namespace {
+
+// Cell states.
+constexpr uint8_t kOutside = 0;  // never in the hull
+constexpr uint8_t kKept = 1;
+constexpr uint8_t kCarved = 2;
+
+// One surface cell as one camera sees it.
+struct Sighting {
+  int pixel = -1;    // index into the z-buffer; -1: not in front or outside the image
+  float z_mm = 0;    // camera depth
+  cv::Vec3f colour;  // box-filtered colour at the centre's pixel
+};
+
+}  // namespace
+
+PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCamera>& cameras,
+                     const std::vector<cv::Mat>& images, const Eigen::Vector3d& lo_mm,
+                     const Eigen::Vector3d& hi_mm, const PhotoHullOptions& options) {
+  options.Check();
+  const size_t n_cams = cameras.size();
+  core::Require(int(n_cams) == hull.num_cameras() && images.size() == n_cams, "photo hull",
+                "expected one camera and one image per hull camera (" +
+                    std::to_string(hull.num_cameras()) + "), got " + std::to_string(n_cams) +
+                    " cameras and " + std::to_string(images.size()) + " images");
+  for (size_t c = 0; c < n_cams; ++c) {
+    const cv::Mat& im = images[c];
+    core::Require(
+        im.type() == CV_8UC3 && im.cols == cameras[c].width_px && im.rows == cameras[c].height_px,
+        "photo hull: camera " + cameras[c].id,
+        "expected a " + std::to_string(cameras[c].width_px) + "x" +
+            std::to_string(cameras[c].height_px) + " colour image, got " + std::to_string(im.cols) +
+            "x" + std::to_string(im.rows) + " with " + std::to_string(im.channels()) +
+            " channel(s)");
+  }
+  const int threads = options.num_threads > 0 ? options.num_threads : core::HardwareThreads();
+  cell_mm_ = options.cell_mm;
+  origin_mm_ = lo_mm;
+  const Eigen::Vector3d extent = (hi_mm - lo_mm) / cell_mm_;
+  nx_ = std::max(1, int(std::ceil(extent.x())));
+  ny_ = std::max(1, int(std::ceil(extent.y())));
+  nz_ = std::max(1, int(std::ceil(extent.z())));
+  const int64_t plane = int64_t(nx_) * ny_, cells = plane * nz_;
+  auto centre = [&](int64_t cell) {
+    const int64_t k = cell / plane, j = (cell % plane) / nx_, i = cell % nx_;
+    return Eigen::Vector3d(origin_mm_ + (Eigen::Vector3d(double(i), double(j), double(k)) +
+                                         Eigen::Vector3d::Constant(0.5)) *
+                                            cell_mm_);
+  };
+
+  std::vector<uint8_t> state(size_t(cells), kOutside);
+  core::ParallelFor(0, nz_, threads, [&](int64_t k0, int64_t k1) {
+    for (int64_t c = k0 * plane; c < k1 * plane; ++c)
+      if (hull.Sample(centre(c)).inside) state[size_t(c)] = kKept;
+  });
+  for (uint8_t s : state) stats_.hull_cells += s == kKept;
+
+  // Box-filtered images, kept as float colours.
+  std::vector<cv::Mat> colours(n_cams);
+  core::ParallelFor(0, int64_t(n_cams), threads, [&](int64_t b, int64_t e) {
+    for (int64_t c = b; c < e; ++c) {
+      cv::Mat f;
+      images[size_t(c)].convertTo(f, CV_32FC3);
+      cv::blur(f, colours[size_t(c)], cv::Size(options.colour_box_px, options.colour_box_px));
+    }
+  });
+  const int s = options.visibility_px;
+  std::vector<cv::Size> zsize(n_cams);
+  for (size_t c = 0; c < n_cams; ++c)
+    zsize[c] = cv::Size((cameras[c].width_px + s - 1) / s, (cameras[c].height_px + s - 1) / s);
+  const double max2 = options.max_colour_distance * options.max_colour_distance;
+  const float tolerance = float(options.depth_tolerance_cells * cell_mm_);
+
+  auto kept = [&](int64_t i, int64_t j, int64_t k) {
+    if (i < 0 || j < 0 || k < 0 || i >= nx_ || j >= ny_ || k >= nz_) return false;
+    return state[size_t(k * plane + j * nx_ + i)] == kKept;
+  };
+  std::vector<int64_t> surface;
+  std::vector<Sighting> seen;  // surface cell x camera
+  std::vector<std::vector<float>> zbuffer(n_cams);
+  std::vector<uint8_t> carve;
+  for (int sweep = 0; sweep < options.max_sweeps; ++sweep) {
+    surface.clear();
+    for (int64_t c = 0; c < cells; ++c) {
+      if (state[size_t(c)] != kKept) continue;
+      const int64_t k = c / plane, j = (c % plane) / nx_, i = c % nx_;
+      if (!kept(i - 1, j, k) || !kept(i + 1, j, k) || !kept(i, j - 1, k) || !kept(i, j + 1, k) ||
+          !kept(i, j, k - 1) || !kept(i, j, k + 1)) {
+        surface.push_back(c);
+      }
+    }
+    if (surface.empty()) break;
+    const int64_t n_surface = int64_t(surface.size());
+    seen.assign(size_t(n_surface) * n_cams, Sighting{});
+    // Per camera: where each surface cell projects, then the nearest over each z-buffer
+    // pixel, the cell's footprint splatted (a cell of edge e at depth z covers about
+    // e f / z image pixels) so that cells behind do not show through between the
+    // centres of those in front.
+    core::ParallelFor(0, int64_t(n_cams), threads, [&](int64_t b, int64_t e) {
+      for (int64_t cam = b; cam < e; ++cam) {
+        const geometry::TsaiCamera& camera = cameras[size_t(cam)];
+        const cv::Size zs = zsize[size_t(cam)];
+        std::vector<float>& zb = zbuffer[size_t(cam)];
+        zb.assign(size_t(zs.area()), std::numeric_limits<float>::infinity());
+        const double f_px = camera.K()(0, 0);
+        for (int64_t q = 0; q < n_surface; ++q) {
+          const Eigen::Vector3d pc = camera.WorldToCamera(centre(surface[size_t(q)]));
+          Eigen::Vector2d px;
+          if (!camera.ProjectCamera(pc, &px)) continue;
+          const long x = std::lround(px.x()), y = std::lround(px.y());
+          if (x < 0 || y < 0 || x >= camera.width_px || y >= camera.height_px) continue;
+          Sighting& sg = seen[size_t(q) * n_cams + size_t(cam)];
+          const int zx = int(x / s), zy = int(y / s);
+          sg.pixel = zy * zs.width + zx;
+          sg.z_mm = float(pc.z());
+          sg.colour = colours[size_t(cam)].at<cv::Vec3f>(int(y), int(x));
+          const int r = int(0.5 * cell_mm_ * f_px / pc.z() / s);
+          for (int yy = std::max(0, zy - r); yy <= std::min(zs.height - 1, zy + r); ++yy) {
+            float* row = zb.data() + int64_t(yy) * zs.width;
+            for (int xx = std::max(0, zx - r); xx <= std::min(zs.width - 1, zx + r); ++xx)
+              row[xx] = std::min(row[xx], sg.z_mm);
+          }
+        }
+      }
+    });
+    carve.assign(size_t(n_surface), 0);
+    core::ParallelFor(0, n_surface, threads, [&](int64_t b, int64_t e) {
+      std::vector<const cv::Vec3f*> visible;
+      for (int64_t q = b; q < e; ++q) {
+        visible.clear();
+        for (size_t cam = 0; cam < n_cams; ++cam) {
+          const Sighting& sg = seen[size_t(q) * n_cams + cam];
+          if (sg.pixel >= 0 && sg.z_mm <= zbuffer[cam][size_t(sg.pixel)] + tolerance)
+            visible.push_back(&sg.colour);
+        }
+        // Consistent when two of the cameras that see it agree: a third may see an
+        // occluder the z-buffer of the surface cells misses (the hull's ghost in front
+        // of it is carved only later, or a part the masks left out).
+        bool agree = false;
+        for (size_t a = 0; a < visible.size() && !agree; ++a) {
+          for (size_t o = a + 1; o < visible.size() && !agree; ++o) {
+            const cv::Vec3f d = *visible[a] - *visible[o];
+            agree = double(d.dot(d)) <= max2;
+          }
+        }
+        carve[size_t(q)] = visible.size() >= 2 && !agree;
+      }
+    });
+    int64_t carved = 0;
+    for (int64_t q = 0; q < n_surface; ++q) {
+      if (!carve[size_t(q)]) continue;
+      state[size_t(surface[size_t(q)])] = kCarved;
+      ++carved;
+    }
+    stats_.carved_cells += carved;
+    stats_.sweeps = sweep + 1;
+    if (double(carved) < options.stop_fraction * double(n_surface)) break;
+  }
+  carved_.resize(size_t(cells));
+  for (int64_t c = 0; c < cells; ++c) carved_[size_t(c)] = state[size_t(c)] == kCarved;
+}
+
+double PhotoHull::CarvedDistanceMm(const Eigen::Vector3d& world_mm) const {
+  const double h = 0.5 * cell_mm_;
+  if (stats_.carved_cells == 0) return -h;
+  // Cell coordinates with cell centres at integers.
+  const Eigen::Vector3d u = (world_mm - origin_mm_) / cell_mm_ - Eigen::Vector3d::Constant(0.5);
+  const double fx = std::floor(u.x()), fy = std::floor(u.y()), fz = std::floor(u.z());
+  if (!(fx >= -1 && fy >= -1 && fz >= -1 && fx < nx_ && fy < ny_ && fz < nz_)) return -h;
+  const int i0 = int(fx), j0 = int(fy), k0 = int(fz);
+  const double tx = u.x() - fx, ty = u.y() - fy, tz = u.z() - fz;
+  double value = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), k = k0 + ((c >> 2) & 1);
+    const bool in = i >= 0 && j >= 0 && k >= 0 && i < nx_ && j < ny_ && k < nz_;
+    const bool carved = in && carved_[size_t((int64_t(k) * ny_ + j) * nx_ + i)] != 0;
+    const double w =
+        ((c & 1) ? tx : 1 - tx) * (((c >> 1) & 1) ? ty : 1 - ty) * (((c >> 2) & 1) ? tz : 1 - tz);
+    value += w * (carved ? h : -h);
+  }
+  return value;
+}
+
+}  // namespace dome::silhouette

@@ -1,0 +1,93 @@
+// Photo-consistency carving of a visual hull (space carving: Kutulakos and Seitz, "A
+// theory of shape by space carving", IJCV 2000), for the few far-apart cameras of a
+// sparse rig, where the hull of a few people holds ghost volume many times theirs and
+// stereo between such views matches too little to carve it.
+//
+// The hull (silhouette/hull.h) is sampled on a grid of cubic cells; a kept cell with a
+// face on a cell that is not kept is on the surface. Each sweep carves every surface
+// cell that at least two cameras see and no two of them in agreeing colours: in each camera
+// a surface cell is seen when it is in front of it, inside its image and no nearer than
+// the nearest surface cell over its pixel plus a depth tolerance (a z-buffer of the
+// surface cells); its colour there is the image's box-filtered colour at its centre's
+// pixel. A real surface shows one colour to every camera that sees it (up to noise and
+// the cameras' responses); a ghost's surface shows each camera a different place, often
+// a different person. Carving uncovers cells behind, so the sweeps repeat until one
+// carves little. Cells the hull never held stay as they are: only carving moves the
+// border, the hull's own border stays the hull's.
+//
+// Frames and units: world mm; images as recorded (distorted), the cameras' sizes,
+// CV_8UC3 in any channel order (one order for all); colour distances in 8-bit levels.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "geometry/tsai_camera.h"
+#include "silhouette/hull.h"
+
+namespace dome::silhouette {
+
+struct PhotoHullOptions {
+  // Edge of a cell, mm (> 0). Callers derive it from the reconstruction's voxel (fusion:
+  // two voxels, pipeline/jobs.cc).
+  double cell_mm = 20.0;
+  // Colours of one cell in two cameras agree when they differ by at most this (Euclidean
+  // over the three channels, 8-bit levels, after the box filter; > 0). About
+  // 23 levels a channel: several times a camera's noise (5-9 levels on Panoptic's
+  // footage, the masks' estimate), and above the differences of the cameras' colour
+  // responses and of a surface seen from directions 50-120 degrees apart. (Panoptic's
+  // leave-one-out IoU was the same within 0.001 at 25 and 60: README "Silhouettes".)
+  double max_colour_distance = 40.0;
+  // Side of the box filter over each image before sampling, pixels (odd, >= 1): a cell's
+  // centre projects within a pixel or two of where its surface shows, and a
+  // 5 x 5 mean also averages the sensor's noise down by five.
+  int colour_box_px = 5;
+  // The z-buffers have one pixel per this many image pixels a side (>= 1): a cell then
+  // covers a pixel or more of them at a dome's distances.
+  int visibility_px = 4;
+  // A cell is seen by a camera when it lies at most this many cells behind the nearest
+  // surface cell over its pixel (> 0): the cell beside it on a slanted surface.
+  double depth_tolerance_cells = 1.5;
+  // The sweeps stop when one carves fewer than this fraction of the surface's cells
+  // ([0, 1)), or after max_sweeps (>= 1).
+  double stop_fraction = 0.01;
+  int max_sweeps = 10;
+  int num_threads = 0;  // <= 0: all hardware threads
+  // Throws core::InputError naming the field when out of range.
+  void Check() const;
+};
+
+struct PhotoHullStats {
+  int64_t hull_cells = 0;    // cells whose centre is in the visual hull
+  int64_t carved_cells = 0;  // of them, carved
+  int sweeps = 0;
+};
+
+class PhotoHull {
+ public:
+  // The hull's cells over the box [lo_mm, hi_mm] (world), carved with `images` (one per
+  // camera of `cameras`, the hull's cameras in its order). Throws core::InputError
+  // naming the camera when an image is not CV_8UC3 of its camera's size, or the counts
+  // differ from the hull's.
+  PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCamera>& cameras,
+            const std::vector<cv::Mat>& images, const Eigen::Vector3d& lo_mm,
+            const Eigen::Vector3d& hi_mm, const PhotoHullOptions& options);
+
+  // Signed distance to the border of what was carved, mm, positive on the carved side:
+  // trilinear over the cell centres of -cell_mm / 2 (kept or never in the hull) and
+  // +cell_mm / 2 (carved), so within half a cell of the border and 0 on it; -cell_mm / 2
+  // far from any carved cell and outside the grid.
+  double CarvedDistanceMm(const Eigen::Vector3d& world_mm) const;
+  const PhotoHullStats& stats() const { return stats_; }
+
+ private:
+  Eigen::Vector3d origin_mm_;  // the first cell's min corner
+  double cell_mm_ = 0;
+  int nx_ = 0, ny_ = 0, nz_ = 0;
+  std::vector<uint8_t> carved_;  // per cell, x fastest: 1 = carved
+  PhotoHullStats stats_;
+};
+
+}  // namespace dome::silhouette
