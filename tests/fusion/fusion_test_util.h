@@ -44,6 +44,24 @@ inline geometry::TsaiCamera LookAtCamera(const std::string& id, const Eigen::Vec
   return cam;
 }
 
+// The first sphere the ray from `o` along the unit `d` enters (its index, -1 for none)
+// and the distance to it along the ray (*t, mm).
+inline int NearestSphere(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                         const std::vector<Sphere>& spheres, double* t) {
+  double best = std::numeric_limits<double>::infinity();
+  int hit = -1;
+  for (size_t k = 0; k < spheres.size(); ++k) {
+    const Eigen::Vector3d oc = o - spheres[k].centre_mm;
+    const double b = oc.dot(d), c = oc.squaredNorm() - spheres[k].radius_mm * spheres[k].radius_mm;
+    const double disc = b * b - c;
+    if (disc < 0) continue;
+    const double near = -b - std::sqrt(disc);
+    if (near > 0 && near < best) best = near, hit = int(k);
+  }
+  *t = best;
+  return hit;
+}
+
 // Exact z-depth of the nearest sphere per pixel.
 inline cv::Mat RenderSpheres(const geometry::TsaiCamera& cam, const std::vector<Sphere>& spheres) {
   cv::Mat depth(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(0));
@@ -51,16 +69,9 @@ inline cv::Mat RenderSpheres(const geometry::TsaiCamera& cam, const std::vector<
   for (int y = 0; y < cam.height_px; ++y) {
     for (int x = 0; x < cam.width_px; ++x) {
       const Eigen::Vector3d d = cam.BackProject(Eigen::Vector2d(x, y));
-      double best = std::numeric_limits<double>::infinity();
-      for (const auto& s : spheres) {
-        const Eigen::Vector3d oc = o - s.centre_mm;
-        const double b = oc.dot(d), c = oc.squaredNorm() - s.radius_mm * s.radius_mm;
-        const double disc = b * b - c;
-        if (disc < 0) continue;
-        const double t = -b - std::sqrt(disc);
-        if (t > 0) best = std::min(best, t);
-      }
-      if (std::isfinite(best)) depth.at<float>(y, x) = float(cam.WorldToCamera(o + best * d).z());
+      double t = 0;
+      if (NearestSphere(o, d, spheres, &t) >= 0)
+        depth.at<float>(y, x) = float(cam.WorldToCamera(o + t * d).z());
     }
   }
   return depth;

@@ -7,8 +7,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
-#include <limits>
 #include <vector>
 
 #include "core/error.h"
@@ -46,16 +44,9 @@ Scene TwoSpheres() {
     const Eigen::Vector3d o = cam.CentreWorld();
     for (int y = 0; y < cam.height_px; ++y) {
       for (int x = 0; x < cam.width_px; ++x) {
-        const Eigen::Vector3d d = cam.BackProject(Eigen::Vector2d(x, y));
-        double best = std::numeric_limits<double>::infinity();
-        int hit = -1;
-        for (int k = 0; k < 2; ++k) {
-          const Eigen::Vector3d oc = o - spheres[size_t(k)].centre_mm;
-          const double b = oc.dot(d), q = oc.squaredNorm() - kRadius * kRadius;
-          if (b * b - q < 0) continue;
-          const double t = -b - std::sqrt(b * b - q);
-          if (t > 0 && t < best) best = t, hit = k;
-        }
+        double t = 0;
+        const int hit =
+            testing::NearestSphere(o, cam.BackProject(Eigen::Vector2d(x, y)), spheres, &t);
         if (hit < 0) continue;
         image.at<cv::Vec3b>(y, x) = colour[hit];
         mask.at<uint8_t>(y, x) = 255;
