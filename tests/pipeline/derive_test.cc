@@ -111,14 +111,17 @@ TEST_F(Derive, OffersTheFramesItReadOnlyWhenAsked) {
 // The small dome's six cameras are a sparse rig (median nearest axis angle 70 degrees):
 // with masks from its plates, the hull's surface stands in where stereo saw nothing,
 // one background vote carves and a point needs five foreground views (all cameras but
-// one), and the hull is carved by photo-consistency; given values win (photo carving
-// follows a given hull surface), and counts out of range are named.
+// one), the hull is carved by photo-consistency and small parts are specks wherever they
+// are; given values win (photo carving and the specks' gap follow a given hull
+// surface), and counts out of range are named.
 TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   runtime::Session s = Fresh();
   const Derivation d = DeriveSession({}, &s);
   EXPECT_TRUE(s.silhouettes().fusion());
   EXPECT_TRUE(s.silhouettes().hull_surface());
   EXPECT_TRUE(s.silhouettes().photo_carve());
+  EXPECT_TRUE(s.has_speck_gap_voxels());  // small parts beside a person are specks
+  EXPECT_EQ(s.speck_gap_voxels(), 0.0);
   EXPECT_EQ(s.silhouettes().carve_votes(), 1);
   EXPECT_EQ(s.silhouettes().min_views(), 5);
   bool note = false;
@@ -136,6 +139,7 @@ TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   DeriveSession({}, &t);
   EXPECT_FALSE(t.silhouettes().hull_surface());
   EXPECT_FALSE(t.silhouettes().photo_carve());
+  EXPECT_FALSE(t.has_speck_gap_voxels());  // the session's default
   EXPECT_EQ(t.silhouettes().carve_votes(), 3);
   EXPECT_EQ(t.silhouettes().min_views(), 2);
   EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.carve_votes, 3);
