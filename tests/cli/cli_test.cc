@@ -250,6 +250,33 @@ TEST(Cli, RunOnFoldersWhoseNamesAreNotUtf8) {
   EXPECT_EQ(r.output.find("not a dome runtime envelope"), std::string::npos) << r.output;
 }
 
+// The small dome is a sparse rig with plates: the session derives the photo hull's
+// carving and says so, `--no-photo-carve` turns it off (in session.json and the notes),
+// and the carving changes the surface.
+TEST(Cli, PhotoCarvingIsDerivedOnASparseRigAndItsFlagTurnsItOff) {
+  const testing::TempDir tmp;
+  const fs::path take = tmp / "take";
+  ASSERT_TRUE(SynthSmallTake(take, 1));
+  auto run = [&](const std::string& name, const std::string& flags) {
+    const fs::path out = tmp / name;
+    const Result r = RunDomeBinary("run " + take.string() + " --out " + out.string() +
+                                   " --workers 1 --threads 2 --no-texture --no-preview" + flags);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return out;
+  };
+  const fs::path on = run("on", ""), off = run("off", " --no-photo-carve");
+  const std::string session_on = io::ReadFileBytes(on / "session.json");
+  const std::string session_off = io::ReadFileBytes(off / "session.json");
+  EXPECT_NE(session_on.find("\"photo_carve\": true"), std::string::npos) << session_on;
+  EXPECT_NE(session_off.find("\"photo_carve\": false"), std::string::npos) << session_off;
+  EXPECT_NE(io::ReadFileBytes(on / "report.json").find("hull surface true, photo carving true"),
+            std::string::npos);
+  EXPECT_NE(io::ReadFileBytes(off / "report.json").find("hull surface true, photo carving false"),
+            std::string::npos);
+  EXPECT_NE(io::ReadFileBytes(on / "00-00-10-00" / "mesh.ply"),
+            io::ReadFileBytes(off / "00-00-10-00" / "mesh.ply"));
+}
+
 // The small preset's calibration images are 160x120: its dots are a couple of pixels
 // across, too few to calibrate from, and the error says that is the cause.
 TEST(Cli, CalibratingImagesWithTinyDotsSaysTheDotsAreTooSmall) {
