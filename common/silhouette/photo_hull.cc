@@ -81,9 +81,11 @@ PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCam
   };
 
   std::vector<uint8_t> state(size_t(cells), kOutside);
+  // Only the verdict is needed: a cell's vote stops once enough cameras carve it
+  // (enough_outside_mm 0), as most of the hull's box is outside it.
   core::ParallelFor(0, nz_, threads, [&](int64_t k0, int64_t k1) {
     for (int64_t c = k0 * plane; c < k1 * plane; ++c)
-      if (hull.Sample(centre(c)).inside) state[size_t(c)] = kKept;
+      if (hull.Sample(centre(c), 0.0, -1, 0.0).inside) state[size_t(c)] = kKept;
   });
   for (uint8_t s : state) stats_.hull_cells += s == kKept;
 
