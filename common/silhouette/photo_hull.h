@@ -5,9 +5,9 @@
 //
 // The hull (silhouette/hull.h) is sampled on a grid of cubic cells; a kept cell with a
 // face on a cell that is not kept is on the surface. Each sweep carves every surface
-// cell that at least two cameras see and no two of them in agreeing colours: in each camera
-// a surface cell is seen when it is in front of it, inside its image and no nearer than
-// the nearest surface cell over its pixel plus a depth tolerance (a z-buffer of the
+// cell that at least two cameras see and no two of them in agreeing colours: in each
+// camera a surface cell is seen when it is in front of it, inside its image and at most
+// a depth tolerance behind the nearest surface cell over its pixel (a z-buffer of the
 // surface cells); its colour there is the image's box-filtered colour at its centre's
 // pixel. A real surface shows one colour to every camera that sees it (up to noise and
 // the cameras' responses); a ghost's surface shows each camera a different place, often
@@ -40,12 +40,13 @@ struct PhotoHullOptions {
   // responses and of a surface seen from directions 50-120 degrees apart. (Panoptic's
   // leave-one-out IoU was the same within 0.001 at 25 and 60: README "Silhouettes".)
   double max_colour_distance = 40.0;
-  // Side of the box filter over each image before sampling, pixels (odd, >= 1): a cell's
-  // centre projects within a pixel or two of where its surface shows, and a
-  // 5 x 5 mean also averages the sensor's noise down by five.
+  // Side of the box filter over each image before sampling, pixels (odd, >= 1): a 5 x 5
+  // mean averages a camera's noise down by five, and a cell's colour is then that of the
+  // patch around its centre's pixel rather than of one pixel of it.
   int colour_box_px = 5;
-  // The z-buffers have one pixel per this many image pixels a side (>= 1): a cell then
-  // covers a pixel or more of them at a dome's distances.
+  // The z-buffers have one pixel per this many image pixels a side (>= 1); each cell is
+  // drawn over its footprint (a Panoptic cell of 17 mm at 3 m covers about two of them),
+  // so that cells behind do not show between those in front.
   int visibility_px = 4;
   // A cell is seen by a camera when it lies at most this many cells behind the nearest
   // surface cell over its pixel (> 0): the cell beside it on a slanted surface.
