@@ -54,6 +54,9 @@ inline constexpr int kHullCells = 96;  // the hull's box: cells along the longes
 // 17.8), where stereo covers the surface; the small synthetic dome's six cameras (70)
 // and Panoptic's five HD ones (47 to 119 degrees apart) leave most of it unmatched.
 inline constexpr double kSparseAxisAngleDeg = 30.0;
+// Where the hull's surface stands in, the parts under this fraction of the largest
+// part's area are specks whatever their size and place (derive.cc says why).
+inline constexpr double kSparseSpeckAreaFraction = 0.02;
 
 struct DeriveRequest {
   // The volume to use instead of the scene's box (dome run --box), world mm.

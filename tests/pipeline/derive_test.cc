@@ -120,8 +120,15 @@ TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   EXPECT_TRUE(s.silhouettes().fusion());
   EXPECT_TRUE(s.silhouettes().hull_surface());
   EXPECT_TRUE(s.silhouettes().photo_carve());
-  EXPECT_TRUE(s.has_speck_gap_voxels());  // small parts beside a person are specks
+  // Every part under 2 % of the largest part's area is a speck, of any size, anywhere.
+  EXPECT_TRUE(s.has_speck_gap_voxels());
   EXPECT_EQ(s.speck_gap_voxels(), 0.0);
+  EXPECT_EQ(s.speck_area_fraction(), 0.02);
+  const auto& dims = s.volume().dims();
+  ASSERT_EQ(dims.size(), 3);
+  EXPECT_EQ(s.speck_diagonal_voxels(),
+            std::ceil(std::sqrt(double(dims[0]) * dims[0] + double(dims[1]) * dims[1] +
+                                double(dims[2]) * dims[2])));
   EXPECT_EQ(s.silhouettes().carve_votes(), 1);
   EXPECT_EQ(s.silhouettes().min_views(), 5);
   bool note = false;
@@ -139,7 +146,10 @@ TEST_F(Derive, SparseRigGetsTheHullSurfaceOneCarvingVoteAndAllViewsButOne) {
   DeriveSession({}, &t);
   EXPECT_FALSE(t.silhouettes().hull_surface());
   EXPECT_FALSE(t.silhouettes().photo_carve());
-  EXPECT_FALSE(t.has_speck_gap_voxels());  // the session's default
+  // The session's defaults (pipeline/session.h).
+  EXPECT_FALSE(t.has_speck_gap_voxels());
+  EXPECT_FALSE(t.has_speck_area_fraction());
+  EXPECT_FALSE(t.has_speck_diagonal_voxels());
   EXPECT_EQ(t.silhouettes().carve_votes(), 3);
   EXPECT_EQ(t.silhouettes().min_views(), 2);
   EXPECT_EQ(ResolveSessionOptions(t, "session").silhouettes.carve_votes, 3);
