@@ -154,20 +154,22 @@ const geometry::TsaiCamera& RigCameraOf(const geometry::Rig& rig, const std::str
 }
 
 // The visual hull of the rig's cameras from the masks at blobs[first..], rig order.
+// The masks are blobs [first, first + cameras); `after` blobs of the job follow them.
 std::unique_ptr<silhouette::VisualHull> HullBlobs(const runtime::Job& job, const JobBlobs& blobs,
-                                                  size_t first, const geometry::Rig& rig,
-                                                  int carve_votes, int min_views, bool distances) {
+                                                  size_t first, size_t after,
+                                                  const geometry::Rig& rig, int carve_votes,
+                                                  int min_views, bool distances) {
   // The hull's rule as the master sent it (SilhouetteSettings), named by its job field.
   core::Require(carve_votes >= 1, JobWhere(job),
                 "carve_votes: expected at least 1 camera, got " + std::to_string(carve_votes));
   core::Require(min_views >= 2, JobWhere(job),
                 "min_views: expected at least 2 cameras, got " + std::to_string(min_views));
-  // The masks may be followed by other blobs (a fusion job's frames for its photo hull),
-  // which the caller counts.
-  core::Require(blobs.size() >= first + rig.cameras.size(), JobWhere(job),
+  core::Require(blobs.size() == first + rig.cameras.size() + after, JobWhere(job),
                 "expected one mask per rig camera (" + std::to_string(rig.cameras.size()) +
-                    ") after blob " + std::to_string(first) + ", got " +
-                    std::to_string(blobs.size() - std::min(blobs.size(), first)));
+                    ") after blob " + std::to_string(first) +
+                    (after ? " and " + std::to_string(after) + " blobs after them" : "") +
+                    ", got " + std::to_string(blobs.size() - std::min(blobs.size(), first)) +
+                    " blobs from there");
   // Built once for every worker of the process (shared_hulls.h), so with all their
   // threads: a worker that would wait for another's build builds part of it.
   const int threads = std::max(job.threads(), ProcessWorkerThreads());
@@ -476,7 +478,7 @@ StageDescriptor StereoStage() {
                         std::to_string(sj.carve_votes()) + ' ' + std::to_string(sj.min_views());
       for (int b = int(first_mask); b < job.blobs_size(); ++b) key += '\n' + job.blobs(b).sha256();
       hull = SharedHull(key, [&] {
-        return HullBlobs(job, blobs, first_mask, rig, sj.carve_votes(), sj.min_views(),
+        return HullBlobs(job, blobs, first_mask, 0, rig, sj.carve_votes(), sj.min_views(),
                          /*distances=*/false);
       });
     }
@@ -636,7 +638,8 @@ StageDescriptor FusionStage() {
         for (size_t b = first_mask; b < first_mask + n; ++b)
           key += '\n' + job.blobs(int(b)).sha256();
         hull = SharedHull(key, [&] {
-          return HullBlobs(job, blobs, first_mask, rig, fj.carve_votes(), fj.min_views(), true);
+          return HullBlobs(job, blobs, first_mask, num_photo, rig, fj.carve_votes(), fj.min_views(),
+                           true);
         });
       }
       std::shared_ptr<const silhouette::PhotoHull> photo_hull;
@@ -650,7 +653,8 @@ StageDescriptor FusionStage() {
         // Cells of two voxels: what decides a cell is a 5x5-pixel mean and a z-buffer of
         // 4x4-pixel cells, on Panoptic about a voxel across at the people (8.5 mm voxels
         // from the voxel budget, 2.2 mm pixels), and the carving's cost grows as the
-        // cube of the cells' count a side.
+        // cube of the cells' count a side. (Cells of one voxel: the same leave-one-out
+        // IoU on Panoptic, 0.576.)
         po.cell_mm = 2.0 * grid.voxel_size_mm;
         po.num_threads = build_threads;
         const Eigen::Vector3d lo = grid.origin_mm;

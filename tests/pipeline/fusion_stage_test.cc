@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -69,7 +70,8 @@ class FusionStage : public SmallTakeSuite {
 
   // The fusion job of planes [k0, k1) over `blobs`; `temporal`: time-aware (its blobs
   // then go on with the previous slab and two frames per camera).
-  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1, bool temporal = false) {
+  static runtime::Job Job(const JobBlobs& blobs, int k0, int k1, bool temporal = false,
+                          const std::function<void(runtime::FusionJob*)>& edit = nullptr) {
     const fusion::VolumeGrid grid = Grid();
     const fusion::FusionOptions options = Options();
     runtime::Job job;
@@ -86,6 +88,7 @@ class FusionStage : public SmallTakeSuite {
       use.fusion = true;
       *fj.mutable_temporal() = ToTemporalSettings(use);
     }
+    if (edit) edit(&fj);
     job.set_settings(fj.SerializeAsString());
     for (const auto& b : blobs) job.add_blobs()->set_sha256(net::Sha256Hex(*b));
     return job;
@@ -175,6 +178,45 @@ TEST_F(FusionStage, ATimeAwareSlabJobAddsItsPreviousSlabAndNamesWrongInputs) {
   dome::testing::ExpectInputError(
       [&] { Slab(with(before0, 1), 0, 30, nullptr, true); },
       {"the previous slab, two frames per camera", "got " + std::to_string(with(before0, 1).size())});
+}
+
+// With the hull and its photo-consistency carving, a slab job's blobs end with every
+// camera's mask and then every camera's frame: the job fuses with them, and one frame
+// short it is refused naming what it expected.
+TEST_F(FusionStage, APhotoCarvedSlabJobTakesTheFramesAfterTheMasksAndNamesAMissingOne) {
+  const take::Take take = take::OpenTake(TakeDir());
+  const std::string instant = take.instants.front();
+  JobBlobs with_masks = Blobs(1.0);
+  for (const auto& rc : take.rig.cameras) {
+    with_masks.push_back(std::make_shared<const std::string>(
+        io::ReadFileBytes(take.dir / "truth" / instant / "mask" / (rc.model.id + ".png"))));
+  }
+  JobBlobs with_frames = with_masks;
+  for (const auto& rc : take.rig.cameras) {
+    with_frames.push_back(std::make_shared<const std::string>(
+        io::ReadFileBytes(take.FramePath(instant, rc.model.id))));
+  }
+  auto run = [&](const JobBlobs& blobs, bool photo) {
+    const runtime::Job job = Job(blobs, 0, 30, false, [&](runtime::FusionJob* fj) {
+      fj->set_hull(true);
+      fj->set_carve_votes(1);
+      fj->set_min_views(2);
+      fj->set_hull_surface(true);
+      fj->set_photo_carve(photo);
+    });
+    const auto outputs = RunJob(*DefaultStages(), job, blobs, nullptr);
+    EXPECT_EQ(outputs.size(), 1u);
+    return fusion::DecodeSlab(outputs.at(0).data(), "slab");
+  };
+  const fusion::Slab hull = run(with_masks, false), carved = run(with_frames, true);
+  ASSERT_EQ(carved.distance_mm.size(), hull.distance_mm.size());
+  EXPECT_NE(carved.distance_mm, hull.distance_mm);  // the carving reaches the slab
+  JobBlobs short_one = with_frames;
+  short_one.pop_back();
+  dome::testing::ExpectInputError(
+      [&] { run(short_one, true); },
+      {"one mask each, one frame each for the photo hull",
+       "got " + std::to_string(short_one.size() - 1) + " blobs after the rig"});
 }
 
 // An entry of another kind (a stereo job's, between two slab jobs on one worker) leaves

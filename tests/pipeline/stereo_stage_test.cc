@@ -196,6 +196,20 @@ TEST_F(StereoStage, HullRuleOutOfRangeIsNamedWithTheJob) {
   }
 }
 
+// A stereo job bounded by the hull whose masks are not all there (or are followed by
+// blobs it has no use for) is refused naming the job and what was expected.
+TEST_F(StereoStage, HullWithoutEveryCamerasMaskIsNamedWithTheJob) {
+  ExpectInputError(
+      [&] {
+        RunStereoJob("c00", DefaultSettings(), nullptr, nullptr, [&](runtime::StereoJob* sj) {
+          sj->set_hull_bounds(true);
+          sj->set_carve_votes(1);
+          sj->set_min_views(2);
+        });
+      },
+      {"job s/", "/stereo/c00", "expected one mask per rig camera (6)", "got 0 blobs from there"});
+}
+
 TEST_F(StereoStage, IdealGreysKeptForTheProcessGiveTheSameOutputs) {
   ExpectKeptGreysGiveTheSameOutputs(DefaultSettings());
 }
