@@ -28,6 +28,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 
 namespace dome::io {
 
@@ -87,11 +88,21 @@ struct DepthPreviewOptions {
   void Check() const;
 };
 
-// CV_8UC3 (BGR) preview of a depth map.
+// Colour levels of a depth preview (plus black for no depth: a palette of 256).
+constexpr int kDepthPreviewLevels = 255;
+
+// A depth preview as palette indices (CV_8UC1, the map's size): 0 where there is no
+// depth, else 1 + the depth's level, from 0 at far_mm to kDepthPreviewLevels - 1 at
+// near_mm (clamped), rounded to the nearest; `palette` gets black and the levels'
+// colours (evenly over the colour map, its far end first).
+cv::Mat DepthPreviewIndices(const cv::Mat& depth_mm, const DepthPreviewOptions& options,
+                            std::vector<cv::Vec3b>* palette);
+// CV_8UC3 (BGR) preview of a depth map: the indices' colours.
 cv::Mat DepthPreview(const cv::Mat& depth_mm, const DepthPreviewOptions& options = {});
 void WriteDepthPreviewPng(const std::filesystem::path& path, const cv::Mat& depth_mm,
                           const DepthPreviewOptions& options = {});
-// The preview PNG file's bytes.
+// The preview PNG file's bytes (a palette PNG of the indices above: DepthPreview's
+// picture when decoded).
 std::string EncodeDepthPreviewPng(const cv::Mat& depth_mm, const std::string& where,
                                   const DepthPreviewOptions& options = {});
 

@@ -136,9 +136,8 @@ void PngWriteError(png_structp png, png_const_charp message) {
   png_longjmp(png, 1);
 }
 
-bool PngWriteAll(png_structp png, png_infop info, const cv::Mat& image, bool small,
-                 png_bytepp rows) {
-  if (setjmp(png_jmpbuf(png))) return false;
+// zlib and filter settings: see EncodePng in image_codecs.h.
+void PngCompression(png_structp png, bool small) {
   if (small) {
     png_set_compression_level(png, 3);
     png_set_compression_strategy(png, Z_DEFAULT_STRATEGY);
@@ -147,6 +146,12 @@ bool PngWriteAll(png_structp png, png_infop info, const cv::Mat& image, bool sma
     png_set_compression_level(png, Z_BEST_SPEED);
     png_set_compression_strategy(png, Z_RLE);
   }
+}
+
+bool PngWriteAll(png_structp png, png_infop info, const cv::Mat& image, bool small,
+                 png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  PngCompression(png, small);
   const int channels = image.channels();
   png_set_IHDR(png, info, png_uint_32(image.cols), png_uint_32(image.rows),
                image.depth() == CV_16U ? 16 : 8,
@@ -157,6 +162,20 @@ bool PngWriteAll(png_structp png, png_infop info, const cv::Mat& image, bool sma
   png_write_info(png, info);
   png_set_bgr(png);
   if (image.depth() == CV_16U) png_set_swap(png);
+  png_write_image(png, rows);
+  png_write_end(png, info);
+  return true;
+}
+
+bool PngWritePalette(png_structp png, png_infop info, const cv::Mat& indices,
+                     const std::vector<png_color>& palette, bool small, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  PngCompression(png, small);
+  png_set_IHDR(png, info, png_uint_32(indices.cols), png_uint_32(indices.rows), 8,
+               PNG_COLOR_TYPE_PALETTE, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_set_PLTE(png, info, palette.data(), int(palette.size()));
+  png_write_info(png, info);
   png_write_image(png, rows);
   png_write_end(png, info);
   return true;
@@ -372,24 +391,54 @@ cv::Mat Decode(std::string_view bytes, const std::string& where) {
                          "expected PNG, JPEG, TIFF or BMP)");
 }
 
-std::string EncodePng(const cv::Mat& image, bool small) {
+namespace {
+
+// A new libpng write struct over `image`'s rows, handed to `write(png, info, rows)`
+// (false on a libpng error, named with `who`); the file's bytes.
+template <typename Write>
+std::string WritePngBytes(const cv::Mat& image, const std::string& who, Write&& write) {
   PngWriter writer;
   png_structp png =
       png_create_write_struct(PNG_LIBPNG_VER_STRING, &writer, PngWriteError, PngWarning);
-  DOME_CHECK(png != nullptr, "EncodePng: out of memory");
+  DOME_CHECK(png != nullptr, who + ": out of memory");
   png_infop info = png_create_info_struct(png);
   struct Cleanup {
     png_structp* png;
     png_infop* info;
     ~Cleanup() { png_destroy_write_struct(png, info); }
   } cleanup{&png, &info};
-  DOME_CHECK(info != nullptr, "EncodePng: out of memory");
+  DOME_CHECK(info != nullptr, who + ": out of memory");
   png_set_write_fn(png, &writer, PngWrite, PngFlush);
   std::vector<png_bytep> rows(size_t(image.rows));
   for (int y = 0; y < image.rows; ++y) rows[size_t(y)] = const_cast<uint8_t*>(image.ptr(y));
-  DOME_CHECK(PngWriteAll(png, info, image, small, rows.data()),
-             "EncodePng: libpng failed: " + writer.error);
+  DOME_CHECK(write(png, info, rows.data()), who + ": libpng failed: " + writer.error);
   return std::move(writer.bytes);
+}
+
+}  // namespace
+
+std::string EncodePng(const cv::Mat& image, bool small) {
+  return WritePngBytes(image, "EncodePng", [&](png_structp png, png_infop info, png_bytepp rows) {
+    return PngWriteAll(png, info, image, small, rows);
+  });
+}
+
+std::string EncodePalettePng(const cv::Mat& indices, const std::vector<cv::Vec3b>& palette,
+                             bool small) {
+  DOME_CHECK(!indices.empty() && indices.type() == CV_8UC1,
+             "EncodePalettePng: indices must be a non-empty CV_8UC1 image");
+  DOME_CHECK(!palette.empty() && palette.size() <= 256,
+             "EncodePalettePng: 1 to 256 colours, got " + std::to_string(palette.size()));
+  double top = 0;
+  cv::minMaxLoc(indices, nullptr, &top);
+  DOME_CHECK(size_t(top) < palette.size(), "EncodePalettePng: an index past the palette");
+  std::vector<png_color> colours(palette.size());
+  for (size_t i = 0; i < palette.size(); ++i)
+    colours[i] = {palette[i][2], palette[i][1], palette[i][0]};  // BGR -> RGB
+  return WritePngBytes(indices, "EncodePalettePng",
+                       [&](png_structp png, png_infop info, png_bytepp rows) {
+                         return PngWritePalette(png, info, indices, colours, small, rows);
+                       });
 }
 
 }  // namespace dome::io::codecs

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace dome::io::codecs {
 
@@ -34,5 +35,11 @@ cv::Mat Decode(std::string_view bytes, const std::string& where);
 // filter, zlib level 3, default strategy; otherwise the Sub filter, zlib level 1,
 // run-length matches only (see PngEncoding in image_io.h).
 std::string EncodePng(const cv::Mat& image, bool small);
+
+// PNG of palette indices (CV_8UC1) and their colours (BGR, 1 to 256 of them; every
+// index below palette.size()): colour type 3, 8 bits an index, the filter and zlib
+// settings of EncodePng. Decode gives the colours back (BGR).
+std::string EncodePalettePng(const cv::Mat& indices, const std::vector<cv::Vec3b>& palette,
+                             bool small);
 
 }  // namespace dome::io::codecs

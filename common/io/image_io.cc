@@ -145,13 +145,33 @@ std::string EncodePng(const cv::Mat& image, PngEncoding encoding) {
   return codecs::EncodePng(image, encoding == PngEncoding::kSmall);
 }
 
-void WriteImage(const std::filesystem::path& path, const cv::Mat& image, PngEncoding encoding) {
+std::string EncodePalettePng(const cv::Mat& indices, const std::vector<cv::Vec3b>& palette,
+                             PngEncoding encoding) {
+  return codecs::EncodePalettePng(indices, palette, encoding == PngEncoding::kSmall);
+}
+
+namespace {
+
+// WriteImage's checks of where a PNG goes: a .png path whose folder exists.
+void CheckPngPath(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   core::Require(ext == ".png", path.string(), "images are written as PNG; expected a .png path");
   RequireParentFolder(path);
+}
+
+}  // namespace
+
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image, PngEncoding encoding) {
+  CheckPngPath(path);
   WriteFileAtomically(path, EncodePng(image, encoding));
+}
+
+void WritePaletteImage(const std::filesystem::path& path, const cv::Mat& indices,
+                       const std::vector<cv::Vec3b>& palette, PngEncoding encoding) {
+  CheckPngPath(path);
+  WriteFileAtomically(path, EncodePalettePng(indices, palette, encoding));
 }
 
 }  // namespace dome::io

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace dome::io {
 
@@ -69,9 +70,20 @@ enum class PngEncoding { kSmall, kFast };
 // types are a programmer error (DOME_CHECK).
 std::string EncodePng(const cv::Mat& image, PngEncoding encoding = PngEncoding::kSmall);
 
+// PNG of a palette image: `indices` CV_8UC1, each below palette.size(); `palette` 1 to 256
+// BGR colours. A third of the bytes a BGR image of those colours has to compress, for
+// the same picture (ReadImage/DecodeImage give the BGR image). Other inputs are a
+// programmer error (DOME_CHECK).
+std::string EncodePalettePng(const cv::Mat& indices, const std::vector<cv::Vec3b>& palette,
+                             PngEncoding encoding = PngEncoding::kSmall);
+
 // Writes `image` as PNG to `path` (which must end in .png), atomically. Throws
 // core::InputError naming the file when the folder is missing or not writable.
 void WriteImage(const std::filesystem::path& path, const cv::Mat& image,
                 PngEncoding encoding = PngEncoding::kSmall);
+// The same for a palette image (EncodePalettePng).
+void WritePaletteImage(const std::filesystem::path& path, const cv::Mat& indices,
+                       const std::vector<cv::Vec3b>& palette,
+                       PngEncoding encoding = PngEncoding::kSmall);
 
 }  // namespace dome::io

@@ -175,9 +175,9 @@ void CheckStereoFiles(const StereoResult& result, bool write_previews,
         // For eyes only: its header is checked, not its pixels.
         const io::PngHeader png = io::ReadPngHeader(f.bytes, what);
         const cv::Size full = cut(r.depth_mm).full;
-        core::Require(png.colour_type == 2 && png.bit_depth == 8 && png.width == full.width &&
+        core::Require(png.colour_type == 3 && png.bit_depth == 8 && png.width == full.width &&
                           png.height == full.height,
-                      what, "is not an 8-bit colour preview of the depth map's size");
+                      what, "is not an 8-bit palette preview of the depth map's size");
       }
     }
   }

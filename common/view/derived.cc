@@ -54,8 +54,7 @@ std::string DepthPreviewFile(const ViewerIndex& index, int instant, int camera) 
   const std::filesystem::path& path = e.cameras[camera].depth_map;
   core::Require(!path.empty(), e.name + "/" + index.cameras[camera].id,
                 "no depth map for this camera and instant");
-  const cv::Mat preview = io::DepthPreview(io::ReadDepthMap(path));
-  return io::EncodePng(preview, io::PngEncoding::kFast);
+  return io::EncodeDepthPreviewPng(io::ReadDepthMap(path), path.string());
 }
 
 std::string MaskPreviewFile(const ViewerIndex& index, int instant, int camera) {

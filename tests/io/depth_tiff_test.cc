@@ -236,6 +236,30 @@ TEST(DepthPng16, RoundsClampsAndKeepsValidity) {
   ExpectInputError([&] { ReadDepthMap(dir / "depth.exr"); }, {"depth.exr", "extension"});
 }
 
+TEST(DepthPreview, ThePngIsAPaletteOfThePicturesColours) {
+  cv::Mat depth = SampleDepth(120, 160);
+  depth(cv::Rect(0, 0, 30, 120)).setTo(0.0f);  // no depth: black
+  const cv::Mat picture = DepthPreview(depth);
+  std::vector<cv::Vec3b> palette;
+  const cv::Mat indices = DepthPreviewIndices(depth, {}, &palette);
+  ASSERT_EQ(palette.size(), size_t(1 + kDepthPreviewLevels));
+  EXPECT_EQ(palette[0], cv::Vec3b(0, 0, 0));
+  EXPECT_EQ(indices.at<uint8_t>(50, 10), 0);
+  const std::string png = EncodeDepthPreviewPng(depth, "sample");
+  EXPECT_EQ(ReadPngHeader(png, "sample").colour_type, 3);
+  const cv::Mat decoded = DecodeImage(png, ImageMode::kUnchanged, "sample");
+  ASSERT_EQ(decoded.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(decoded, picture, cv::NORM_INF), 0.0);
+  // The colours span the map: the nearest 1 % are the colour map's near end, the farthest
+  // its far end, and many levels lie between.
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(indices, &lo, &hi, nullptr, nullptr, depth > 0);
+  EXPECT_EQ(lo, 1.0);
+  EXPECT_EQ(hi, double(kDepthPreviewLevels));
+  // Fewer than half the bytes of the same picture as BGR.
+  EXPECT_LT(png.size(), EncodePng(picture, PngEncoding::kFast).size() / 2);
+}
+
 TEST(DepthPreview, NearIsTheHighEndAndInvalidIsBlack) {
   cv::Mat depth(1, 4, CV_32FC1);
   depth.at<float>(0, 0) = 1000.0f;  // near
@@ -259,6 +283,8 @@ TEST(DepthPreview, NearIsTheHighEndAndInvalidIsBlack) {
   TempDir dir;
   WriteDepthPreviewPng(dir / "preview.png", SampleDepth());
   EXPECT_EQ(ReadImage(dir / "preview.png", ImageMode::kUnchanged).type(), CV_8UC3);
+  ExpectInputError([&] { WriteDepthPreviewPng(dir / "preview.jpg", SampleDepth()); },
+                   {"preview.jpg", ".png"});
 
   options.far_mm = 500.0;
   ExpectInputError([&] { options.Check(); }, {"near_mm/far_mm"});

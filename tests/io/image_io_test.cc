@@ -69,6 +69,35 @@ TEST(DecodeImage, BgrOfABgraPngIsItsColourChannels) {
   EXPECT_EQ(cv::norm(dropped, DecodeImage(bytes, ImageMode::kBgr8, "bgra.png"), cv::NORM_INF), 0.0);
 }
 
+TEST(PalettePng, DecodesToThePaletteColoursOfItsIndices) {
+  std::vector<cv::Vec3b> palette;
+  for (int i = 0; i < 256; ++i) palette.emplace_back(uint8_t(i), uint8_t(255 - i), uint8_t(7 * i));
+  cv::Mat indices(37, 53, CV_8UC1);
+  cv::RNG(5).fill(indices, cv::RNG::UNIFORM, 0, 256);
+  for (PngEncoding encoding : {PngEncoding::kSmall, PngEncoding::kFast}) {
+    const std::string bytes = EncodePalettePng(indices, palette, encoding);
+    const PngHeader h = ReadPngHeader(bytes, "palette.png");
+    EXPECT_EQ(h.colour_type, 3);
+    EXPECT_EQ(h.bit_depth, 8);
+    EXPECT_EQ(h.width, 53);
+    EXPECT_EQ(h.height, 37);
+    const cv::Mat bgr = DecodeImage(bytes, ImageMode::kUnchanged, "palette.png");
+    ASSERT_EQ(bgr.type(), CV_8UC3);
+    ASSERT_EQ(bgr.size(), indices.size());
+    for (int y = 0; y < indices.rows; ++y) {
+      for (int x = 0; x < indices.cols; ++x) {
+        ASSERT_EQ(bgr.at<cv::Vec3b>(y, x), palette[indices.at<uint8_t>(y, x)]) << x << "," << y;
+      }
+    }
+  }
+  // Fewer colours than 256: indices below the palette's size.
+  const std::vector<cv::Vec3b> two = {cv::Vec3b(0, 0, 0), cv::Vec3b(10, 20, 30)};
+  const cv::Mat checker = (cv::Mat_<uint8_t>(2, 2) << 0, 1, 1, 0);
+  const cv::Mat back = DecodeImage(EncodePalettePng(checker, two), ImageMode::kUnchanged, "two");
+  EXPECT_EQ(back.at<cv::Vec3b>(0, 1), cv::Vec3b(10, 20, 30));
+  EXPECT_EQ(back.at<cv::Vec3b>(1, 1), cv::Vec3b(0, 0, 0));
+}
+
 TEST(PngHeader, SaysSizeAndTypeWithoutDecoding) {
   const std::string colour = EncodePng(cv::Mat(7, 13, CV_8UC3, cv::Scalar(1, 2, 3)));
   const PngHeader c = ReadPngHeader(colour, "preview");
