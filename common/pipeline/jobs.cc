@@ -662,8 +662,10 @@ StageDescriptor FusionStage() {
             lo + Eigen::Vector3d(grid.nx, grid.ny, grid.nz) * grid.voxel_size_mm;
         auto carved = std::make_shared<silhouette::PhotoHull>(*hull, cameras, frames, lo, hi, po);
         const silhouette::PhotoHullStats& st = carved->stats();
-        spdlog::debug("{}: photo hull: {} of {} hull cells carved in {} sweep(s)", where,
-                      st.carved_cells, st.hull_cells, st.sweeps);
+        spdlog::debug(
+            "{}: photo hull: {} of {} hull cells carved in {} sweep(s), {} of them by "
+            "the opening ({} it removed kept for a silhouette)",
+            where, st.carved_cells, st.hull_cells, st.sweeps, st.opened_cells, st.restored_cells);
         photo_hull = std::move(carved);
       }
       auto prepared = PrepareFusion(grid, std::move(images), options, std::move(hull), hull_options);

@@ -28,6 +28,8 @@ void PhotoHullOptions::Check() const {
                 "expected a fraction in [0, 1), got " + std::to_string(stop_fraction));
   core::Require(max_sweeps >= 1, "PhotoHullOptions: max_sweeps",
                 "expected >= 1, got " + std::to_string(max_sweeps));
+  core::Require(open_radius_cells >= 0, "PhotoHullOptions: open_radius_cells",
+                "expected >= 0, got " + std::to_string(open_radius_cells));
 }
 
 namespace {
@@ -36,6 +38,26 @@ namespace {
 constexpr uint8_t kOutside = 0;  // never in the hull
 constexpr uint8_t kKept = 1;
 constexpr uint8_t kCarved = 2;
+
+// Where a cell's centre falls in one camera: its pixel, the z-buffers' pixel (zx, zy),
+// its depth and the half side of its footprint in z-buffer pixels (a cell of edge e at
+// depth z covers about e f / z image pixels).
+struct Footprint {
+  int x = 0, y = 0, zx = 0, zy = 0, r = 0;
+  double z_mm = 0;
+};
+
+// `visit(value)` on every z-buffer pixel of the footprint (a width x height buffer,
+// row-major), so that cells behind do not show through between the centres of those in
+// front.
+template <typename T, typename Visit>
+void Splat(const Footprint& f, cv::Size size, std::vector<T>* buffer, Visit&& visit) {
+  for (int yy = std::max(0, f.zy - f.r); yy <= std::min(size.height - 1, f.zy + f.r); ++yy) {
+    T* row = buffer->data() + int64_t(yy) * size.width;
+    for (int xx = std::max(0, f.zx - f.r); xx <= std::min(size.width - 1, f.zx + f.r); ++xx)
+      visit(row[xx]);
+  }
+}
 
 // One surface cell as one camera sees it.
 struct Sighting {
@@ -102,6 +124,21 @@ PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCam
   std::vector<cv::Size> zsize(n_cams);
   for (size_t c = 0; c < n_cams; ++c)
     zsize[c] = cv::Size((cameras[c].width_px + s - 1) / s, (cameras[c].height_px + s - 1) / s);
+  // The footprint of `cell` in `camera`; false when it is behind it or outside its image.
+  auto footprint = [&](const geometry::TsaiCamera& camera, int64_t cell, Footprint* f) {
+    const Eigen::Vector3d pc = camera.WorldToCamera(centre(cell));
+    Eigen::Vector2d px;
+    if (!camera.ProjectCamera(pc, &px)) return false;
+    const long x = std::lround(px.x()), y = std::lround(px.y());
+    if (x < 0 || y < 0 || x >= camera.width_px || y >= camera.height_px) return false;
+    f->x = int(x);
+    f->y = int(y);
+    f->zx = f->x / s;
+    f->zy = f->y / s;
+    f->z_mm = pc.z();
+    f->r = int(0.5 * cell_mm_ * camera.K()(0, 0) / pc.z() / s);
+    return true;
+  };
   const double max2 = options.max_colour_distance * options.max_colour_distance;
   const float tolerance = float(options.depth_tolerance_cells * cell_mm_);
 
@@ -136,24 +173,14 @@ PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCam
         const cv::Size zs = zsize[size_t(cam)];
         std::vector<float>& zb = zbuffer[size_t(cam)];
         zb.assign(size_t(zs.area()), std::numeric_limits<float>::infinity());
-        const double f_px = camera.K()(0, 0);
         for (int64_t q = 0; q < n_surface; ++q) {
-          const Eigen::Vector3d pc = camera.WorldToCamera(centre(surface[size_t(q)]));
-          Eigen::Vector2d px;
-          if (!camera.ProjectCamera(pc, &px)) continue;
-          const long x = std::lround(px.x()), y = std::lround(px.y());
-          if (x < 0 || y < 0 || x >= camera.width_px || y >= camera.height_px) continue;
+          Footprint f;
+          if (!footprint(camera, surface[size_t(q)], &f)) continue;
           Sighting& sg = seen[size_t(q) * n_cams + size_t(cam)];
-          const int zx = int(x / s), zy = int(y / s);
-          sg.pixel = zy * zs.width + zx;
-          sg.z_mm = float(pc.z());
-          sg.colour = colours[size_t(cam)].at<cv::Vec3f>(int(y), int(x));
-          const int r = int(0.5 * cell_mm_ * f_px / pc.z() / s);
-          for (int yy = std::max(0, zy - r); yy <= std::min(zs.height - 1, zy + r); ++yy) {
-            float* row = zb.data() + int64_t(yy) * zs.width;
-            for (int xx = std::max(0, zx - r); xx <= std::min(zs.width - 1, zx + r); ++xx)
-              row[xx] = std::min(row[xx], sg.z_mm);
-          }
+          sg.pixel = f.zy * zs.width + f.zx;
+          sg.z_mm = float(f.z_mm);
+          sg.colour = colours[size_t(cam)].at<cv::Vec3f>(f.y, f.x);
+          Splat(f, zs, &zb, [&](float& v) { v = std::min(v, sg.z_mm); });
         }
       }
     });
@@ -189,6 +216,69 @@ PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCam
     stats_.carved_cells += carved;
     stats_.sweeps = sweep + 1;
     if (double(carved) < options.stop_fraction * double(n_surface)) break;
+  }
+  if (options.open_radius_cells > 0) {
+    // The opening (PhotoHullOptions::open_radius_cells): the ball's offsets, the kept
+    // cells eroded (a cell stays when its whole ball is kept), then dilated.
+    const int r = options.open_radius_cells;
+    std::vector<int64_t> ball;
+    for (int dk = -r; dk <= r; ++dk)
+      for (int dj = -r; dj <= r; ++dj)
+        for (int di = -r; di <= r; ++di)
+          if (di * di + dj * dj + dk * dk <= r * r)
+            ball.push_back((dk * int64_t(ny_) + dj) * nx_ + di);
+    auto ball_inside = [&](int64_t c) {
+      const int64_t k = c / plane, j = (c % plane) / nx_, i = c % nx_;
+      return i >= r && j >= r && k >= r && i < nx_ - r && j < ny_ - r && k < nz_ - r;
+    };
+    std::vector<uint8_t> eroded(size_t(cells), 0), opened(size_t(cells), 0);
+    core::ParallelFor(0, nz_, threads, [&](int64_t k0, int64_t k1) {
+      for (int64_t c = k0 * plane; c < k1 * plane; ++c) {
+        if (state[size_t(c)] != kKept || !ball_inside(c)) continue;
+        bool all = true;
+        for (int64_t o : ball) all = all && state[size_t(c + o)] == kKept;
+        eroded[size_t(c)] = all;
+      }
+    });
+    for (int64_t c = 0; c < cells; ++c)
+      if (eroded[size_t(c)])
+        for (int64_t o : ball) opened[size_t(c + o)] = 1;
+    std::vector<int64_t> removed;
+    for (int64_t c = 0; c < cells; ++c)
+      if (state[size_t(c)] == kKept && !opened[size_t(c)]) removed.push_back(c);
+    // Per camera, the z-buffer pixels the kept cells cover and the opened ones do not;
+    // a removed cell whose centre falls on one is kept.
+    std::vector<std::vector<uint8_t>> needed(n_cams, std::vector<uint8_t>(removed.size(), 0));
+    core::ParallelFor(0, int64_t(n_cams), threads, [&](int64_t b, int64_t e) {
+      for (int64_t cam = b; cam < e; ++cam) {
+        const geometry::TsaiCamera& camera = cameras[size_t(cam)];
+        const cv::Size zs = zsize[size_t(cam)];
+        // 1: covered by a kept cell, 2: by an opened one too.
+        std::vector<uint8_t> cover(size_t(zs.area()), 0);
+        for (int64_t c = 0; c < cells; ++c) {
+          Footprint f;
+          if (state[size_t(c)] != kKept || !footprint(camera, c, &f)) continue;
+          const uint8_t mark = opened[size_t(c)] ? 2 : 1;
+          Splat(f, zs, &cover, [&](uint8_t& v) { v = std::max(v, mark); });
+        }
+        for (size_t q = 0; q < removed.size(); ++q) {
+          Footprint f;
+          if (footprint(camera, removed[q], &f))
+            needed[size_t(cam)][q] = cover[size_t(f.zy * zs.width + f.zx)] == 1;
+        }
+      }
+    });
+    for (size_t q = 0; q < removed.size(); ++q) {
+      bool need = false;
+      for (size_t cam = 0; cam < n_cams; ++cam) need = need || needed[cam][q];
+      if (need) {
+        ++stats_.restored_cells;
+        continue;
+      }
+      state[size_t(removed[q])] = kCarved;
+      ++stats_.opened_cells;
+    }
+    stats_.carved_cells += stats_.opened_cells;
   }
   carved_.resize(size_t(cells));
   for (int64_t c = 0; c < cells; ++c) carved_[size_t(c)] = state[size_t(c)] == kCarved;

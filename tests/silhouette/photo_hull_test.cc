@@ -30,11 +30,18 @@ constexpr double kRadius = 120.0;
 // Cameras 3 m away on +x, -x, +y and -y, looking at the origin, without distortion (the
 // lens is the hull's and Project's business, tested with them). The red sphere at
 // (-d, -d, 0), the blue one at (d, d, 0) on a grey background.
-Scene TwoSpheres() {
+// With `bead`, a third sphere of 12 mm at (0, 0, 60) in green: thinner than the
+// opening's ball (PhotoHullOptions::open_radius_cells), and alone in every camera.
+constexpr double kBeadRadius = 12.0;
+const Eigen::Vector3d kBead(0, 0, 60);
+
+Scene TwoSpheres(bool bead = false) {
   Scene s;
-  const std::vector<testing::Sphere> spheres = {{Eigen::Vector3d(-kOffset, -kOffset, 0), kRadius},
-                                                {Eigen::Vector3d(kOffset, kOffset, 0), kRadius}};
-  const cv::Vec3b colour[2] = {cv::Vec3b(40, 40, 200), cv::Vec3b(200, 60, 40)};
+  std::vector<testing::Sphere> spheres = {{Eigen::Vector3d(-kOffset, -kOffset, 0), kRadius},
+                                          {Eigen::Vector3d(kOffset, kOffset, 0), kRadius}};
+  if (bead) spheres.push_back({kBead, kBeadRadius});
+  const cv::Vec3b colour[3] = {cv::Vec3b(40, 40, 200), cv::Vec3b(200, 60, 40),
+                               cv::Vec3b(40, 200, 40)};
   const Eigen::Vector3d at[4] = {{3000, 0, 0}, {-3000, 0, 0}, {0, 3000, 0}, {0, -3000, 0}};
   for (int c = 0; c < 4; ++c) {
     const geometry::TsaiCamera cam = testing::LookAtCamera(
@@ -79,9 +86,11 @@ TEST(PhotoHull, CarvesTheGhostsOfTwoSpheresAndKeepsTheSpheres) {
   PhotoHullOptions po;
   po.cell_mm = 20.0;
   po.num_threads = 2;
+  po.open_radius_cells = 0;  // the colours alone (the opening: the test below)
   const Eigen::Vector3d lo(-600, -600, -200), hi(600, 600, 200);
   const PhotoHull photo(hull, s.cameras, s.images, lo, hi, po);
   EXPECT_GT(photo.stats().hull_cells, 0);
+  EXPECT_EQ(photo.stats().opened_cells, 0);
   EXPECT_GE(photo.stats().sweeps, 2);  // a ghost is thicker than one cell
   // The ghosts are carved through to their centres; each sphere keeps its whole
   // volume: a point a few mm inside its surface is on the kept side.
@@ -103,6 +112,57 @@ TEST(PhotoHull, CarvesTheGhostsOfTwoSpheresAndKeepsTheSpheres) {
   EXPECT_EQ(none.stats().carved_cells, 0);
   EXPECT_EQ(none.stats().sweeps, 1);
   for (const auto& p : ghost) EXPECT_DOUBLE_EQ(none.CarvedDistanceMm(p), -10.0);
+}
+
+// The opening carves what no silhouette needs and keeps a part thinner than its ball that
+// the silhouettes show: every mask pixel's ray still meets a kept cell.
+TEST(PhotoHull, TheOpeningKeepsWhatASilhouetteNeedsHoweverThin) {
+  const Scene s = TwoSpheres(/*bead=*/true);
+  const VisualHull hull(s.cameras, s.masks, AllFourViews());
+  ASSERT_TRUE(hull.Inside(kBead));
+  PhotoHullOptions po;
+  po.cell_mm = 10.0;
+  po.num_threads = 2;
+  po.open_radius_cells = 3;  // a ball of 30 mm: the bead (24 mm across) does not hold it
+  const Eigen::Vector3d lo(-600, -600, -200), hi(600, 600, 200);
+  // Grey everywhere: no colour carves, so what is carved is the opening's.
+  std::vector<cv::Mat> flat;
+  for (const cv::Mat& im : s.images) flat.emplace_back(im.size(), CV_8UC3, cv::Scalar(90, 90, 90));
+  for (const std::vector<cv::Mat>* images :
+       std::vector<const std::vector<cv::Mat>*>{&flat, &s.images}) {
+    const PhotoHull photo(hull, s.cameras, *images, lo, hi, po);
+    const PhotoHullStats& st = photo.stats();
+    // Thin parts no silhouette needs are carved (the hull's edges where the cameras' cones
+    // meet: about 4 % of it), and the bead, eroded whole, is kept.
+    EXPECT_GT(st.opened_cells, st.hull_cells / 50);
+    EXPECT_GT(st.restored_cells, 0);
+    EXPECT_LT(photo.CarvedDistanceMm(kBead), 0.0);
+    for (const Eigen::Vector3d& c :
+         {Eigen::Vector3d(-kOffset, -kOffset, 0), Eigen::Vector3d(kOffset, kOffset, 0)})
+      EXPECT_LT(photo.CarvedDistanceMm(c), 0.0) << c.transpose();
+    // Every camera's mask pixels (every other row and column): the ray meets a point in
+    // the hull on the kept side.
+    for (size_t c = 0; c < s.cameras.size(); ++c) {
+      const geometry::TsaiCamera& cam = s.cameras[c];
+      const Eigen::Vector3d o = cam.CentreWorld();
+      int lost = 0, pixels = 0;
+      for (int y = 0; y < cam.height_px; y += 2) {
+        for (int x = 0; x < cam.width_px; x += 2) {
+          if (!s.masks[c].at<uint8_t>(y, x)) continue;
+          ++pixels;
+          const Eigen::Vector3d d = cam.BackProject(Eigen::Vector2d(x, y));
+          bool met = false;
+          for (double t = 2000; t <= 4000 && !met; t += 2.5) {
+            const Eigen::Vector3d p = o + t * d;
+            met = hull.Inside(p) && photo.CarvedDistanceMm(p) < 0.0;
+          }
+          lost += !met;
+        }
+      }
+      EXPECT_GT(pixels, 100);
+      EXPECT_EQ(lost, 0) << "camera " << cam.id;
+    }
+  }
 }
 
 TEST(PhotoHull, FusionMakesTheCarvedGhostsFreeSpaceAndTheHullSurfaceStandsInOnlyForTheSpheres) {
@@ -169,6 +229,10 @@ TEST(PhotoHull, NamesTheCameraWhoseImageDoesNotFitAndTheOptionOutOfRange) {
   po.colour_box_px = 4;
   dome::testing::ExpectInputError([&] { po.Check(); },
                                   {"PhotoHullOptions: colour_box_px", "expected an odd count"});
+  po = {};
+  po.open_radius_cells = -1;
+  dome::testing::ExpectInputError([&] { po.Check(); },
+                                  {"PhotoHullOptions: open_radius_cells", "expected >= 0"});
   po = {};
   po.max_colour_distance = 0;
   dome::testing::ExpectInputError([&] { po.Check(); },
