@@ -59,6 +59,35 @@ void Splat(const Footprint& f, cv::Size size, std::vector<T>* buffer, Visit&& vi
   }
 }
 
+// The opening of the cells marked `kept` in `state` (an nx x ny x nz grid, x fastest)
+// by a ball of `r` cells: eroded (a cell stays when its whole ball is kept; cells whose
+// ball leaves the grid do not), then dilated. 1 = in the opening; a subset of the kept.
+std::vector<uint8_t> OpenedCells(const std::vector<uint8_t>& state, uint8_t kept, int nx, int ny,
+                                 int nz, int r, int threads) {
+  const int64_t plane = int64_t(nx) * ny, cells = plane * nz;
+  std::vector<int64_t> ball;  // index offsets of the ball's cells
+  for (int dk = -r; dk <= r; ++dk)
+    for (int dj = -r; dj <= r; ++dj)
+      for (int di = -r; di <= r; ++di)
+        if (di * di + dj * dj + dk * dk <= r * r) ball.push_back((dk * int64_t(ny) + dj) * nx + di);
+  std::vector<uint8_t> eroded(size_t(cells), 0), opened(size_t(cells), 0);
+  core::ParallelFor(r, nz - r, threads, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = r; j < ny - r; ++j)
+        for (int64_t i = r; i < nx - r; ++i) {
+          const int64_t c = k * plane + j * nx + i;
+          if (state[size_t(c)] != kept) continue;
+          bool all = true;
+          for (int64_t o : ball) all = all && state[size_t(c + o)] == kept;
+          eroded[size_t(c)] = all;
+        }
+  });
+  for (int64_t c = 0; c < cells; ++c)
+    if (eroded[size_t(c)])
+      for (int64_t o : ball) opened[size_t(c + o)] = 1;
+  return opened;
+}
+
 // One surface cell as one camera sees it.
 struct Sighting {
   int pixel = -1;    // index into the z-buffer; -1: not in front or outside the image
@@ -218,31 +247,9 @@ PhotoHull::PhotoHull(const VisualHull& hull, const std::vector<geometry::TsaiCam
     if (double(carved) < options.stop_fraction * double(n_surface)) break;
   }
   if (options.open_radius_cells > 0) {
-    // The opening (PhotoHullOptions::open_radius_cells): the ball's offsets, the kept
-    // cells eroded (a cell stays when its whole ball is kept), then dilated.
-    const int r = options.open_radius_cells;
-    std::vector<int64_t> ball;
-    for (int dk = -r; dk <= r; ++dk)
-      for (int dj = -r; dj <= r; ++dj)
-        for (int di = -r; di <= r; ++di)
-          if (di * di + dj * dj + dk * dk <= r * r)
-            ball.push_back((dk * int64_t(ny_) + dj) * nx_ + di);
-    auto ball_inside = [&](int64_t c) {
-      const int64_t k = c / plane, j = (c % plane) / nx_, i = c % nx_;
-      return i >= r && j >= r && k >= r && i < nx_ - r && j < ny_ - r && k < nz_ - r;
-    };
-    std::vector<uint8_t> eroded(size_t(cells), 0), opened(size_t(cells), 0);
-    core::ParallelFor(0, nz_, threads, [&](int64_t k0, int64_t k1) {
-      for (int64_t c = k0 * plane; c < k1 * plane; ++c) {
-        if (state[size_t(c)] != kKept || !ball_inside(c)) continue;
-        bool all = true;
-        for (int64_t o : ball) all = all && state[size_t(c + o)] == kKept;
-        eroded[size_t(c)] = all;
-      }
-    });
-    for (int64_t c = 0; c < cells; ++c)
-      if (eroded[size_t(c)])
-        for (int64_t o : ball) opened[size_t(c + o)] = 1;
+    // The opening (PhotoHullOptions::open_radius_cells), then what it removed.
+    const std::vector<uint8_t> opened =
+        OpenedCells(state, kKept, nx_, ny_, nz_, options.open_radius_cells, threads);
     std::vector<int64_t> removed;
     for (int64_t c = 0; c < cells; ++c)
       if (state[size_t(c)] == kKept && !opened[size_t(c)]) removed.push_back(c);

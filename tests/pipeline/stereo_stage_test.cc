@@ -10,7 +10,9 @@
 #include <tuple>
 #include <vector>
 
+#include "io/depth_tiff.h"
 #include "io/file_util.h"
+#include "io/image_io.h"
 #include "net/content_hash.h"
 #include "pipeline/frame_handoff.h"
 #include "pipeline/ideal_greys.h"
@@ -566,6 +568,17 @@ TEST(StereoFiles, AreCheckedAgainstTheResult) {
       std::swap(swapped[1].bytes, swapped[2].bytes);  // reliability <-> preview
       ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, swapped, "worker w1"); },
                        {"reliability/c07.tiff", "is not the result's reliability map"});
+      // The preview is a palette PNG of the map's size: a BGR picture of it, or a palette
+      // PNG of another size, is refused.
+      const cv::Mat& depth = result.range_images[0].depth_mm;
+      auto bgr = files;
+      bgr[2].bytes = io::EncodePng(io::DepthPreview(depth), io::PngEncoding::kFast);
+      ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, bgr, "worker w1"); },
+                       {"worker w1 preview/c07.png", "is not an 8-bit palette preview"});
+      auto small = files;
+      small[2].bytes = io::EncodeDepthPreviewPng(depth(cv::Rect(0, 0, 8, 8)), "small");
+      ExpectInputError([&] { stereo::CheckStereoFiles(result, previews, small, "worker w1"); },
+                       {"worker w1 preview/c07.png", "of the depth map's size"});
     }
   }
 }
