@@ -48,6 +48,9 @@ inline constexpr int kLargeImagePx = 500000;                 // "large images", 
 // image as foreground (a person far across a dome covers more than 0.1 %).
 inline constexpr double kMinForegroundFraction = 0.001;
 inline constexpr int kHullCells = 96;  // the hull's box: cells along the longest side
+// The masks' hull is looked for this fraction of the scene's box beyond each of its sides
+// (derive.cc HullVolume), where every camera must see it in its foreground.
+inline constexpr double kHullBeyondFraction = 0.5;
 // A rig is sparse for the silhouettes (derive.cc) when its cameras' median nearest axis
 // angle (stereo/cluster.h) exceeds this, degrees: half the widest angle a stereo cluster
 // takes (60). The seed's dome pairs cameras about 18 degrees apart (the paper take:

@@ -147,7 +147,8 @@ HullSample VisualHull::Sample(const Eigen::Vector3d& world_mm, double radius_mm,
 }
 
 bool VisualHull::BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
-                             Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi) const {
+                             Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi,
+                             int min_views) const {
   DOME_CHECK(cells >= 1 && (hi - lo).minCoeff() > 0, "VisualHull::BoundingBox: a box and cells");
   DOME_CHECK(options_.distances, "VisualHull::BoundingBox: needs distances");
   const double cell = (hi - lo).maxCoeff() / cells;
@@ -163,7 +164,8 @@ bool VisualHull::BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& h
       // box needs only the verdict, not the distances.
       auto inside = [&](int i, int j) {
         const Eigen::Vector3d p = lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
-        return Sample(p, radius, /*skip=*/-1, /*enough_outside_mm=*/0.0).inside;
+        const HullSample s = Sample(p, radius, /*skip=*/-1, /*enough_outside_mm=*/0.0);
+        return s.inside && s.seen - s.background >= min_views;
       };
       for (int j = 0; j < n.y(); ++j) {
         // The box needs only each row's first and last cell inside: the row is scanned

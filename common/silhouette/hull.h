@@ -113,9 +113,11 @@ class VisualHull {
   // `cells` cells along its longest axis (cubes), each tested as its enclosing ball
   // (conservative, so thin parts are not lost between cell centres; Sample's verdict
   // with the ball's radius); the box of the cells inside, as cells. False when no cell
-  // is inside. Needs the distances (HullOptions::distances).
+  // is inside. Needs the distances (HullOptions::distances). `min_views` > 0: a cell
+  // must also be seen in the foreground of at least that many cameras (a stricter
+  // count than the options', e.g. every camera).
   bool BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
-                   Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi) const;
+                   Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi, int min_views = 0) const;
 
   // Per pixel of camera `index`'s ideal grid, the depths (z, mm) along its ray where the
   // ray is in the hull, within [z_min, z_max]: CV_32FC2 (near, far), (0, 0) where the

@@ -265,19 +265,21 @@ TEST_F(HullTest, RayBoundsOfLeafBlocksHoldEachPixelsOwn) {
 }
 
 // BoundingBox tests each row's cells from both ends only and stops at the carving votes:
-// its box must be that of every cell's full vote (Sample with the cell's ball).
+// its box must be that of every cell's full vote (Sample with the cell's ball), and with
+// a stricter count of foreground views, of the cells that have it.
 TEST_F(HullTest, BoundingBoxEqualsTheBoxOfEveryCellsVote) {
   const std::string instant = take_->instants[1];
   const auto cameras = Cameras();
   const auto masks = PlateMasks(instant);
-  for (int votes : {2, 1}) {
+  const int all = int(cameras.size());
+  for (const auto& [votes, views] : {std::pair{2, 0}, std::pair{1, 0}, std::pair{2, all}}) {
     HullOptions o;
     o.carve_votes = votes;
     const VisualHull hull(cameras, masks, o);
     const Eigen::Vector3d lo(-1500, -1500, 30), hi(1500, 1500, 2600);
     const int cells = 40;
     Eigen::Vector3d h_lo, h_hi;
-    ASSERT_TRUE(hull.BoundingBox(lo, hi, cells, &h_lo, &h_hi));
+    ASSERT_TRUE(hull.BoundingBox(lo, hi, cells, &h_lo, &h_hi, views));
     const double cell = (hi - lo).maxCoeff() / cells;
     Eigen::Vector3i n, a = Eigen::Vector3i::Constant(1 << 20), b = -a;
     for (int i = 0; i < 3; ++i) n[i] = int(std::ceil((hi[i] - lo[i]) / cell));
@@ -286,19 +288,20 @@ TEST_F(HullTest, BoundingBoxEqualsTheBoxOfEveryCellsVote) {
       for (int j = 0; j < n.y(); ++j) {
         for (int i = 0; i < n.x(); ++i) {
           const Eigen::Vector3d p = lo + cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
-          if (!hull.Sample(p, 0.5 * std::sqrt(3.0) * cell).inside) continue;
+          const HullSample sample = hull.Sample(p, 0.5 * std::sqrt(3.0) * cell);
+          if (!sample.inside || sample.seen - sample.background < views) continue;
           ++inside;
           a = a.cwiseMin(Eigen::Vector3i(i, j, k));
           b = b.cwiseMax(Eigen::Vector3i(i, j, k));
         }
       }
     }
-    ASSERT_GT(inside, 20) << "votes " << votes;
+    ASSERT_GT(inside, 20) << "votes " << votes << ", views " << views;
     const Eigen::Vector3d e_lo = lo + cell * a.cast<double>();
     const Eigen::Vector3d e_hi =
         (lo + cell * (b + Eigen::Vector3i::Ones()).cast<double>()).cwiseMin(hi);
-    EXPECT_EQ(h_lo, e_lo) << "votes " << votes;
-    EXPECT_EQ(h_hi, e_hi) << "votes " << votes;
+    EXPECT_EQ(h_lo, e_lo) << "votes " << votes << ", views " << views;
+    EXPECT_EQ(h_hi, e_hi) << "votes " << votes << ", views " << views;
     EXPECT_LT((e_hi - e_lo).prod(), 0.5 * (hi - lo).prod()) << "the hull shrinks the box";
   }
 }
