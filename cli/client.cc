@@ -164,6 +164,12 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   const auto start = Clock::now();
   auto next_poll = start;
   int first_done = -1;
+  // The master sends a subscriber events from when its subscription reaches it: an end
+  // before that is never heard (a short session, a loaded machine). Until an event
+  // shows the subscription is live the control socket is asked sooner, after 100 ms,
+  // then twice as long each time up to poll_ms; from the first event every poll_ms.
+  bool live = false;
+  int early_ms = 100;
   // The master stopped answering then (Clock::time_point::max(): it answers).
   Clock::time_point silent_since = Clock::time_point::max();
   while (true) {
@@ -191,7 +197,9 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
       }
       if (st.state() != "running") return st;
       if (first_done < 0) first_done = st.jobs_done();
-      next_poll = Clock::now() + std::chrono::milliseconds(poll_ms);
+      next_poll =
+          Clock::now() + std::chrono::milliseconds(live ? poll_ms : std::min(poll_ms, early_ms));
+      early_ms = std::min(poll_ms, 2 * early_ms);
     }
     if (!sub) {
       std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
@@ -200,9 +208,16 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
     // The event of the session's end has the control socket asked at once, not at the
     // next poll (up to poll_ms later: the end of every `dome run` waited on it).
     bool ended = false;
+    const auto until_poll =
+        std::chrono::duration_cast<std::chrono::milliseconds>(next_poll - Clock::now()).count();
     sub->Drain(
-        poll_ms,
+        int(std::clamp<int64_t>(until_poll, 1, poll_ms)),
         [&](const runtime::StatusEvent& ev) {
+          if (!live) {
+            // From here the session's end is heard: the usual polls.
+            live = true;
+            next_poll = std::max(next_poll, Clock::now() + std::chrono::milliseconds(poll_ms));
+          }
           if (out != nullptr && ev.has_capture()) {
             std::fprintf(out, "%s\n", FormatCaptureStatus(ev.capture()).c_str());
             std::fflush(out);

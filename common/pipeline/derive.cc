@@ -118,8 +118,8 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
 // them again.
 void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
                 const std::pair<std::string, std::vector<cv::Mat>>& made, double margin,
-                int carve_votes, int min_views, int num_threads, bool offer, Eigen::Vector3d* lo,
-                Eigen::Vector3d* hi, Derivation* d) {
+                int carve_votes, int min_views, int num_threads, bool offer, bool box_from_stereo,
+                Eigen::Vector3d* lo, Eigen::Vector3d* hi, Derivation* d) {
   const take::Take& take = masks.take();
   std::vector<geometry::TsaiCamera> cameras;
   for (const auto& rc : take.rig.cameras) cameras.push_back(rc.model);
@@ -138,6 +138,10 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
   // cameras: the volume reaches 96 mm further along x, where a person had been cut at
   // the box's face; leave-one-out IoU 0.584 against 0.588, as much as a 1 % larger
   // margin alone moves it; README "Silhouettes".)
+  // Where coarse stereo found too few points the box is only the view sphere's, a guess
+  // (a take run for one of its instants: Panoptic's then ends above the floor and cut
+  // the people's feet): beyond it the hull's own rule holds.
+  const int beyond_views = box_from_stereo ? int(cameras.size()) : 0;
   const Eigen::Vector3d beyond = kHullBeyondFraction * (*hi - *lo);
   const Eigen::Vector3d box_lo = *lo, box_hi = *hi;
   Eigen::Vector3d reach_lo = *lo, reach_hi = *hi;
@@ -165,8 +169,7 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
       a = a.cwiseMin(h_lo);
       b = b.cwiseMax(h_hi);
     }
-    if (hull.BoundingBox(*lo - beyond, *hi + beyond, kHullCells, &h_lo, &h_hi,
-                         int(cameras.size()))) {
+    if (hull.BoundingBox(*lo - beyond, *hi + beyond, kHullCells, &h_lo, &h_hi, beyond_views)) {
       a = a.cwiseMin(h_lo);
       b = b.cwiseMax(h_hi);
       reach_lo = reach_lo.cwiseMin(h_lo);
@@ -188,7 +191,9 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
       "volume: {} (shrunk to the bounding box of the masks' visual hull at {} instant(s), "
       "cells of 1/{} of the scene's box, +{:.0f} % a side{})",
       Box(a, b), instants.size(), kHullCells, 100 * margin,
-      past ? "; past the scene's box where every camera sees it in its foreground" : ""));
+      !past              ? ""
+      : beyond_views > 0 ? "; past the scene's box where every camera sees it in its foreground"
+                         : "; past the view sphere's box"));
 }
 
 }  // namespace
@@ -375,7 +380,7 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
           *masks,
           silhouette::MedianInstants(instants, silhouette::MaskOptions{}.median_max_instants),
           {instants[instants.size() / 2], middle_masks}, eo.margin_fraction, si->carve_votes(),
-          si->min_views(), request.num_threads, request.offer_frames, &lo, &hi, &d);
+          si->min_views(), request.num_threads, request.offer_frames, e.from_stereo, &lo, &hi, &d);
       spdlog::debug("derive: the masks' hull in {:.2f} s", since());
     }
   }
