@@ -168,7 +168,7 @@ runtime::SessionStatus WaitForSession(zmq::context_t* context, const std::string
   // before that is never heard (a short session, a loaded machine). Until an event
   // shows the subscription is live the control socket is asked sooner, after 100 ms,
   // then twice as long each time up to poll_ms; from the first event every poll_ms.
-  bool live = false;
+  bool live = sub == nullptr;  // without events, the polls alone
   int early_ms = 100;
   // The master stopped answering then (Clock::time_point::max(): it answers).
   Clock::time_point silent_since = Clock::time_point::max();
