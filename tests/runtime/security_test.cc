@@ -262,6 +262,21 @@ TEST_F(SecureMaster, AWatchEndsOnTheSessionsEndEventNotAtItsNextPoll) {
   EXPECT_LT(waited_s, 30.0) << "returned at the next poll, not on the end event";
 }
 
+// A subscription the master never hears (here an endpoint nothing listens on) brings
+// no event, as one that reaches the master only after the session's end: the end is
+// asked for early (after 100 ms, then twice as long each time), not at the next poll a
+// minute later.
+TEST_F(SecureMaster, AWatchWithoutEventsAsksEarlyUntilOneComes) {
+  const auto worker = AllowedWorker();
+  const std::string id = SubmitNoop("client", 5);
+  const auto start = Clock::now();
+  const auto st = client::WaitForSession(&context_, control_, "tcp://127.0.0.1:1", id, nullptr,
+                                         60000, Keys("client"));
+  const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+  EXPECT_EQ(st.state(), "done") << st.error() << master_->Log();
+  EXPECT_LT(waited_s, 30.0) << "returned at the next poll";
+}
+
 TEST_F(SecureMaster, KeysNotOnTheAllowListAndPlaintextPeersGetNothing) {
   // A stranger's request gets no answer; the master names its key and address.
   ExpectInputError([&] { List("stranger", 1500); }, {"no answer", "allow-list"});
