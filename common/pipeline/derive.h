@@ -49,7 +49,9 @@ inline constexpr int kLargeImagePx = 500000;                 // "large images", 
 inline constexpr double kMinForegroundFraction = 0.001;
 inline constexpr int kHullCells = 96;  // the hull's box: cells along the longest side
 // The masks' hull is looked for this fraction of the scene's box beyond each of its sides
-// (derive.cc HullVolume), where every camera must see it in its foreground.
+// (derive.cc HullVolume): where the box came from coarse stereo, only where every camera
+// sees it in its foreground; past the view sphere's box (too few coarse points), by the
+// hull's own rule.
 inline constexpr double kHullBeyondFraction = 0.5;
 // A rig is sparse for the silhouettes (derive.cc) when its cameras' median nearest axis
 // angle (stereo/cluster.h) exceeds this, degrees: half the widest angle a stereo cluster
