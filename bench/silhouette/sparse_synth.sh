@@ -38,11 +38,13 @@ for n in "${counts[@]}"; do
   out=$work/out_$n
   [[ -f "$take/rig.json" ]] ||
     "$dome" synth --preset paper --cameras "$n" --instants 2 --width 640 --height 490 \
-      --out "$take" --overwrite >/dev/null 2>&1
+      --out "$take" --overwrite >"$work/synth_$n.log" 2>&1 ||
+    { echo "$0: dome synth of $n cameras failed, see $work/synth_$n.log" >&2; exit 1; }
   rm -rf "$out"
   "$dome" run "$take" --out "$out" "${run_args[@]}" >"$work/run_$n.log" 2>&1 ||
     { echo "$0: dome run of $n cameras failed, see $work/run_$n.log" >&2; exit 1; }
-  "$build/bin/batter_eval" "$take" "$out" >"$work/eval_$n.json" 2>"$work/eval_$n.log"
+  "$build/bin/batter_eval" "$take" "$out" >"$work/eval_$n.json" 2>"$work/eval_$n.log" ||
+    { echo "$0: batter_eval of $n cameras failed, see $work/eval_$n.log" >&2; exit 1; }
   /usr/bin/python3 - "$n" "$out/report.json" "$work/eval_$n.json" <<'PY'
 import json, sys
 n, report, evals = sys.argv[1:4]

@@ -139,8 +139,8 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
   // the box's face; leave-one-out IoU 0.584 against 0.588, as much as a 1 % larger
   // margin alone moves it; README "Silhouettes".)
   // Where coarse stereo found too few points the box is only the view sphere's, a guess
-  // (a take run for one of its instants: Panoptic's then ends above the floor and cut
-  // the people's feet): beyond it the hull's own rule holds.
+  // (a take run for one of its instants: Panoptic's 00-03-03-24 alone ended 1 m short of
+  // the third person): beyond it the hull's own rule holds.
   const int beyond_views = box_from_stereo ? int(cameras.size()) : 0;
   const Eigen::Vector3d beyond = kHullBeyondFraction * (*hi - *lo);
   const Eigen::Vector3d box_lo = *lo, box_hi = *hi;
