@@ -18,6 +18,7 @@
 // space), as io::Mesh expects.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "fusion/volume.h"
@@ -50,6 +51,9 @@ class StreamingMarchingCubes {
 
  private:
   int VertexOnEdge(int plane_slot, int axis, int i, int j);
+  // Marks in active_ the cells (i, j), i < nx - 1, of the plane pair that are
+  // polygonized: all 8 corners observed and not all on one side of the surface.
+  void MarkActiveCells(int j);
 
   fusion::VolumeGrid grid_;
   MarchingCubesOptions options_;
@@ -57,9 +61,15 @@ class StreamingMarchingCubes {
   // Slot 0: plane k-1, slot 1: plane k.
   std::vector<float> distance_[2];
   std::vector<float> weight_[2];
-  std::vector<int> x_edge_[2];  // vertex on edge (i,j)-(i+1,j) of the plane, -1 none yet
-  std::vector<int> y_edge_[2];  // vertex on edge (i,j)-(i,j+1)
-  std::vector<int> z_edge_;     // vertex on edge (i,j,k-1)-(i,j,k)
+  // Per voxel of the plane: observed (weight > min_weight) | inside (distance < 0) bits.
+  std::vector<uint8_t> class_[2];
+  std::vector<uint8_t> active_;  // per cell of the row being polygonized: 1 = polygonize
+  std::vector<int> x_edge_[2];   // vertex on edge (i,j)-(i+1,j) of the plane, -1 none yet
+  std::vector<int> y_edge_[2];   // vertex on edge (i,j)-(i,j+1)
+  std::vector<int> z_edge_;      // vertex on edge (i,j,k-1)-(i,j,k)
+  // The entries of each edge map set since it was last reset (x of slot 0, of slot 1, y
+  // of slot 0, of slot 1, then z): a plane resets only these, not the whole map.
+  std::vector<size_t> set_[5];
   io::Mesh mesh_;
 };
 

@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <set>
 
 #include "fusion/fusion_test_util.h"
@@ -103,6 +105,63 @@ TEST(MarchingCubes, UnobservedCellsAreSkipped) {
   EXPECT_GT(half.faces.size(), full * 0.4);
   EXPECT_GT(AnalyzeTopology(half).boundary_edges, 0);
   for (const auto& p : half.vertices) EXPECT_GT(p.x(), -1.0f);
+}
+
+// Rows wider than the blocks the cell test runs in (203 cells: three blocks of 64 and a
+// tail), with random unobserved voxels, NaN weights and NaN distances: a vertex is made
+// on exactly the sign-changing edges of the cells the rule polygonizes (all 8 corners
+// with weight > 0; a NaN weight unobserved, a NaN distance outside), counted here cell
+// by cell, and the surface stays consistently oriented.
+TEST(MarchingCubes, WideRowsWithHolesFollowTheCellRule) {
+  testing::Volume v;
+  v.grid.voxel_size_mm = 1.0;
+  v.grid.nx = 204, v.grid.ny = 6, v.grid.nz = 5;
+  v.grid.origin_mm = Eigen::Vector3d::Zero();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const size_t n = size_t(v.grid.nx) * v.grid.ny * v.grid.nz;
+  for (size_t i = 0; i < n; ++i) {
+    // Long runs of unobserved space (every 8-cell skip) between observed stretches.
+    const bool run_unobserved = (i / 37) % 3 == 1;
+    const float r = u(rng);
+    v.distance.push_back(r > 0.95f ? nan : u(rng));
+    v.weight.push_back(run_unobserved || r < -0.9f ? 0.0f : (r > 0.9f ? nan : 1.0f));
+  }
+  const io::Mesh m = MarchingCubes(v.grid, v.distance, v.weight);
+  const int nx = v.grid.nx, ny = v.grid.ny, nz = v.grid.nz;
+  auto at = [&](int i, int j, int k) { return (size_t(k) * ny + j) * nx + i; };
+  auto inside = [&](size_t idx) { return v.distance[idx] < 0.0f; };
+  std::set<std::pair<size_t, int>> edges;  // (lower corner, axis) of the expected vertices
+  for (int k = 0; k + 1 < nz; ++k)
+    for (int j = 0; j + 1 < ny; ++j)
+      for (int i = 0; i + 1 < nx; ++i) {
+        int in = 0;
+        bool observed = true;
+        for (int c = 0; c < 8; ++c) {
+          const size_t idx = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+          observed = observed && v.weight[idx] > 0.0f;
+          in += inside(idx);
+        }
+        if (!observed || in == 0 || in == 8) continue;
+        for (int c = 0; c < 8; ++c) {
+          const int ci = i + (c & 1), cj = j + ((c >> 1) & 1), ck = k + (c >> 2);
+          for (int axis = 0; axis < 3; ++axis) {
+            const int di = axis == 0, dj = axis == 1, dk = axis == 2;
+            if ((axis == 0 && ci > i) || (axis == 1 && cj > j) || (axis == 2 && ck > k)) continue;
+            if (inside(at(ci, cj, ck)) != inside(at(ci + di, cj + dj, ck + dk))) {
+              edges.insert({at(ci, cj, ck), axis});
+            }
+          }
+        }
+      }
+  ASSERT_GT(edges.size(), 500u);
+  EXPECT_EQ(m.vertices.size(), edges.size());
+  EXPECT_EQ(m.Inconsistency(), "");
+  const MeshTopology t = AnalyzeTopology(m);
+  EXPECT_EQ(t.non_manifold_edges, 0);
+  EXPECT_EQ(t.inconsistent_edges, 0);
+  EXPECT_GT(t.boundary_edges, 0);  // the holes' rims
 }
 
 // Slab invariance end to end: fusion in 1, 7 and 300 slabs, streamed into marching
