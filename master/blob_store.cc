@@ -46,7 +46,24 @@ runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& byt
   }
   std::lock_guard<std::mutex> lock(mutex_);
   Hold(ref.sha256(), path, bytes.size(), name);
+  Remember(ref.sha256(), bytes);
   return ref;
+}
+
+void BlobStore::Remember(const std::string& sha256, const std::string& bytes) {
+  if (bytes.size() > recent_budget_ || recent_at_.count(sha256) != 0) return;
+  recent_.emplace_back(sha256, std::make_shared<const std::string>(bytes));
+  recent_at_[sha256] = std::prev(recent_.end());
+  recent_bytes_ += bytes.size();
+  while (recent_bytes_ > recent_budget_) Unremember(recent_.front().first);
+}
+
+void BlobStore::Unremember(const std::string& sha256) {
+  auto at = recent_at_.find(sha256);
+  if (at == recent_at_.end()) return;
+  recent_bytes_ -= at->second->second->size();
+  recent_.erase(at->second);
+  recent_at_.erase(at);
 }
 
 bool BlobStore::Adopt(const fs::path& dir, const std::string& sha256) {
@@ -72,6 +89,8 @@ std::optional<std::string> BlobStore::Read(const std::string& sha256, std::strin
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(sha256);
     if (it == entries_.end()) return std::nullopt;
+    // Hashed when it was added, and held here since.
+    if (auto at = recent_at_.find(sha256); at != recent_at_.end()) return *at->second->second;
     paths = it->second.paths;
   }
   // The most recent file first; any that still holds the bytes will do.
@@ -126,11 +145,13 @@ void BlobStore::Drop(const std::string& sha256) {
     for (const auto& path : it->second.paths) fs::remove(path, ec);
   }
   entries_.erase(it);
+  Unremember(sha256);
 }
 
 void BlobStore::Forget(const std::string& sha256) {
   std::lock_guard<std::mutex> lock(mutex_);
   entries_.erase(sha256);
+  Unremember(sha256);
 }
 
 size_t BlobStore::size() const {

@@ -3,8 +3,11 @@
 // finds them again (journal.h). Thread-safe (the surface stage runs beside the loop).
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
+#include <list>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -14,8 +17,16 @@
 
 namespace dome::scheduler {
 
+// The budget of BlobStore's recent outputs, bytes: a one-instant Robovision run's stereo
+// outputs (63 MB), slabs and mesh; two instants' stereo outputs of Panoptic's five HD
+// cameras (33 MB an instant) or of the paper take's 51 cameras (30 MB). The master's peak
+// memory grows by up to this much.
+inline constexpr size_t kRecentOutputBytes = size_t(128) << 20;
+
 class BlobStore {
  public:
+  // recent_bytes: the budget of outputs served from memory (Read).
+  explicit BlobStore(size_t recent_bytes = kRecentOutputBytes) : recent_budget_(recent_bytes) {}
   // Hashes the file and remembers its path. Throws core::InputError naming the file.
   runtime::BlobRef AddFile(const std::filesystem::path& path, const std::string& name);
   // Writes the bytes to dir/<sha256> (atomically, unless already there) and remembers.
@@ -28,6 +39,8 @@ class BlobStore {
   // when its file is gone, unreadable or no longer hashes to `sha256` (a take file
   // deleted or replaced since it was added); then *error, when given, names the file
   // and what happened ("" for an unknown blob).
+  // An output among the last recent_bytes added is served from memory, without reading
+  // its file back or hashing it again.
   std::optional<std::string> Read(const std::string& sha256, std::string* error) const;
   std::optional<runtime::BlobRef> Find(const std::string& sha256) const;
   // Lets go of one output held under these bytes (one AddBytes or Adopt); the last one
@@ -57,8 +70,22 @@ class BlobStore {
   void Hold(const std::string& sha256, const std::filesystem::path& path, uint64_t size,
             const std::string& name);
 
+  // Keeps the bytes of an output just added, dropping the oldest past the budget
+  // (mutex_ held).
+  void Remember(const std::string& sha256, const std::string& bytes);
+  void Unremember(const std::string& sha256);  // mutex_ held
+
   mutable std::mutex mutex_;
   std::map<std::string, Entry> entries_;
+  // The bytes of the outputs added last, oldest first, recent_budget_ at most in all.
+  // A stage's outputs are the next stage's inputs, asked for by every worker that runs one
+  // of its jobs: each time read from the file and hashed on the master's loop before
+  // (Robovision's twelve stereo outputs, 63 MB, went to both of `dome run`'s workers for
+  // fusion).
+  std::list<std::pair<std::string, std::shared_ptr<const std::string>>> recent_;
+  std::map<std::string, decltype(recent_)::iterator> recent_at_;
+  size_t recent_bytes_ = 0;
+  size_t recent_budget_;
 };
 
 }  // namespace dome::scheduler

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "net/content_hash.h"
 
@@ -37,6 +38,37 @@ TEST(BlobStore, OutputsWithTheSameBytesAreDroppedOneByOne) {
   // An output once held and dropped, then made again, is held again.
   store.AddBytes(dir, bytes, "again");
   EXPECT_TRUE(store.Read(a.sha256(), nullptr).has_value());
+  fs::remove_all(dir);
+}
+
+// The outputs added last are served from memory: not read back from their files (gone
+// or overwritten here, which only a process outside dome would do) and not hashed again;
+// past the budget the oldest are read from their files again, and a dropped output is
+// gone from memory too.
+TEST(BlobStore, RecentOutputsAreServedFromMemoryWithinTheBudget) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("dome_blob_store_recent_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  BlobStore store(/*recent_bytes=*/3000);
+  std::vector<runtime::BlobRef> refs;
+  for (char c : std::string("abcd")) refs.push_back(store.AddBytes(dir, std::string(1000, c), {c}));
+  for (const auto& r : refs) fs::remove(dir / r.sha256());
+  std::string error;
+  // 'a' went past the budget when 'd' came: its file is read, and it is gone.
+  EXPECT_FALSE(store.Read(refs[0].sha256(), &error).has_value());
+  EXPECT_NE(error.find((dir / refs[0].sha256()).string()), std::string::npos) << error;
+  for (size_t k = 1; k < refs.size(); ++k) {
+    const auto bytes = store.Read(refs[k].sha256(), nullptr);
+    ASSERT_TRUE(bytes.has_value()) << k;
+    EXPECT_EQ(*bytes, std::string(1000, "abcd"[k])) << k;
+  }
+  // Larger than the whole budget: never held in memory.
+  const runtime::BlobRef big = store.AddBytes(dir, std::string(4000, 'e'), "big");
+  fs::remove(dir / big.sha256());
+  EXPECT_FALSE(store.Read(big.sha256(), nullptr).has_value());
+  EXPECT_TRUE(store.Read(refs[3].sha256(), nullptr).has_value());
+  store.Drop(refs[3].sha256());
+  EXPECT_FALSE(store.Read(refs[3].sha256(), nullptr).has_value());
   fs::remove_all(dir);
 }
 
