@@ -97,14 +97,17 @@ struct DecimationOptions {
   // kEdgeCollapse: decimate a large mesh in regions, one per faces_per_region faces
   // (the largest power of two, at most 64, that leaves each region this many), in
   // parallel, then the joined regions (see Decimate); 0 = one region. The count comes
-  // from the face count only, so the output is the same for any num_threads. 20000: a
-  // region's records then stay nearer the core's caches (a 358 k-face Robovision surface
-  // took 0.75x the CPU time in 8 regions as in 4 with one pass after them, its mean
-  // distance to the input 0.92x), and with fewer faces a region the seams' faces, left
-  // to the passes over the joined mesh, grow faster than the regions' own work shrinks
-  // (templeSparseRing's 470 k faces, one pass after the regions: 1.2x the wall time in 32
-  // regions as in 16). Faces, >= 0.
-  int64_t faces_per_region = 20000;
+  // from the face count only, so the output is the same for any num_threads. 10000: a
+  // region's records then stay nearer the core's caches, and the second round of
+  // regions (Decimate) collapses in parallel most of what the first round's seams kept.
+  // Against 20000 (`bench/fusion/decimation_ab.py`, 5 pairs, 2 threads, AVX-512): a
+  // Panoptic instant's 1.34 M faces (64 regions against 32) 0.89x the wall, Robovision
+  // 17_43_02's 358 k (16 against 8) 0.96x, the paper instant's 127 k 0.97x,
+  // templeSparseRing's 470 k 1.05x (0.98x the CPU), every distance to the input within
+  // 0.4 % or closer. (At 20000, before the second round: 8 regions of the Robovision
+  // surface took 0.75x the CPU of 4, and templeSparseRing 1.2x the wall in 32 as in 16.)
+  // Faces, >= 0.
+  int64_t faces_per_region = 10000;
   // Threads the regions run on; <= 0: the hardware's. Does not change the output.
   int num_threads = 0;
   DecimationMethod method = DecimationMethod::kEdgeCollapse;
