@@ -1193,13 +1193,17 @@ class EdgeCollapser {
         new_ring_.push_back({t[(at + 1) % 3], t[(at + 2) % 3]});
       }
     }
-    double worst2 = 0;
+    // The points: the centroids and the midpoints of the edges from x (those on the
+    // border too), each midpoint once (two new faces share each edge from x: the same
+    // point), each with its distance to the face it came from, usually the nearest.
+    points_.clear();
     for (size_t i = 0; i < new_tris_.size(); ++i) {
       const auto& t = new_tris_[i];
-      // The centroid and the midpoints of the edges from x (those on the border too),
-      // each midpoint once (two new faces share each edge from x: the same point).
-      Eigen::Vector3d points[3] = {(t[0] + t[1] + t[2]) / 3.0};
-      int n_points = 1;
+      const auto& o = old_tris_[new_from_[i]];
+      const auto add = [&](const Eigen::Vector3d& p) {
+        points_.push_back({PointTriangleDistance2(p, o[0], o[1], o[2]), p});
+      };
+      add((t[0] + t[1] + t[2]) / 3.0);
       for (int k = 0; k < 2; ++k) {
         const int corner = new_ring_[i][size_t(k)];
         if (std::find(midpoints_done_.begin(), midpoints_done_.end(), corner) !=
@@ -1207,34 +1211,37 @@ class EdgeCollapser {
           continue;
         }
         midpoints_done_.push_back(corner);
-        points[n_points++] = 0.5 * (t[0] + t[size_t(k) + 1]);
+        add(0.5 * (t[0] + t[size_t(k) + 1]));
       }
-      for (int j = 0; j < n_points; ++j) {
-        const Eigen::Vector3d& p = points[j];
-        // The face it came from first: usually the nearest, and once a face is within
-        // worst2 the point cannot raise the maximum.
-        const auto& o = old_tris_[new_from_[i]];
-        double best = PointTriangleDistance2(p, o[0], o[1], o[2]);
-        if (!(best > worst2)) continue;
-        double reach = std::sqrt(best);
-        for (size_t k = 0; k < old_tris_.size(); ++k) {
-          // Skipped when no point of the face's ball is nearer than `best`: the distance
-          // to the face is at least the centre's distance less the radius, compared
-          // squared (no root a face) with a margin far above the rounding of either, so
-          // the minimum is the same as without the test.
-          const Ball& ball = old_balls_[k];
-          const double limit = ball.radius + reach;
-          if ((p - ball.centre).squaredNorm() > limit * limit * (1.0 + 1e-9)) continue;
-          const double d2 =
-              PointTriangleDistance2(p, old_tris_[k][0], old_tris_[k][1], old_tris_[k][2]);
-          if (d2 < best) {
-            best = d2;
-            if (!(best > worst2)) break;
-            reach = std::sqrt(best);
-          }
+    }
+    // The largest of the points' least distances to the old faces. Farthest from its own
+    // face first: a point's least distance is at most that one, so once it is within the
+    // largest found, so are all the points after it. The same maximum as in any order.
+    std::sort(points_.begin(), points_.end(),
+              [](const DeviationPoint& a, const DeviationPoint& b) { return a.own2 > b.own2; });
+    double worst2 = 0;
+    for (const DeviationPoint& point : points_) {
+      if (!(point.own2 > worst2)) break;
+      const Eigen::Vector3d& p = point.p;
+      double best = point.own2;
+      double reach = std::sqrt(best);
+      for (size_t k = 0; k < old_tris_.size(); ++k) {
+        // Skipped when no point of the face's ball is nearer than `best`: the distance
+        // to the face is at least the centre's distance less the radius, compared
+        // squared (no root a face) with a margin far above the rounding of either, so
+        // the minimum is the same as without the test.
+        const Ball& ball = old_balls_[k];
+        const double limit = ball.radius + reach;
+        if ((p - ball.centre).squaredNorm() > limit * limit * (1.0 + 1e-9)) continue;
+        const double d2 =
+            PointTriangleDistance2(p, old_tris_[k][0], old_tris_[k][1], old_tris_[k][2]);
+        if (d2 < best) {
+          best = d2;
+          if (!(best > worst2)) break;
+          reach = std::sqrt(best);
         }
-        worst2 = std::max(worst2, best);
       }
+      worst2 = std::max(worst2, best);
     }
     return std::sqrt(worst2);
   }
@@ -1456,6 +1463,11 @@ class EdgeCollapser {
   std::vector<int> new_from_;
   std::vector<std::array<int, 2>> new_ring_;  // per new face, its corners other than x
   std::vector<int> midpoints_done_;           // corners whose midpoint with x is measured
+  struct DeviationPoint {
+    double own2;        // squared distance to the face its new face came from
+    Eigen::Vector3d p;  // a centroid or edge midpoint of a new face
+  };
+  std::vector<DeviationPoint> points_;
   // Components: per vertex (-1 when unused), live triangles, area (mm^2), bounding-box
   // diagonal (mm), vertices (CSR); the one with the largest area.
   std::vector<int> comp_of_, comp_live_, comp_start_, comp_vertices_;
