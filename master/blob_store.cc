@@ -52,7 +52,7 @@ runtime::BlobRef BlobStore::AddBytes(const fs::path& dir, const std::string& byt
 
 void BlobStore::Remember(const std::string& sha256, const std::string& bytes) {
   if (bytes.size() > recent_budget_ || recent_at_.count(sha256) != 0) return;
-  recent_.emplace_back(sha256, std::make_shared<const std::string>(bytes));
+  recent_.emplace_back(sha256, bytes);
   recent_at_[sha256] = std::prev(recent_.end());
   recent_bytes_ += bytes.size();
   while (recent_bytes_ > recent_budget_) Unremember(recent_.front().first);
@@ -61,7 +61,7 @@ void BlobStore::Remember(const std::string& sha256, const std::string& bytes) {
 void BlobStore::Unremember(const std::string& sha256) {
   auto at = recent_at_.find(sha256);
   if (at == recent_at_.end()) return;
-  recent_bytes_ -= at->second->second->size();
+  recent_bytes_ -= at->second->second.size();
   recent_.erase(at->second);
   recent_at_.erase(at);
 }
@@ -90,7 +90,7 @@ std::optional<std::string> BlobStore::Read(const std::string& sha256, std::strin
     auto it = entries_.find(sha256);
     if (it == entries_.end()) return std::nullopt;
     // Hashed when it was added, and held here since.
-    if (auto at = recent_at_.find(sha256); at != recent_at_.end()) return *at->second->second;
+    if (auto at = recent_at_.find(sha256); at != recent_at_.end()) return at->second->second;
     paths = it->second.paths;
   }
   // The most recent file first; any that still holds the bytes will do.

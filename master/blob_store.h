@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <list>
 #include <map>
-#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -82,7 +81,7 @@ class BlobStore {
   // of its jobs: each time read from the file and hashed on the master's loop before
   // (Robovision's twelve stereo outputs, 63 MB, went to both of `dome run`'s workers for
   // fusion).
-  std::list<std::pair<std::string, std::shared_ptr<const std::string>>> recent_;
+  std::list<std::pair<std::string, std::string>> recent_;  // (sha256, bytes)
   std::map<std::string, decltype(recent_)::iterator> recent_at_;
   size_t recent_bytes_ = 0;
   size_t recent_budget_;

@@ -181,7 +181,6 @@ StreamingMarchingCubes::StreamingMarchingCubes(const fusion::VolumeGrid& grid,
   const size_t n = size_t(grid_.PlaneVoxels());
   for (int s = 0; s < 2; ++s) {
     distance_[s].assign(n, 0.0f);
-    weight_[s].assign(n, 0.0f);
     class_[s].assign(n, 0);
     x_edge_[s].assign(n, -1);
     y_edge_[s].assign(n, -1);
@@ -278,14 +277,12 @@ void StreamingMarchingCubes::AddPlane(int k, const float* distance_mm, const flo
   core::Require(k < grid_.nz, "slab", "plane " + std::to_string(k) + " is outside the volume");
   const size_t n = size_t(grid_.PlaneVoxels());
   std::swap(distance_[0], distance_[1]);
-  std::swap(weight_[0], weight_[1]);
   std::swap(class_[0], class_[1]);
   std::swap(x_edge_[0], x_edge_[1]);
   std::swap(y_edge_[0], y_edge_[1]);
   std::swap(set_[0], set_[1]);
   std::swap(set_[2], set_[3]);
   std::copy(distance_mm, distance_mm + n, distance_[1].begin());
-  std::copy(weight, weight + n, weight_[1].begin());
   const float min_w = static_cast<float>(options_.min_weight);
   size_t v = 0;
   for (; v + kByteBlock <= n; v += kByteBlock) {

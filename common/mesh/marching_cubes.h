@@ -60,7 +60,6 @@ class StreamingMarchingCubes {
   int next_plane_ = 0;
   // Slot 0: plane k-1, slot 1: plane k.
   std::vector<float> distance_[2];
-  std::vector<float> weight_[2];
   // Per voxel of the plane: observed (weight > min_weight) | inside (distance < 0) bits.
   std::vector<uint8_t> class_[2];
   std::vector<uint8_t> active_;  // per cell of the row being polygonized: 1 = polygonize
