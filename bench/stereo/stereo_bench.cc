@@ -27,6 +27,7 @@
 #include "stereo/multi_baseline.h"
 #include "stereo/stereo_test_util.h"
 #include "stereo/take_stereo.h"
+#include "take/crop.h"
 #include "take/take.h"
 
 namespace {
@@ -111,6 +112,47 @@ BENCHMARK(BM_MultiBaselineExactWarp)
     ->Arg(11)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// One tile of coarse-to-fine stereo's fine pass as the product runs it on a large image
+// (stereo/coarse_to_fine.h; Robovision: 64-pixel tiles matched alone on one thread, each
+// a 76x76 crop with its window margin, 2 neighbours, window 11, about 47 levels around
+// its coarse depths): the built-in scene's reference cut to the tile at its centre, two
+// of its neighbours, depths 1700..3000 mm (48 levels from the geometry). The same rates
+// as above: evals/cpu_s against BM_MultiBaseline's shows what the tile's size costs (the
+// pre-warp of each neighbour, the per-level and per-row set-up over short rows).
+void BM_MultiBaselineTile(benchmark::State& state) {
+  static const StereoInput input = [] {
+    const StereoInput whole = BuiltInInput();
+    const int side = 76;
+    const cv::Rect rect((kWidth - side) / 2, (kHeight - side) / 2, side, side);
+    StereoInput tile;
+    tile.reference = {dome::take::CropCamera(whole.reference.camera, rect),
+                      whole.reference.image(rect).clone(),
+                      {}};
+    tile.neighbours = {whole.neighbours[0], whole.neighbours[1]};
+    return tile;
+  }();
+  StereoOptions opt;
+  opt.num_threads = 1;
+  opt.window_sizes_px = {int(state.range(0))};
+  opt.z_min_mm = 1700;
+  opt.z_max_mm = 3000;
+  int levels = 0;
+  const std::clock_t cpu0 = std::clock();
+  for (auto _ : state) {
+    const auto r = dome::stereo::ComputeDepth(input, opt);
+    levels = r.num_levels;
+    benchmark::DoNotOptimize(r.range_images.front().depth_mm.data);
+  }
+  const double evals = double(input.reference.camera.width_px) * input.reference.camera.height_px *
+                       levels * double(input.neighbours.size());
+  state.counters["levels"] = levels;
+  state.counters["evals/s"] =
+      benchmark::Counter(evals, benchmark::Counter::kIsIterationInvariantRate);
+  const double cpu_s = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  state.counters["evals/cpu_s"] = evals * double(state.iterations()) / cpu_s;
+}
+BENCHMARK(BM_MultiBaselineTile)->Arg(11)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_MultiBaselineThreeWindows(benchmark::State& state) {
   static const StereoInput input = BenchInput();
