@@ -24,6 +24,7 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "core/memory.h"
+#include "core/wake_pipe.h"
 #include "io/file_util.h"
 #include "master/blob_store.h"
 #include "master/capture_host.h"
@@ -251,6 +252,9 @@ struct Master::Impl {
   std::unique_ptr<net::EventSubscribers> subscribers;  // of events_socket
   std::unique_ptr<net::HandshakeLog> handshake_log;  // after the sockets: destroyed first
   std::map<std::string, WorkerRec> workers;
+  // Woken by a master stage's run as it ends (before the sessions that hold the runs:
+  // it outlives their threads); polled by Run beside the sockets.
+  core::WakePipe stage_done{"master"};
   std::map<std::string, std::unique_ptr<SessionRec>> sessions;
   std::vector<std::string> session_order;
   std::unique_ptr<ingest::FrameIngest> capture_ingest;  // with capture_endpoint
@@ -767,7 +771,8 @@ struct Master::Impl {
         continue;
       auto& run = s->master_runs[{n.instant, m}];
       if (!run) {
-        run = d.start_on_master({s->plan, n.instant, s->instant_dir(n.instant), s->blobs.get()});
+        run = d.start_on_master({s->plan, n.instant, s->instant_dir(n.instant), s->blobs.get(),
+                                 [this] { stage_done.Wake(); }});
       }
       run->Feed(n.part, s->outputs.at(node), decoded);
     }
@@ -1628,15 +1633,17 @@ struct Master::Impl {
           {workers_socket.handle(), 0, ZMQ_POLLIN, 0},
           {control_socket.handle(), 0, ZMQ_POLLIN, 0},
           {events_socket.handle(), 0, ZMQ_POLLIN, 0},
+          {nullptr, stage_done.read_fd(), ZMQ_POLLIN, 0},
           {capture_ingest ? capture_ingest->socket().handle() : nullptr, 0, ZMQ_POLLIN, 0}};
       // Back soon while work beside the loop is out, so that its outcome is acted on.
       const int wait_ms = offload.pending() > 0 ? 1 : std::min(interval, 20);
       try {
-        zmq::poll(items, capture_ingest ? 4 : 3, std::chrono::milliseconds(wait_ms));
+        zmq::poll(items, capture_ingest ? 5 : 4, std::chrono::milliseconds(wait_ms));
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;
         continue;  // a signal; *stop says whether to go on
       }
+      if (items[3].revents & ZMQ_POLLIN) stage_done.Drain();  // PollMasterStages below
       const auto turn_start = Clock::now();
       if (items[0].revents & ZMQ_POLLIN) HandleWorkerSocket();
       // The workers' messages that came before this are read: a worker is silent when
@@ -1646,7 +1653,7 @@ struct Master::Impl {
       const auto heard = Clock::now();
       if (items[1].revents & ZMQ_POLLIN) HandleControlSocket();
       if (items[2].revents & ZMQ_POLLIN) subscribers->Receive();
-      if (capture_ingest && (items[3].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
+      if (capture_ingest && (items[4].revents & ZMQ_POLLIN)) capture_ingest->Poll(0);
       if (options.release_memory_s > 0 && now_trim <= Clock::now()) {
         // Memory a peer's messages took (a flood of large ones) goes back to the system
         // rather than staying in the heap for good.

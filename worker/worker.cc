@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "core/timer.h"
+#include "core/wake_pipe.h"
 #include "net/blob_cache.h"
 #include "net/content_hash.h"
 #include "net/security.h"
@@ -65,6 +66,10 @@ struct Worker::Impl {
   Clock::time_point master_expiry, next_heartbeat;
   int backoff_ms;
   bool in_process = false;  // the master's endpoint is inproc: its replies are not re-hashed
+  // Woken by the job thread as its job ends, polled beside the master's socket: the
+  // result goes out at once instead of when the poll times out (10 ms, half of it on
+  // average, at every job: about 0.1 s over a Robovision instant's 35 jobs).
+  core::WakePipe job_done{"worker"};
 
   Impl(zmq::context_t* ctx, const WorkerOptions& o)
       : context(ctx), options(o), cache(o.cache_mb << 20), backoff_ms(o.heartbeat_interval_ms) {
@@ -77,6 +82,10 @@ struct Worker::Impl {
       gethostname(host, sizeof host - 1);
       options.name = std::string(host) + ":" + std::to_string(::getpid());
     }
+  }
+
+  ~Impl() {
+    if (running.valid()) running.wait();  // the job thread wakes job_done
   }
 
   void Send(const runtime::Envelope& env) {
@@ -184,6 +193,7 @@ struct Worker::Impl {
         result.clear_outputs();
       }
       result.set_seconds(watch.ElapsedSeconds());
+      job_done.Wake();  // the loop, woken, waits the moment left until the result is ready
       return result;
     });
   }
@@ -305,7 +315,19 @@ struct Worker::Impl {
     Connect();
     while (!stop->load()) {
       // A signal cuts the wait short; *stop then says whether to go on.
-      if (net::WaitForInput(socket.get(), 10)) {
+      zmq::pollitem_t items[] = {{socket->handle(), 0, ZMQ_POLLIN, 0},
+                                 {nullptr, job_done.read_fd(), ZMQ_POLLIN, 0}};
+      try {
+        zmq::poll(items, 2, std::chrono::milliseconds(10));
+      } catch (const zmq::error_t& e) {
+        if (e.num() != EINTR) throw;
+        items[0].revents = items[1].revents = 0;
+      }
+      if (items[1].revents & ZMQ_POLLIN) {
+        job_done.Drain();
+        if (running.valid()) running.wait();
+      }
+      if (items[0].revents & ZMQ_POLLIN) {
         for (int budget = 0; budget < 1000; ++budget) {
           const std::vector<zmq::message_t> frames = net::ReceiveFrames(socket.get());
           if (frames.empty()) break;

@@ -769,8 +769,8 @@ StageDescriptor SurfaceStage() {
   d.consumes_inputs = true;  // the slabs are in the mesh
   d.start_on_master = [](const MasterStageContext& ctx) -> std::unique_ptr<MasterStageRun> {
     const SessionOptions& o = ctx.plan.options;
-    return std::make_unique<SurfaceStream>(o.grid, ctx.plan.num_slabs, ctx.blobs, ctx.dir,
-                                           o.smooth);
+    return std::make_unique<SurfaceStream>(o.grid, ctx.plan.num_slabs, ctx.blobs, ctx.dir, o.smooth,
+                                           ctx.finished);
   };
   return d;
 }

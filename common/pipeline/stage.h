@@ -100,6 +100,9 @@ struct MasterStageContext {
   int instant = 0;
   std::filesystem::path dir;  // OUT/<instant>
   BlobAccess* blobs = nullptr;
+  // Called from the run's own thread once Finished() is true, so that the master's loop
+  // completes it at once rather than at its next turn; may be empty.
+  std::function<void()> finished;
 };
 
 class JobMemo;

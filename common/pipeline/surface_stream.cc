@@ -14,11 +14,13 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 SurfaceStream::SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobAccess* blobs,
-                             const fs::path& dir, const mesh::SmoothOptions& smooth)
+                             const fs::path& dir, const mesh::SmoothOptions& smooth,
+                             std::function<void()> finished)
     : grid_(grid),
       smooth_(smooth),
       blobs_(blobs),
       dir_(dir),
+      finished_callback_(std::move(finished)),
       slabs_(size_t(std::max(num_slabs, 0))),
       decoded_(slabs_.size()),
       thread_([this] { Run(); }) {}
@@ -137,10 +139,13 @@ void SurfaceStream::Run() {
     error = e.what();
   }
   add_busy();
-  std::lock_guard<std::mutex> lock(mutex_);
-  mesh_ = std::move(mesh);
-  error_ = error.empty() && !mesh_ ? "no mesh" : error;
-  finished_ = true;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    mesh_ = std::move(mesh);
+    error_ = error.empty() && !mesh_ ? "no mesh" : error;
+    finished_ = true;
+  }
+  if (finished_callback_) finished_callback_();
 }
 
 }  // namespace dome::pipeline

@@ -14,6 +14,7 @@
 
 #include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -32,8 +33,10 @@ class SurfaceStream : public MasterStageRun {
  public:
   // `dir`: OUT/<instant>; `blobs`: where slabs are read and the mesh blob goes.
   // `smooth`: applied to the whole surface before it is written (mesh/smooth.h).
+  // `finished`: called from the stream's thread when it has ended (may be empty).
   SurfaceStream(const fusion::VolumeGrid& grid, int num_slabs, BlobAccess* blobs,
-                const std::filesystem::path& dir, const mesh::SmoothOptions& smooth = {});
+                const std::filesystem::path& dir, const mesh::SmoothOptions& smooth = {},
+                std::function<void()> finished = {});
   // Aborts a stream still waiting for slabs and joins its thread.
   ~SurfaceStream() override;
   SurfaceStream(const SurfaceStream&) = delete;
@@ -71,6 +74,7 @@ class SurfaceStream : public MasterStageRun {
   const mesh::SmoothOptions smooth_;
   BlobAccess* blobs_;
   const std::filesystem::path dir_;
+  const std::function<void()> finished_callback_;
   mutable std::mutex mutex_;
   std::condition_variable fed_cv_;
   std::vector<std::string> slabs_;                            // sha256 per index, "" until fed
