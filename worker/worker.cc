@@ -325,7 +325,10 @@ struct Worker::Impl {
       }
       if (items[1].revents & ZMQ_POLLIN) {
         job_done.Drain();
-        if (running.valid()) running.wait();
+        // The job that woke it returns in a moment. A wake left over from a job already
+        // answered (its result went out on a turn the socket woke) must not hold the
+        // loop for the next job's whole run: the wait is bounded like the poll.
+        if (running.valid()) running.wait_for(std::chrono::milliseconds(10));
       }
       if (items[0].revents & ZMQ_POLLIN) {
         for (int budget = 0; budget < 1000; ++budget) {
