@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/wake_pipe.h"
 #include "net/log_throttle.h"
 #include "net/wire.h"
 #include "spdlog/spdlog.h"
@@ -416,17 +417,16 @@ struct HandshakeLog::Impl {
   std::atomic<int64_t> failures{0};
   LogThrottle throttle;
   bool client = false;
-  // A PAIR the destructor writes to (wake_send) and Serve polls (wake_receive): the
-  // thread stops at once instead of at the end of its poll (50 ms at every master's and
-  // `dome run`'s exit).
-  zmq::socket_t wake_send, wake_receive;
+  // Woken by the destructor, polled by Serve: the thread stops at once instead of at
+  // the end of its poll (50 ms at every master's and `dome run`'s exit).
+  core::WakePipe stopping{"handshake log"};
   std::thread thread;
 
   void Serve() {
     while (!stop) {
       std::vector<zmq::pollitem_t> items;
       for (auto& w : watched) items.push_back({w.monitor.handle(), 0, ZMQ_POLLIN, 0});
-      items.push_back({wake_receive.handle(), 0, ZMQ_POLLIN, 0});
+      items.push_back({nullptr, stopping.read_fd(), ZMQ_POLLIN, 0});
       zmq::poll(items, std::chrono::milliseconds(50));
       for (size_t i = 0; i < watched.size(); ++i) {
         if (items[i].revents & ZMQ_POLLIN) Read(&watched[i]);
@@ -482,22 +482,12 @@ HandshakeLog::HandshakeLog(zmq::context_t* context,
     w.monitor.connect(endpoint);
     impl_->watched.push_back(std::move(w));
   }
-  char wake[96];
-  std::snprintf(wake, sizeof wake, "inproc://dome.handshake.wake.%p.%llu",
-                static_cast<void*>(impl_.get()), (unsigned long long)serial++);
-  impl_->wake_receive = zmq::socket_t(*context, zmq::socket_type::pair);
-  impl_->wake_receive.set(zmq::sockopt::linger, 0);
-  impl_->wake_receive.bind(wake);
-  impl_->wake_send = zmq::socket_t(*context, zmq::socket_type::pair);
-  impl_->wake_send.set(zmq::sockopt::linger, 0);
-  impl_->wake_send.connect(wake);
   impl_->thread = std::thread([this] { impl_->Serve(); });
 }
 
 HandshakeLog::~HandshakeLog() {
   impl_->stop = true;
-  // Best effort: without it the thread still stops at the end of its poll.
-  impl_->wake_send.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
+  impl_->stopping.Wake();
   impl_->thread.join();
   for (auto& w : impl_->watched) zmq_socket_monitor(w.socket->handle(), nullptr, 0);
 }
