@@ -31,7 +31,7 @@ TEST(WakePipe, AnotherThreadsWakeEndsABlockingPoll) {
   int ready = 0;
   std::thread poller([&] {
     pollfd p{pipe.read_fd(), POLLIN, 0};
-    ready = ::poll(&p, 1, -1);  // no timeout: only the wake ends it
+    ready = ::poll(&p, 1, 30000);  // ends at the wake; 0 (a failure) after 30 s without
   });
   pipe.Wake();
   poller.join();

@@ -4,7 +4,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -151,6 +153,47 @@ TEST(SurfaceStream, AbortEndsAStreamWaitingForSlabsWithAnError) {
   testing::ExpectInputError([&] { stream.Result(); },
                             {"instant t0", "the surface stage was stopped"});
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "t0" / "mesh.ply"));
+}
+
+// The master completes a run when it says it has finished (MasterStageContext::finished):
+// the call comes once, from the stream's thread, with Finished() already true, whether
+// the stream made its mesh or was stopped.
+TEST(SurfaceStream, SaysOnceThatItHasFinishedWhenItEnds) {
+  testing::TempDir dir;
+  const Sphere sphere;
+  MemoryBlobs store;
+  for (const bool stopped : {false, true}) {
+    std::mutex mutex;
+    std::condition_variable called_cv;
+    int calls = 0;
+    bool finished_when_called = false;
+    std::unique_ptr<SurfaceStream> stream;
+    stream = std::make_unique<SurfaceStream>(sphere.grid, int(sphere.slabs.size()), &store,
+                                             dir.path() / (stopped ? "stopped" : "made"),
+                                             mesh::SmoothOptions{}, [&] {
+                                               std::lock_guard<std::mutex> lock(mutex);
+                                               // The stream is made before its thread can end: it
+                                               // waits for slabs.
+                                               finished_when_called = stream->Finished();
+                                               ++calls;
+                                               called_cv.notify_all();
+                                             });
+    if (stopped) {
+      stream->Abort();
+    } else {
+      for (int k = 0; k < int(sphere.slabs.size()); ++k) {
+        stream->Feed(k, store.Keep(sphere.slabs[k], "slab").sha256());
+      }
+    }
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      ASSERT_TRUE(called_cv.wait_for(lock, 30s, [&] { return calls > 0; }))
+          << (stopped ? "stopped" : "made") << ": never said it had finished";
+      EXPECT_TRUE(finished_when_called);
+    }
+    stream.reset();  // joins its thread: no later call
+    EXPECT_EQ(calls, 1);
+  }
 }
 
 TEST(SurfaceStream, ASlabMissingFromTheStoreFailsNamingIt) {
