@@ -33,22 +33,29 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using dome::testing::ChildProcess;
 
-// A free TCP port on the loopback: bind to port 0, read it back, let it go. The
-// restart test needs fixed ports so the restarted master is found where it was.
-std::string FreeLoopbackEndpoint() {
-  zmq::context_t context;
-  zmq::socket_t socket(context, zmq::socket_type::router);
-  socket.bind("tcp://127.0.0.1:*");
-  return socket.get(zmq::sockopt::last_endpoint);
-}
-
+// The master's four endpoints. By default every port is the kernel's choice (":*"),
+// read back from what the master prints once bound: a port picked free beforehand could
+// be taken by a test running beside this one before the master binds it. A restarted
+// master is given the ports its predecessor printed, so its agents find it again.
 struct MasterPorts {
-  std::string workers = FreeLoopbackEndpoint(), control = FreeLoopbackEndpoint(),
-              events = FreeLoopbackEndpoint(), capture = FreeLoopbackEndpoint();
+  std::string workers = "tcp://127.0.0.1:*", control = "tcp://127.0.0.1:*",
+              events = "tcp://127.0.0.1:*", capture = "tcp://127.0.0.1:*";
 };
 
+// The endpoint printed after `label ` on a line of `log`, or "" while there is none.
+std::string PrintedEndpoint(const std::string& log, const std::string& label) {
+  const std::string key = label + " tcp://";
+  for (size_t at = log.find(key); at != std::string::npos; at = log.find(key, at + 1)) {
+    if (at != 0 && log[at - 1] != '\n') continue;
+    const size_t begin = at + label.size() + 1, end = log.find('\n', begin);
+    if (end == std::string::npos) return "";  // the line is not complete yet
+    return log.substr(begin, end - begin);
+  }
+  return "";
+}
+
 // dome-master with a capture ingest; the constructor returns once it prints its
-// capture endpoint (it has bound every socket).
+// capture endpoint (it has bound every socket), and ports() are the bound endpoints.
 class MasterProcess {
  public:
   // `security`: the key flags, or --insecure.
@@ -56,13 +63,16 @@ class MasterProcess {
                 const std::vector<std::string>& security = {"--insecure"})
       : process_("dome-master", MasterArgs(ports, take, security), log) {
     const auto end = Clock::now() + std::chrono::seconds(20);
-    while (Clock::now() < end &&
-           process_.Log().find("capture " + ports.capture) == std::string::npos) {
+    while (Clock::now() < end && PrintedEndpoint(process_.Log(), "capture").empty()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    up_ = process_.Log().find("capture " + ports.capture) != std::string::npos;
+    const std::string printed = process_.Log();
+    bound_ = {PrintedEndpoint(printed, "workers"), PrintedEndpoint(printed, "control"),
+              PrintedEndpoint(printed, "events"), PrintedEndpoint(printed, "capture")};
+    up_ = !bound_.capture.empty();
   }
   bool up() const { return up_; }
+  const MasterPorts& ports() const { return bound_; }
   ChildProcess& process() { return process_; }
 
  private:
@@ -76,6 +86,7 @@ class MasterProcess {
   }
 
   ChildProcess process_;
+  MasterPorts bound_;
   bool up_ = false;
 };
 
@@ -171,9 +182,9 @@ const std::vector<std::string> kCameras = {"c00", "c01"};
 
 TEST_F(MasterIngest, AgentsCaptureIntoTheMastersTakeAndItsStatusEventsShowProgress) {
   dome::testing::TempDir work;
-  const MasterPorts ports;
-  MasterProcess master(ports, work / "take", work.File("master.log"));
+  MasterProcess master(MasterPorts{}, work / "take", work.File("master.log"));
   ASSERT_TRUE(master.up()) << master.process().Log();
+  const MasterPorts ports = master.ports();
   CaptureEventWatcher watcher(ports.events);
   std::vector<std::unique_ptr<ChildProcess>> agents;
   for (const auto& camera : kCameras) {
@@ -219,9 +230,10 @@ TEST_F(MasterIngest, AgentsCaptureIntoTheMastersTakeAndItsStatusEventsShowProgre
 
 TEST_F(MasterIngest, MasterKilledAndRestartedDuringCaptureLosesNothing) {
   dome::testing::TempDir work;
-  const MasterPorts ports;
-  auto master = std::make_unique<MasterProcess>(ports, work / "take", work.File("master1.log"));
+  auto master =
+      std::make_unique<MasterProcess>(MasterPorts{}, work / "take", work.File("master1.log"));
   ASSERT_TRUE(master->up()) << master->process().Log();
+  const MasterPorts ports = master->ports();  // the restarted master binds these again
   CaptureEventWatcher watcher(ports.events);
   std::vector<std::unique_ptr<ChildProcess>> agents;
   for (const auto& camera : kCameras) {
@@ -269,10 +281,10 @@ TEST_F(MasterIngest, ASecureMasterTakesFramesOnlyFromAgentsOnItsAllowList) {
   net::WriteKeyPair(keys + "/allowed", net::GenerateKeyPair(), "capture");
   net::WriteKeyPair(keys + "/stranger", net::GenerateKeyPair(), "capture");
   io::WriteFileAtomically(keys + "/allowed_keys", io::ReadFileBytes(keys + "/allowed.pub"));
-  const MasterPorts ports;
-  MasterProcess master(ports, work / "take", work.File("master.log"),
+  MasterProcess master(MasterPorts{}, work / "take", work.File("master.log"),
                        {"--secret-key", keys + "/master.key", "--allow", keys + "/allowed_keys"});
   ASSERT_TRUE(master.up()) << master.process().Log();
+  const MasterPorts ports = master.ports();
   auto allowed = StartAgent("c00", ports.capture, work.path(), {},
                             {"--master-key", keys + "/master.pub", "--key", keys + "/allowed.key"});
   auto stranger =

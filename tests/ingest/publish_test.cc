@@ -28,12 +28,13 @@ CapturedFrame Frame(int64_t n) {
   return f;
 }
 
-// A free TCP port on the loopback: bind to port 0, read it back, let it go.
-std::string FreeLoopbackEndpoint() {
-  zmq::context_t context;
-  zmq::socket_t socket(context, zmq::socket_type::router);
-  socket.bind("tcp://127.0.0.1:*");
-  return socket.get(zmq::sockopt::last_endpoint);
+// An endpoint of the test's own, known before anything binds it: an ipc socket file in
+// the test's folder. A TCP port picked free beforehand could be taken by a test running
+// beside this one while the ingest is down; ZeroMQ's reconnects and the spool behave
+// the same over ipc. (The master's capture ingest over TCP is tested in
+// tests/capture/master_ingest_test.cc.)
+std::string OwnEndpoint(const testing::TempDir& dir) {
+  return "ipc://" + (dir.path() / "ingest.sock").string();
 }
 
 // An ingest serving on its own thread until destroyed.
@@ -93,7 +94,7 @@ TEST(Publish, FramesAreStoredAndAcknowledged) {
 
 TEST(Publish, NothingIsLostWhileTheIngestIsDownOrRestarts) {
   testing::TempDir dir;
-  const std::string endpoint = FreeLoopbackEndpoint();
+  const std::string endpoint = OwnEndpoint(dir);
   FramePublisher publisher(
       "c01", {.endpoint = endpoint, .spool_dir = dir / "spool", .ack_timeout_ms = 200});
   // Down from the start: frames wait in the spool.
@@ -121,7 +122,7 @@ TEST(Publish, NothingIsLostWhileTheIngestIsDownOrRestarts) {
 
 TEST(Publish, ASpoolLeftByAnEarlierRunIsSentFirst) {
   testing::TempDir dir;
-  const std::string endpoint = FreeLoopbackEndpoint();
+  const std::string endpoint = OwnEndpoint(dir);
   {
     FramePublisher first("c02",
                          {.endpoint = endpoint, .spool_dir = dir / "spool", .ack_timeout_ms = 200});
@@ -235,7 +236,7 @@ using namespace capture;
 // once, under its own time code.
 TEST(Publish, IngestRestartedDuringCaptureLosesNothing) {
   testing::TempDir dir;
-  const std::string endpoint = FreeLoopbackEndpoint();
+  const std::string endpoint = OwnEndpoint(dir);
   TapeLayout layout;
   SimDeck deck(test_tapes::MakeTape(test_tapes::Consecutive(270, 100), layout), layout, "sim:test");
   SimDigitizer digitizer(&deck, {.keep_per_second = 10.0, .drop_probability = 0.05, .seed = 9});

@@ -191,14 +191,6 @@ class ClusterFixture : public ::testing::Test {
     return -1;
   }
 
-  // A loopback endpoint free now (bound to port 0 and let go): for a master restarted
-  // where its clients know it.
-  std::string FreeEndpoint() {
-    zmq::socket_t s(context_, zmq::socket_type::router);
-    s.bind("tcp://127.0.0.1:*");
-    return s.get(zmq::sockopt::last_endpoint);
-  }
-
   zmq::context_t context_;
 };
 
