@@ -260,6 +260,10 @@ void AddMeshCommand(CLI::App* app, int* exit_code) {
                   "add this times the merged area times the squared distance of the new faces "
                   "to the faces they replace to a collapse's cost; 0 = quadric only")
       ->capture_default_str();
+  dec->add_option("--deviation-from", d->options.deviation_from_factor,
+                  "count the deviation only once the faces are within this factor of the "
+                  "target (the quadric alone before); 0 = from the first collapse")
+      ->capture_default_str();
   dec->add_option("--speck-area-fraction", d->options.speck_area_fraction,
                   "drop parts with less than this fraction of the largest part's area and a "
                   "diagonal under --speck-mm first; 0 = none")

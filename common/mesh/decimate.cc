@@ -800,7 +800,9 @@ class EdgeCollapser {
           edge_state_[id] = kEdgeRefused;
           continue;
         }
-        if (options_.deviation_weight > 0 && !deviation_costed_[id]) {
+        if (options_.deviation_weight > 0 && !deviation_costed_[id] &&
+            (options_.deviation_from_factor == 0 ||
+             double(live_) <= options_.deviation_from_factor * double(target))) {
           // Costed lazily, when the edge comes to the top (measuring the deviation takes
           // far longer than the quadric): the term only raises the cost, so the edge
           // moves down the queue when something else is now cheaper, and is made when it
@@ -1946,6 +1948,11 @@ void DecimationOptions::Check() const {
   core::Require(std::isfinite(deviation_weight) && deviation_weight >= 0.0,
                 "decimation: deviation_weight",
                 "must be >= 0, got " + std::to_string(deviation_weight));
+  core::Require(
+      std::isfinite(deviation_from_factor) &&
+          (deviation_from_factor == 0.0 || deviation_from_factor >= 1.0),
+      "decimation: deviation_from_factor",
+      "must be 0 (from the first collapse) or >= 1, got " + std::to_string(deviation_from_factor));
   core::Require(
       std::isfinite(speck_area_fraction) && speck_area_fraction >= 0.0 && speck_area_fraction < 1.0,
       "decimation: speck_area_fraction",

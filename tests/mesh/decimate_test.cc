@@ -621,7 +621,9 @@ io::Mesh CurvedComb() {
 // The quadrics price a border vertex by its distance to the border's planes only, so a
 // light border weight lets faces bridge the slots between the teeth, 1.5 mm from any
 // input face at their middle. The deviation term makes such faces dear: the coarse comb
-// keeps its slots open and stays within a fifth of that everywhere.
+// keeps its slots open and stays within a fifth of that everywhere, whether the term
+// counts from the first collapse or (the default) once within twice the target: the
+// bridging faces come late, when the teeth are a few faces each.
 TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
   const io::Mesh m = CurvedComb();
   ASSERT_EQ(m.faces.size(), 1824u);
@@ -629,9 +631,13 @@ TEST(Decimate, DeviationKeepsFacesFromBridgingGaps) {
   DecimationOptions o;
   o.target_ratio = 0.05;
   const io::Mesh bounded = Decimate(m, o);
+  o.deviation_from_factor = 0;
+  const io::Mesh from_first = Decimate(m, o);
   o.deviation_weight = 0;
   const io::Mesh quadric_only = Decimate(m, o);
   EXPECT_NEAR(double(bounded.faces.size()), 91.0, 1.0);
+  EXPECT_NEAR(double(from_first.faces.size()), 91.0, 1.0);
+  EXPECT_LT(MaxDistanceToSurface(from_first, to_input), 0.5);
   EXPECT_NEAR(double(quadric_only.faces.size()), 91.0, 1.0);
   EXPECT_GT(MaxDistanceToSurface(quadric_only, to_input), 1.0);
   EXPECT_LT(MaxDistanceToSurface(bounded, to_input), 0.5);
@@ -797,6 +803,10 @@ TEST(Decimate, BadOptionsAreRejected) {
   o = {};
   o.deviation_weight = -2;
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: deviation_weight", "-2"});
+  o = {};
+  o.deviation_from_factor = 0.5;
+  testing::ExpectInputError([&] { Decimate(m, o); },
+                            {"decimation: deviation_from_factor", "0.5", ">= 1"});
   o = {};
   o.min_component_triangles = -1;
   testing::ExpectInputError([&] { Decimate(m, o); }, {"decimation: min_component_triangles"});
