@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <map>
-#include <optional>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "core/error.h"
 #include "core/parallel_for.h"
 #include "io/file_util.h"
+#include "io/image_io.h"
 #include "net/content_hash.h"
 #include "pipeline/frame_handoff.h"
 #include "pipeline/session.h"
@@ -31,6 +33,69 @@ std::string Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
                      hi.x(), hi.y(), hi.z());
 }
 
+// The frame files the derivation reads, each decoded once for all its steps: the
+// greys, the masks (the median background reads every camera's frames at its instants,
+// then each mask its own frame again), the scene's extent and the masks' hull. On a
+// Panoptic take each HD frame was decoded three times, a tenth of the derivation.
+// Images are held while their pixels stay within kDerivationFramesBytes (the rest are
+// decoded again where needed, as before); the SHA-256 of every file read (the address
+// the in-process workers' handoff keys frames by) is kept. Thread-safe.
+constexpr size_t kDerivationFramesBytes = size_t(256) << 20;
+
+class DerivationFrames {
+ public:
+  // `hash`: keep each file's SHA-256 as it is read.
+  explicit DerivationFrames(bool hash) : hash_(hash) {}
+
+  // The file decoded unchanged (io::ImageMode::kUnchanged), errors naming the file.
+  cv::Mat Read(const std::filesystem::path& path) {
+    const std::string key = path.string();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto it = images_.find(key);
+      if (it != images_.end()) return it->second;
+    }
+    const std::string bytes = io::ReadFileBytes(path);
+    const cv::Mat image = io::DecodeImage(bytes, io::ImageMode::kUnchanged, key);
+    const std::string sha = hash_ ? net::Sha256Hex(bytes) : std::string();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!sha.empty()) shas_.emplace(key, sha);
+    const size_t size = image.total() * image.elemSize();
+    if (held_ + size <= kDerivationFramesBytes && images_.emplace(key, image).second) held_ += size;
+    return image;
+  }
+  // The SHA-256 of the file's bytes, read again only when Read did not keep it.
+  std::string Sha(const std::filesystem::path& path) {
+    const std::string key = path.string();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto it = shas_.find(key);
+      if (it != shas_.end()) return it->second;
+    }
+    std::string sha = net::Sha256Hex(io::ReadFileBytes(path));
+    std::lock_guard<std::mutex> lock(mutex_);
+    shas_.emplace(key, sha);
+    return sha;
+  }
+  // The images held (path -> image).
+  std::map<std::string, cv::Mat> Held() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return images_;
+  }
+  void Clear() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    images_.clear();
+    held_ = 0;
+  }
+
+ private:
+  const bool hash_;
+  std::mutex mutex_;
+  std::map<std::string, cv::Mat> images_;
+  std::map<std::string, std::string> shas_;
+  size_t held_ = 0;  // bytes of images_' pixels
+};
+
 struct GreyStats {
   double median = 0, p99 = 0;
   std::map<std::string, cv::Mat> frames;  // frame path -> image, for the scene's extent
@@ -41,16 +106,15 @@ struct GreyStats {
 // frames are read in parallel and kept: the scene's extent looks at them again. With
 // `offer`, each is also offered to the in-process workers' jobs (frame_handoff.h).
 GreyStats FrameGreys(const take::Take& take, const std::string& instant, int num_threads,
-                     bool offer) {
+                     bool offer, DerivationFrames* frames) {
   const auto& cams = take.rig.cameras;
   std::vector<cv::Mat> images(cams.size());
   std::vector<std::vector<int64_t>> histograms(cams.size(), std::vector<int64_t>(256, 0));
   core::ParallelFor(0, int64_t(cams.size()), num_threads, [&](int64_t c0, int64_t c1) {
     for (int64_t c = c0; c < c1; ++c) {
       const std::filesystem::path path = take.FramePath(instant, cams[c].model.id);
-      const std::string bytes = io::ReadFileBytes(path);
-      const cv::Mat image = stereo::DecodeFrame(bytes, path.string());
-      if (offer) OfferDecodedFrame(net::Sha256Hex(bytes), image);
+      const cv::Mat image = stereo::CheckFrame(frames->Read(path), path.string());
+      if (offer) OfferDecodedFrame(frames->Sha(path), image);
       images[c] = image;
       cv::Mat grey;
       if (image.channels() == 1) grey = image;
@@ -118,8 +182,9 @@ SessionOptions ResolveBeforeVolume(const runtime::Session& s, bool volume_derive
 // them again.
 void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& instants,
                 const std::pair<std::string, std::vector<cv::Mat>>& made, double margin,
-                int carve_votes, int min_views, int num_threads, bool offer, bool box_from_stereo,
-                Eigen::Vector3d* lo, Eigen::Vector3d* hi, Derivation* d) {
+                int carve_votes, int min_views, int num_threads, bool offer,
+                DerivationFrames* frames, bool box_from_stereo, Eigen::Vector3d* lo,
+                Eigen::Vector3d* hi, Derivation* d) {
   const take::Take& take = masks.take();
   std::vector<geometry::TsaiCamera> cameras;
   for (const auto& rc : take.rig.cameras) cameras.push_back(rc.model);
@@ -158,7 +223,7 @@ void HullVolume(silhouette::TakeMasks& masks, const std::vector<std::string>& in
         if (!offer) continue;
         std::vector<std::string> shas;
         for (const auto& path : masks.InputPaths(instants[i], id))
-          shas.push_back(net::Sha256Hex(io::ReadFileBytes(path)));
+          shas.push_back(frames->Sha(path));
         OfferMask(MaskHandoffKey(id, silhouette::MaskSourceName(masks.Source(id)), shas),
                   m[size_t(c)]);
       }
@@ -224,8 +289,10 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
   const bool large = pixels >= kLargeImagePx;
 
   // Greys: from the images' statistics.
-  GreyStats greys =
-      FrameGreys(take, instants[instants.size() / 2], request.num_threads, request.offer_frames);
+  // Declared before the masks, which read through it.
+  DerivationFrames frames(request.offer_frames);
+  GreyStats greys = FrameGreys(take, instants[instants.size() / 2], request.num_threads,
+                               request.offer_frames, &frames);
   spdlog::debug("derive: frames and greys of {} in {:.2f} s", instants[instants.size() / 2], since());
   if (!st->has_normalize_contrast()) {
     // Most of the grey range unused: stretch the 1st..99th percentile to 0..255.
@@ -267,11 +334,13 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     std::string why;
     try {
       masks.emplace(take, silhouette::MaskOptions{});
+      masks->SetFrameReader(
+          [&frames](const std::filesystem::path& path) { return frames.Read(path); });
       if (request.offer_frames) {
         // Each frame a mask is made from here (every camera's, at the instants the
         // masks' hull looks at) is a stereo job's input: handed to the workers' jobs.
-        masks->SetFrameSeen([](const std::string& bytes, const cv::Mat& image) {
-          OfferDecodedFrame(net::Sha256Hex(bytes), image);
+        masks->SetFrameSeen([&frames](const std::filesystem::path& path, const cv::Mat& image) {
+          OfferDecodedFrame(frames.Sha(path), image);
         });
       }
       const std::string& middle = instants[instants.size() / 2];
@@ -361,8 +430,11 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
     const stereo::TakeStereoOptions so = ResolveBeforeVolume(*s, volume_derived).stereo;
     stereo::SceneExtentOptions eo;
     eo.num_threads = request.num_threads;
+    // The frames already read: the greys' instant, and the masks' median instants.
+    std::map<std::string, cv::Mat> decoded = frames.Held();
+    decoded.insert(greys.frames.begin(), greys.frames.end());
     const stereo::SceneExtent e =
-        stereo::EstimateSceneExtent(take, instants, so.stereo, so.cluster, eo, greys.frames);
+        stereo::EstimateSceneExtent(take, instants, so.stereo, so.cluster, eo, decoded);
     spdlog::debug("derive: the scene's extent in {:.2f} s", since());
     lo = e.min_mm;
     hi = e.max_mm;
@@ -380,11 +452,13 @@ Derivation DeriveSession(const DeriveRequest& request, runtime::Session* s) {
           *masks,
           silhouette::MedianInstants(instants, silhouette::MaskOptions{}.median_max_instants),
           {instants[instants.size() / 2], middle_masks}, eo.margin_fraction, si->carve_votes(),
-          si->min_views(), request.num_threads, request.offer_frames, e.from_stereo, &lo, &hi, &d);
+          si->min_views(), request.num_threads, request.offer_frames, &frames, e.from_stereo, &lo,
+          &hi, &d);
       spdlog::debug("derive: the masks' hull in {:.2f} s", since());
     }
   }
-  greys.frames.clear();  // read once for both; not held through the rest
+  greys.frames.clear();  // read once for all; not held through the rest
+  frames.Clear();
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double footprint = stereo::PixelFootprintMm(take.rig, centre);
   double voxel = vol->has_voxel_size_mm() ? vol->voxel_size_mm() : 0.0;

@@ -210,7 +210,8 @@ const cv::Mat& TakeMasks::Background(const std::string& camera, int channels) {
     } else {
       std::vector<cv::Mat> images;
       for (const auto& instant : MedianInstants(take_.instants, options_.median_max_instants)) {
-        images.push_back(ReadFrame(take_.FramePath(instant, camera), size, camera).colour);
+        const fs::path path = take_.FramePath(instant, camera);
+        images.push_back(SplitFrame(ReadRaw(path), size, camera, path.string()).colour);
       }
       slot = MedianBackground(images, channels, &consensus_.at(camera));
     }
@@ -228,21 +229,19 @@ cv::Mat TakeMasks::Mask(const std::string& instant, const std::string& camera, M
     mask = ReadMaskFile(GivenMaskPath(instant, camera), size, camera);
   } else {
     const fs::path path = take_.FramePath(instant, camera);
-    Frame frame;
-    if (frame_seen_) {
-      const std::string bytes = io::ReadFileBytes(path);
-      const cv::Mat image = io::DecodeImage(bytes, io::ImageMode::kUnchanged, path.string());
-      frame = SplitFrame(image, size, camera, path.string());  // checked before it is shown
-      frame_seen_(bytes, image);
-    } else {
-      frame = ReadFrame(path, size, camera);
-    }
+    const cv::Mat image = ReadRaw(path);
+    const Frame frame = SplitFrame(image, size, camera, path.string());  // checked first
+    if (frame_seen_) frame_seen_(path, image);
     mask = MaskAgainst(frame, Background(camera, frame.colour.channels()), source, options_,
                        &local);
   }
   local.fraction = static_cast<double>(cv::countNonZero(mask)) / (size.width * size.height);
   if (info != nullptr) *info = local;
   return mask;
+}
+
+cv::Mat TakeMasks::ReadRaw(const fs::path& path) const {
+  return frame_reader_ ? frame_reader_(path) : io::ReadImage(path, io::ImageMode::kUnchanged);
 }
 
 ConsensusStats TakeMasks::BackgroundConsensus(const std::string& camera) const {

@@ -82,10 +82,16 @@ class TakeMasks {
   // Thread-safe for distinct cameras.
   cv::Mat Mask(const std::string& instant, const std::string& camera, MaskInfo* info = nullptr);
 
-  // Called with each frame file Mask reads for the frame itself (its bytes, and the image
-  // decoded unchanged) before the mask is made from it, from Mask's threads: `dome run`
-  // hands the decoded frames to its workers' stereo jobs (pipeline/frame_handoff.h).
-  using FrameSeen = std::function<void(const std::string& bytes, const cv::Mat& image)>;
+  // How frame files are read (the image decoded unchanged, io::ImageMode::kUnchanged),
+  // from Mask's threads; by default each read decodes the file. The session's derivation
+  // reads every frame once for the masks, their hull and the scene's extent
+  // (pipeline/derive.cc).
+  using FrameReader = std::function<cv::Mat(const std::filesystem::path& path)>;
+  void SetFrameReader(FrameReader reader) { frame_reader_ = std::move(reader); }
+  // Called with each frame file Mask reads for the frame itself (its path, and the image
+  // as read) before the mask is made from it, from Mask's threads: `dome run` hands the
+  // decoded frames to its workers' stereo jobs (pipeline/frame_handoff.h).
+  using FrameSeen = std::function<void(const std::filesystem::path& path, const cv::Mat& image)>;
   void SetFrameSeen(FrameSeen seen) { frame_seen_ = std::move(seen); }
 
   std::filesystem::path GivenMaskPath(const std::string& instant, const std::string& camera) const;
@@ -105,6 +111,9 @@ class TakeMasks {
   std::map<std::string, MaskSource> sources_;
   std::map<std::string, cv::Mat> backgrounds_;  // one entry per camera, filled on use
   std::map<std::string, ConsensusStats> consensus_;  // the same, for median cameras
+  // A frame file decoded unchanged, through frame_reader_ when set.
+  cv::Mat ReadRaw(const std::filesystem::path& path) const;
+  FrameReader frame_reader_;
   FrameSeen frame_seen_;
 };
 

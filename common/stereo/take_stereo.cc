@@ -31,7 +31,10 @@ void TakeStereoOptions::Check() const {
 
 cv::Mat DecodeFrame(std::string_view bytes, const std::string& where) {
   // Keep alpha when present: it marks valid pixels.
-  cv::Mat image = io::DecodeImage(bytes, io::ImageMode::kUnchanged, where);
+  return CheckFrame(io::DecodeImage(bytes, io::ImageMode::kUnchanged, where), where);
+}
+
+const cv::Mat& CheckFrame(const cv::Mat& image, const std::string& where) {
   if (image.depth() != CV_8U ||
       (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
     throw core::InputError(where, "must be an 8-bit gray, BGR or BGRA image");

@@ -56,6 +56,9 @@ struct TakeStereoOptions {
 cv::Mat ReadFrame(const std::filesystem::path& path);
 // The same from the file's bytes; `where` names them in errors.
 cv::Mat DecodeFrame(std::string_view bytes, const std::string& where);
+// `image` (decoded unchanged) as DecodeFrame returns it; throws core::InputError naming
+// `where` when it is not such a frame.
+const cv::Mat& CheckFrame(const cv::Mat& image, const std::string& where);
 
 // The stereo input of one job: the reference camera's frame at `instant` and its
 // cluster's frames, read from the take (errors name the files).

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -315,6 +316,37 @@ TEST(TakeMasks, MedianOfThreeInstantsFindsTheMovingSquare) {
     const ConsensusStats b = masks.BackgroundConsensus(cam.model.id);
     EXPECT_NEAR(b.settled_fraction, 1.0 - 3 * 25.0 * 60 / (160 * 120), 0.02) << cam.model.id;
     EXPECT_LT(b.changed_fraction, 0.005) << cam.model.id;
+  }
+}
+
+// A reader given to TakeMasks is how it reads every frame: the median background reads
+// each camera's three instants through it, each mask its own frame again (the session's
+// derivation hands out each decoded frame once, pipeline/derive.cc), and the masks are
+// those of the files read directly. The frames seen are those the masks are made from.
+TEST(TakeMasks, FramesAreReadThroughTheGivenReader) {
+  MovingSquareTake t(3);
+  TakeMasks plain(take::OpenTake(t.dir), MaskOptions{});
+  TakeMasks read(take::OpenTake(t.dir), MaskOptions{});
+  std::map<std::string, int> reads, seen;
+  read.SetFrameReader([&reads](const fs::path& path) {
+    ++reads[path.filename().string() + "@" + path.parent_path().filename().string()];
+    return io::ReadImage(path, io::ImageMode::kUnchanged);
+  });
+  read.SetFrameSeen([&seen](const fs::path& path, const cv::Mat& image) {
+    EXPECT_EQ(image.size(), cv::Size(160, 120)) << path;
+    ++seen[path.filename().string() + "@" + path.parent_path().filename().string()];
+  });
+  const auto& instants = plain.take().instants;
+  const std::string& camera = t.rig.cameras[1].model.id;
+  for (const auto& instant : instants) {
+    const cv::Mat a = plain.Mask(instant, camera), b = read.Mask(instant, camera);
+    EXPECT_EQ(cv::countNonZero(a != b), 0) << instant;
+  }
+  ASSERT_EQ(reads.size(), 3u);
+  for (const auto& instant : instants) {
+    const std::string key = camera + ".png@" + instant;
+    EXPECT_EQ(reads[key], 2) << key;  // the median's, then the mask's
+    EXPECT_EQ(seen[key], 1) << key;
   }
 }
 
