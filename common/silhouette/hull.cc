@@ -107,8 +107,62 @@ VisualHull::VisualHull(const std::vector<geometry::TsaiCamera>& cameras,
       cv::distanceTransform(~fg, out_px, cv::DIST_L2, cv::DIST_MASK_PRECISE);
       cv::distanceTransform(fg, in_px, cv::DIST_L2, cv::DIST_MASK_PRECISE);
       v.signed_px = out_px - in_px;
+      const int tw = (v.width + kTilePx - 1) / kTilePx, th = (v.height + kTilePx - 1) / kTilePx;
+      v.tile_min_px.create(th, tw, CV_32FC1);
+      v.tile_min_px.setTo(std::numeric_limits<float>::infinity());
+      for (int y = 0; y < v.height; ++y) {
+        const float* d = v.signed_px.ptr<float>(y);
+        const uint8_t* seen = v.seen.ptr<uint8_t>(y);
+        float* t = v.tile_min_px.ptr<float>(y / kTilePx);
+        for (int x = 0; x < v.width; ++x) {
+          const float value = seen[x] ? d[x] : -std::numeric_limits<float>::infinity();
+          float& m = t[x / kTilePx];
+          m = std::min(m, value);
+        }
+      }
     }
   });
+}
+
+bool VisualHull::CarvedBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                           double outside_mm) const {
+  DOME_CHECK(options_.distances && outside_mm > 0, "VisualHull::CarvedBox: distances, a distance");
+  int carved = 0;
+  for (const View& v : views_) {
+    // The box's image lies in the hull of its corners' images when every corner is in
+    // front of the camera (a perspective map keeps segments segments); z is affine.
+    double umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY, zmin = INFINITY;
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d p(c & 1 ? hi.x() : lo.x(), c & 2 ? hi.y() : lo.y(),
+                              c & 4 ? hi.z() : lo.z());
+      const Eigen::Vector3d h = v.P.leftCols<3>() * p + v.P.col(3);
+      zmin = std::min(zmin, h.z());
+      if (!(h.z() > 0)) break;
+      umin = std::min(umin, h.x() / h.z()), umax = std::max(umax, h.x() / h.z());
+      vmin = std::min(vmin, h.y() / h.z()), vmax = std::max(vmax, h.y() / h.z());
+    }
+    if (!(zmin > 0)) continue;
+    // Every point's pixel (PixelOf rounds), with a pixel to spare for the rounding of
+    // the points' own projections; the image's border half a pixel further in.
+    if (!(umin > 0.0 && vmin > 0.0 && umax < v.width - 1.0 && vmax < v.height - 1.0)) continue;
+    const int x0 = std::max(0, int(umin) - 1), x1 = std::min(v.width - 1, int(umax) + 2);
+    const int y0 = std::max(0, int(vmin) - 1), y1 = std::min(v.height - 1, int(vmax) + 2);
+    // Sample's test is d_px (h.z / f) >= outside_mm with h.z >= zmin; a relative margin
+    // far above the rounding of either side.
+    const float need_px = float(outside_mm * v.f_px / zmin * (1 + 1e-6));
+    bool all = true;
+    for (int ty = y0 / kTilePx; all && ty <= y1 / kTilePx; ++ty) {
+      const float* t = v.tile_min_px.ptr<float>(ty);
+      for (int tx = x0 / kTilePx; tx <= x1 / kTilePx; ++tx) {
+        if (!(t[tx] >= need_px)) {
+          all = false;
+          break;
+        }
+      }
+    }
+    if (all && ++carved >= options_.carve_votes) return true;
+  }
+  return false;
 }
 
 cv::Mat VisualHull::IdealMask(int index) const {

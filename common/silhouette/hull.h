@@ -119,6 +119,16 @@ class VisualHull {
   bool BoundingBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells,
                    Eigen::Vector3d* hull_lo, Eigen::Vector3d* hull_hi, int min_views = 0) const;
 
+  // True when every point of the box [lo, hi] (world mm) is seen as background at least
+  // `outside_mm` outside the dilated mask of each of carve_votes cameras or more. Each
+  // Sample(p, 0, -1, outside_mm) of a point p in the box then ends carved, with
+  // background >= carve_votes and outside_mm >= `outside_mm` (the cameras asked in turn
+  // stop at such a camera): fusion's free space without sampling the box's voxels one by
+  // one. Conservative (false is always right): the box's corners bound its image in each
+  // camera, and per 8x8-pixel tile the least signed distance of its seen pixels bounds
+  // theirs. Needs the distances (HullOptions::distances); `outside_mm` > 0.
+  bool CarvedBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double outside_mm) const;
+
   // Per pixel of camera `index`'s ideal grid, the depths (z, mm) along its ray where the
   // ray is in the hull, within [z_min, z_max]: CV_32FC2 (near, far), (0, 0) where the
   // pixel is outside the camera's own dilated mask or its ray misses the hull. The ray
@@ -151,7 +161,12 @@ class VisualHull {
     // foreground, has no data, or lies outside the image: a disc of a smaller radius
     // around it is background seen by the camera (RayBounds' block test).
     cv::Mat clear_px;
+    // CarvedBox: per tile of kTilePx x kTilePx pixels, the least signed_px of its pixels,
+    // -infinity where one has no data (CV_32FC1, ceil(height / kTilePx) x ceil(width /
+    // kTilePx); empty without distances).
+    cv::Mat tile_min_px;
   };
+  static constexpr int kTilePx = 8;
   HullOptions options_;
   std::vector<View> views_;
 };

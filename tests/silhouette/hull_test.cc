@@ -528,5 +528,79 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
   EXPECT_FALSE(VisualHull(cameras, broken, strict).Inside(centre));
 }
 
+// Fusion's free space takes whole blocks that enough cameras see well outside their
+// silhouettes at once (VisualHull::CarvedBox); every voxel must still get exactly what
+// its own sample gives (the rule of FusionFreeSpaceRuleAndHullStandIn, bit for bit), and
+// a box holding the person is never carved.
+TEST_F(HullTest, CarvedBoxesGiveEachVoxelItsOwnSamplesVerdict) {
+  const std::string instant = take_->instants[1];
+  const VisualHull hull(Cameras(), TruthMasks(instant), HullOptions{});
+  fusion::VolumeGrid grid;
+  grid.voxel_size_mm = 20;
+  grid.origin_mm = Eigen::Vector3d(-1500, -1500, 30);
+  grid.nx = grid.ny = 150;
+  grid.nz = 100;
+  fusion::FusionOptions options;
+  options.truncation_mm = options.front_clamp_mm = 60;
+  const float clamp = float(options.front_clamp_mm);
+  fusion::HullFusionOptions ho;
+  ho.fill_unseen = true;
+  fusion::Slab slab;
+  slab.k0 = 10;  // not a multiple of the blocks
+  slab.k1 = 87;
+  slab.nx = grid.nx;
+  slab.ny = grid.ny;
+  const size_t plane = size_t(grid.nx) * grid.ny;
+  slab.distance_mm.assign(plane * size_t(slab.k1 - slab.k0), 0.0f);
+  slab.weight.assign(slab.distance_mm.size(), 0.0f);
+  // Stereo's evidence in some voxels: clamped free space, a surface, behind it.
+  for (size_t v = 0; v < slab.distance_mm.size(); v += 7) {
+    slab.weight[v] = 1.0f;
+    slab.distance_mm[v] = v % 3 == 0 ? clamp : (v % 3 == 1 ? 0.0f : -30.0f);
+  }
+  fusion::Slab expected = slab;
+  fusion::ApplyHull(grid, hull, nullptr, options, ho, &slab);
+  for (int k = slab.k0; k < slab.k1; ++k) {
+    for (int j = 0; j < grid.ny; ++j) {
+      for (int i = 0; i < grid.nx; ++i) {
+        const size_t v = size_t(k - slab.k0) * plane + size_t(j) * grid.nx + i;
+        float& d = expected.distance_mm[v];
+        float& w = expected.weight[v];
+        if (w > 0 && d >= clamp) continue;
+        const HullSample s = hull.Sample(grid.VoxelCentreMm(i, j, k), 0.0, -1, clamp);
+        if (s.seen >= 1 && s.background >= std::min(2, s.seen)) {
+          d = std::max(w > 0 ? d : 0.0f, std::min(clamp, float(s.outside_mm)));
+          if (w <= 0) w = 0.5f;
+        } else if (s.inside && w <= 0) {
+          d = -std::min(float(options.truncation_mm), float(s.inside_mm));
+          w = 0.5f;
+        }
+      }
+    }
+  }
+  int64_t differ = 0;
+  for (size_t v = 0; v < slab.distance_mm.size(); ++v) {
+    differ +=
+        slab.distance_mm[v] != expected.distance_mm[v] || slab.weight[v] != expected.weight[v];
+  }
+  EXPECT_EQ(differ, 0);
+  // Most 8^3 blocks of this volume are carved whole; none around the person.
+  int carved = 0, blocks = 0;
+  for (int k = 0; k + 8 <= grid.nz; k += 8) {
+    for (int j = 0; j + 8 <= grid.ny; j += 8) {
+      for (int i = 0; i + 8 <= grid.nx; i += 8) {
+        ++blocks;
+        carved += hull.CarvedBox(grid.VoxelCentreMm(i, j, k),
+                                 grid.VoxelCentreMm(i + 7, j + 7, k + 7), clamp);
+      }
+    }
+  }
+  EXPECT_GT(carved, blocks / 2) << blocks;
+  const std::vector<Eigen::Vector3d> person = PersonVertices(instant);
+  ASSERT_FALSE(person.empty());
+  const Eigen::Vector3d reach = Eigen::Vector3d::Constant(70);
+  EXPECT_FALSE(hull.CarvedBox(person[0] - reach, person[0] + reach, clamp));
+}
+
 }  // namespace
 }  // namespace dome::silhouette
