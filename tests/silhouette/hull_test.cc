@@ -81,6 +81,17 @@ class HullTest : public ::testing::Test {
     return out;
   }
 
+  // The small dome's floor, 3 m across from (-1500, -1500, 30) mm, in voxels of
+  // `voxel_mm`: `nxy` a side, `nz` high.
+  static fusion::VolumeGrid DomeGrid(double voxel_mm, int nxy, int nz) {
+    fusion::VolumeGrid grid;
+    grid.voxel_size_mm = voxel_mm;
+    grid.origin_mm = Eigen::Vector3d(-1500, -1500, 30);
+    grid.nx = grid.ny = nxy;
+    grid.nz = nz;
+    return grid;
+  }
+
   static dome::testing::TempDir* temp_;
   static take::Take* take_;
 };
@@ -451,11 +462,7 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
   centre /= double(person.size());
   const VisualHull hull(cameras, masks, HullOptions{});
   ASSERT_TRUE(hull.Inside(centre));
-  fusion::VolumeGrid grid;
-  grid.voxel_size_mm = 50;
-  grid.origin_mm = Eigen::Vector3d(-1500, -1500, 30);
-  grid.nx = grid.ny = 60;
-  grid.nz = 51;
+  const fusion::VolumeGrid grid = DomeGrid(50, 60, 51);
   fusion::FusionOptions options;
   options.truncation_mm = options.front_clamp_mm = 150;
   auto voxel_of = [&](const Eigen::Vector3d& p) {
@@ -535,11 +542,7 @@ TEST_F(HullTest, FusionFreeSpaceRuleAndHullStandIn) {
 TEST_F(HullTest, CarvedBoxesGiveEachVoxelItsOwnSamplesVerdict) {
   const std::string instant = take_->instants[1];
   const VisualHull hull(Cameras(), TruthMasks(instant), HullOptions{});
-  fusion::VolumeGrid grid;
-  grid.voxel_size_mm = 20;
-  grid.origin_mm = Eigen::Vector3d(-1500, -1500, 30);
-  grid.nx = grid.ny = 150;
-  grid.nz = 100;
+  const fusion::VolumeGrid grid = DomeGrid(20, 150, 100);
   fusion::FusionOptions options;
   options.truncation_mm = options.front_clamp_mm = 60;
   const float clamp = float(options.front_clamp_mm);
