@@ -39,7 +39,10 @@ std::string Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
 // Panoptic take each HD frame was decoded three times, a tenth of the derivation.
 // Images are held while their pixels stay within kDerivationFramesBytes (the rest are
 // decoded again where needed, as before); the SHA-256 of every file read (the address
-// the in-process workers' handoff keys frames by) is kept. Thread-safe.
+// the in-process workers' handoff keys frames by) is kept. Thread-safe. Keyed by path
+// and dropped when the derivation ends, unlike the workers' kept frames
+// (frame_handoff.h), which are keyed by content: a lookup there reads and hashes the
+// file again, and what it holds stays for the session's jobs.
 constexpr size_t kDerivationFramesBytes = size_t(256) << 20;
 
 class DerivationFrames {
