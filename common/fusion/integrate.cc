@@ -104,57 +104,57 @@ struct Table {
   T* end() const { return ptr + n; }
 };
 constexpr size_t kTableAlign = 64;  // bytes; every table starts on a cache line
-constexpr size_t kHugePage = size_t(2) << 20;
+constexpr size_t kArenaStep = size_t(2) << 20;  // bytes; arena sizes are multiples
 }  // namespace
 
-// One mapping holds every camera's tables (tens of MB), asking for 2 MB pages: the hot
-// loop reads the tables of all cameras in turn, so with 4 KB pages most lookups would
-// also miss the TLB, and building the tables would take a page fault per 4 KB.
+// One mapping holds every camera's tables (tens to hundreds of MB), in the system's
+// ordinary 4 KB pages. 2 MB pages (MADV_HUGEPAGE) were asked for until this release, so
+// that the hot loop's lookups across every camera's tables would miss the TLB less, but
+// measured they bought nothing there (fusion_bench on the paper instant, the mapping
+// reused: 0.37 s either way) and a fresh 2 MB page cost about ten times as much to fault
+// in as its 512 small ones on the 2-core virtual machines dome is measured on (a new
+// 256 MB mapping touched once: 1.0-1.9 s against 0.1-0.2 s; apparently the host backs
+// each huge page anew, while small pages reuse memory the guest freed recently). With
+// the tables of a Robovision instant (12 cameras of 1.3 MP) its fusion stage took
+// 0.66-0.76 s of wall with huge pages against 0.47-0.50 s without.
 // A process keeps the largest mapping it has freed and hands it to the next integrator
 // that fits: a worker fuses instant after instant of the same size, and faulting in
-// (and zeroing) tens of MB per instant was a visible part of building the tables.
+// (and zeroing) the tables per instant was a visible part of building them. Sizes are
+// rounded up to 2 MB so that instants of nearly the same size reuse one mapping.
 // Every table byte is written before it is read, so a reused mapping needs no clearing.
 struct Integrator::Arena {
   explicit Arena(size_t bytes) {
-    const size_t need = (bytes + kHugePage - 1) & ~(kHugePage - 1);
+    const size_t need = (bytes + kArenaStep - 1) & ~(kArenaStep - 1);
     {
       std::lock_guard<std::mutex> lock(CacheMutex());
       Mapping& cached = Cached();
-      if (cached.base != nullptr && cached.usable >= need) {
+      if (cached.base != nullptr && cached.size >= need) {
         map = cached;
         cached = Mapping();
         return;
       }
     }
-    map.size = need + kHugePage;
+    map.size = need;
     map.base = mmap(nullptr, map.size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (map.base == MAP_FAILED) throw std::bad_alloc();
-    const uintptr_t b = reinterpret_cast<uintptr_t>(map.base);
-    map.start = reinterpret_cast<char*>((b + kHugePage - 1) & ~uintptr_t(kHugePage - 1));
-    map.usable = need;
-#ifdef MADV_HUGEPAGE
-    madvise(map.start, need, MADV_HUGEPAGE);
-#endif
   }
   ~Arena() {
     Mapping drop = map;
     {
       std::lock_guard<std::mutex> lock(CacheMutex());
       Mapping& cached = Cached();
-      if (cached.usable < map.usable) std::swap(cached, drop);
+      if (cached.size < map.size) std::swap(cached, drop);
     }
     if (drop.base != nullptr) munmap(drop.base, drop.size);
   }
   Arena(const Arena&) = delete;
   Arena& operator=(const Arena&) = delete;
-  char* start() const { return map.start; }
+  char* start() const { return static_cast<char*>(map.base); }
 
  private:
   struct Mapping {
     void* base = nullptr;
-    size_t size = 0;        // bytes mapped at base
-    char* start = nullptr;  // first 2 MB boundary in the mapping
-    size_t usable = 0;      // bytes from start
+    size_t size = 0;  // bytes mapped at base
   };
   static std::mutex& CacheMutex() {
     static std::mutex m;
