@@ -29,8 +29,14 @@ class BlobStore {
   // Hashes the file and remembers its path. Throws core::InputError naming the file.
   runtime::BlobRef AddFile(const std::filesystem::path& path, const std::string& name);
   // Writes the bytes to dir/<sha256> (atomically, unless already there) and remembers.
+  // With `copy_of`, a file that holds exactly these bytes (an output file just written
+  // beside dir): dir/<sha256> becomes a second name of it (a hard link) instead of a
+  // second copy, unless the file system refuses (then the bytes are written). The blob
+  // keeps the bytes when that file is later replaced (io::WriteFileAtomically renames a
+  // new file over the name) or deleted; one changed in place is caught by the hashes of
+  // Read and Adopt.
   runtime::BlobRef AddBytes(const std::filesystem::path& dir, const std::string& bytes,
-                            const std::string& name);
+                            const std::string& name, const std::filesystem::path& copy_of = {});
   // Remembers dir/<sha256> written by an earlier master (journal resume); false when
   // the file is not there or does not hash to `sha256`.
   bool Adopt(const std::filesystem::path& dir, const std::string& sha256);

@@ -192,6 +192,10 @@ class SessionBlobs : public pipeline::BlobAccess {
   runtime::BlobRef Keep(const std::string& bytes, const std::string& name) override {
     return store_->AddBytes(dir_, bytes, name);
   }
+  runtime::BlobRef KeepWritten(const std::string& bytes, const std::string& name,
+                               const fs::path& written) override {
+    return store_->AddBytes(dir_, bytes, name, written);
+  }
 
  private:
   BlobStore* store_;

@@ -348,8 +348,9 @@ StageDescriptor MaskStage() {
                       " PNG, got " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
                       " of type " + std::to_string(mask.type()));
     fs::create_directories(ctx.dir / "mask");
-    io::WriteFileAtomically(ctx.dir / "mask" / (cam + ".png"), bytes);
-    return StoredResult{{ctx.blobs->Keep(bytes, kMaskOutput)}, nullptr};
+    const fs::path file = ctx.dir / "mask" / (cam + ".png");
+    io::WriteFileAtomically(file, bytes);
+    return StoredResult{{ctx.blobs->KeepWritten(bytes, kMaskOutput, file)}, nullptr};
   };
   return d;
 }
@@ -826,7 +827,8 @@ StageDescriptor DecimateStage() {
     fs::create_directories(ctx.dir);
     io::WriteFileAtomically(ctx.dir / kDecimationJson, summary);
     return StoredResult{
-        {ctx.blobs->Keep(bytes, kDecimatedPly), ctx.blobs->Keep(summary, kDecimationJson)},
+        {ctx.blobs->Keep(bytes, kDecimatedPly),
+         ctx.blobs->KeepWritten(summary, kDecimationJson, ctx.dir / kDecimationJson)},
         nullptr};
   };
   return d;
@@ -884,7 +886,7 @@ StageDescriptor TextureStage() {
     for (const std::string& name : names) {
       const std::string& bytes = OutputBytes(r, name, ctx.where);
       io::WriteFileAtomically(ctx.dir / name, bytes);
-      stored.outputs.push_back(ctx.blobs->Keep(bytes, name));
+      stored.outputs.push_back(ctx.blobs->KeepWritten(bytes, name, ctx.dir / name));
     }
     return stored;
   };

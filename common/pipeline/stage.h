@@ -45,6 +45,14 @@ class BlobAccess {
   virtual std::optional<std::string> Read(const std::string& sha256) const = 0;
   // Stores the bytes as a session output and returns its reference (name set).
   virtual runtime::BlobRef Keep(const std::string& bytes, const std::string& name) = 0;
+  // The same for bytes just written whole to the output file `written` (OUT/<instant>/
+  // textured.obj): a store on the same disk may make its copy a second name of that file
+  // (a hard link) instead of writing the bytes again. This default keeps them as Keep.
+  virtual runtime::BlobRef KeepWritten(const std::string& bytes, const std::string& name,
+                                       const std::filesystem::path& written) {
+    (void)written;
+    return Keep(bytes, name);
+  }
 };
 
 // What a job is made from: one part of one instant of a session.

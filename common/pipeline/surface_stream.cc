@@ -134,7 +134,7 @@ void SurfaceStream::Run() {
     const std::string ply = EncodeMeshPly(surface);
     fs::create_directories(dir_);
     io::WriteFileAtomically(dir_ / kMeshPly, ply);
-    mesh = blobs_->Keep(ply, kMeshPly);
+    mesh = blobs_->KeepWritten(ply, kMeshPly, dir_ / kMeshPly);
   } catch (const std::exception& e) {
     error = e.what();
   }

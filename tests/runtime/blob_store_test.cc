@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "io/file_util.h"
 #include "net/content_hash.h"
 
 namespace dome::scheduler {
@@ -70,6 +71,45 @@ TEST(BlobStore, RecentOutputsAreServedFromMemoryWithinTheBudget) {
   store.Drop(refs[3].sha256());
   EXPECT_FALSE(store.Read(refs[3].sha256(), nullptr).has_value());
   fs::remove_all(dir);
+}
+
+// An output written to its file and then kept: the blob is that file under a second name
+// (one copy on disk), and it keeps the bytes it was given when the file is replaced the
+// way dome writes files, or deleted; a file that is not there is no copy, and the bytes
+// are written.
+TEST(BlobStore, AnOutputJustWrittenIsKeptAsASecondNameOfItsFile) {
+  const fs::path out =
+      fs::temp_directory_path() / ("dome_blob_store_linked_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out / "00-00-00-00");
+  const fs::path dir = out / ".blobs", file = out / "00-00-00-00" / "textured.obj";
+  BlobStore store(/*recent_bytes=*/0);  // every Read from the file
+  const std::string bytes(5000, 'v');
+  io::WriteFileAtomically(file, bytes);
+  const runtime::BlobRef ref = store.AddBytes(dir, bytes, "textured.obj", file);
+  const fs::path blob = dir / ref.sha256();
+  ASSERT_TRUE(fs::exists(blob));
+  EXPECT_TRUE(fs::equivalent(blob, file));
+  EXPECT_EQ(fs::hard_link_count(file), 2u);
+  io::WriteFileAtomically(file, std::string(5000, 'w'));  // a later run's file
+  EXPECT_FALSE(fs::equivalent(blob, file));
+  ASSERT_TRUE(store.Read(ref.sha256(), nullptr).has_value());
+  EXPECT_EQ(*store.Read(ref.sha256(), nullptr), bytes);
+  fs::remove(file);
+  EXPECT_EQ(*store.Read(ref.sha256(), nullptr), bytes);
+  // Dropping the output removes its blob's name only.
+  io::WriteFileAtomically(file, bytes);
+  store.Drop(ref.sha256());
+  const runtime::BlobRef again = store.AddBytes(dir, bytes, "textured.obj", file);
+  store.Drop(again.sha256());
+  EXPECT_FALSE(fs::exists(blob));
+  EXPECT_EQ(io::ReadFileBytes(file), bytes);
+  // No such file: the bytes are written.
+  const std::string other(300, 'x');
+  const runtime::BlobRef written = store.AddBytes(dir, other, "mesh.ply", out / "missing.ply");
+  EXPECT_EQ(fs::hard_link_count(dir / written.sha256()), 1u);
+  EXPECT_EQ(*store.Read(written.sha256(), nullptr), other);
+  fs::remove_all(out);
 }
 
 }  // namespace
