@@ -124,7 +124,9 @@ constexpr size_t kArenaStep = size_t(2) << 20;  // bytes; arena sizes are multip
 // Every table byte is written before it is read, so a reused mapping needs no clearing.
 struct Integrator::Arena {
   explicit Arena(size_t bytes) {
-    const size_t need = (bytes + kArenaStep - 1) & ~(kArenaStep - 1);
+    // At least one step: an instant with no depth in any camera has no tables, and a
+    // mapping of 0 bytes is refused.
+    const size_t need = std::max(kArenaStep, (bytes + kArenaStep - 1) & ~(kArenaStep - 1));
     {
       std::lock_guard<std::mutex> lock(CacheMutex());
       Mapping& cached = Cached();

@@ -280,6 +280,25 @@ TEST(Integrate, ReusedTableMemoryChangesNothing) {
   EXPECT_FALSE(same(a.IntegrateSlab(0, g.nz)));
 }
 
+// An instant where no camera found a depth (a person in the frames of too few of a
+// sparse rig's cameras: the fusion stage leaves every empty map out) fuses to a volume
+// no camera observed, not to an error. A table memory of no bytes once failed to map
+// (std::bad_alloc from the fusion job).
+TEST(Integrate, NoRangeImageLeavesEveryVoxelUnobserved) {
+  VolumeGrid g;
+  g.voxel_size_mm = 10;
+  g.nx = 20;
+  g.ny = 16;
+  g.nz = 12;
+  g.origin_mm = Eigen::Vector3d(-100, -80, 400);
+  const Slab slab = Integrator(g, {}, FusionOptions{}).IntegrateSlab(0, g.nz);
+  ASSERT_EQ(slab.weight.size(), size_t(g.nx) * g.ny * g.nz);
+  for (size_t i = 0; i < slab.weight.size(); ++i) {
+    ASSERT_EQ(slab.weight[i], 0.0f) << i;
+    ASSERT_EQ(slab.distance_mm[i], 0.0f) << i;
+  }
+}
+
 TEST(Integrate, SlabRoundTripsThroughBytes) {
   Slab s = SlabOf(3, 5, 2, 3);
   for (int m = 0; m < 12; ++m) {
