@@ -17,6 +17,7 @@
 #include "cli/client.h"
 #include "io/file_util.h"
 #include "io/ply.h"
+#include "net/content_hash.h"
 #include "net/security.h"
 #include "net/wire.h"
 #include "runtime/cluster_fixture.h"
@@ -109,6 +110,14 @@ TEST_F(Cluster, EmbeddedRunMatchesOfflineStereoAndFusion) {
   EXPECT_EQ(d.colors.size(), d.vertices.size());
   for (const char* f : {"textured.obj", "textured.mtl", "textured.png"}) {
     EXPECT_GT(fs::file_size(reference_ / instant / f), 0u) << f;
+  }
+  // The master keeps each output file once on disk: the blob a restarted master would
+  // find it by (OUT/.blobs/<sha256>) is the same file under a second name.
+  for (const char* f : {"mesh.ply", "mesh_decimated.ply", "textured.obj", "textured.glb"}) {
+    const fs::path file = reference_ / instant / f;
+    const fs::path blob = reference_ / ".blobs" / net::Sha256Hex(io::ReadFileBytes(file));
+    ASSERT_TRUE(fs::exists(blob)) << f;
+    EXPECT_TRUE(fs::equivalent(file, blob)) << f;
   }
   // The same textured mesh as one GLB: its header names the container and its length.
   const std::string glb = io::ReadFileBytes(reference_ / instant / "textured.glb");
