@@ -54,13 +54,20 @@ geometry::TsaiCamera AxisCamera(int w = 64, int h = 48) {
   return cam;
 }
 
-// A single-voxel grid whose voxel centre is `p`.
-VolumeGrid OneVoxel(const Eigen::Vector3d& p, double size = 1.0) {
+// A grid of nx x ny x nz voxels of `size` mm from the min corner `origin`.
+VolumeGrid Grid(double size, int nx, int ny, int nz, const Eigen::Vector3d& origin) {
   VolumeGrid g;
   g.voxel_size_mm = size;
-  g.nx = g.ny = g.nz = 1;
-  g.origin_mm = p - Eigen::Vector3d::Constant(0.5 * size);
+  g.nx = nx;
+  g.ny = ny;
+  g.nz = nz;
+  g.origin_mm = origin;
   return g;
+}
+
+// A single-voxel grid whose voxel centre is `p`.
+VolumeGrid OneVoxel(const Eigen::Vector3d& p, double size = 1.0) {
+  return Grid(size, 1, 1, 1, p - Eigen::Vector3d::Constant(0.5 * size));
 }
 
 RangeImage Flat(double depth, int w = 64, int h = 48) {
@@ -141,10 +148,7 @@ TEST(Integrate, SphereZeroCrossingIsTheSurface) {
     SCOPED_TRACE("kappa " + std::to_string(kappa));
     const std::vector<testing::Sphere> spheres = {{Eigen::Vector3d(0, 0, 500), 200}};
     const auto images = testing::RingImages(spheres, 8, 96, 72, {300, 500, 700}, kappa);
-    VolumeGrid g;
-    g.voxel_size_mm = 10;
-    g.nx = g.ny = g.nz = 60;
-    g.origin_mm = Eigen::Vector3d(-300, -300, 200);
+    const VolumeGrid g = Grid(10, 60, 60, 60, Eigen::Vector3d(-300, -300, 200));
     const Slab s = Fuse(g, images);
     // Along the x axis through the centre, the zero crossing is near x = +-200.
     const int j = 30, k = 30;  // voxel centres at y = 5, z = 505
@@ -178,11 +182,7 @@ TEST(Integrate, IdealPixelDepthMapsOfDistortedCamerasAreFusedInTheIdealFrame) {
     double worst = 0;
     int crossings = 0;
     for (double z : {205.0, 505.0, 705.0}) {
-      VolumeGrid g;
-      g.voxel_size_mm = 4;
-      g.nx = g.ny = 300;
-      g.nz = 1;
-      g.origin_mm = Eigen::Vector3d(-600, -600, z - 2);
+      const VolumeGrid g = Grid(4, 300, 300, 1, Eigen::Vector3d(-600, -600, z - 2));
       const Slab s = Fuse(g, images);
       for (int j = 0; j < g.ny; j += 10) {
         for (int i = 0; i + 1 < g.nx; ++i) {
@@ -210,11 +210,7 @@ TEST(Integrate, IdealPixelDepthMapsOfDistortedCamerasAreFusedInTheIdealFrame) {
 
 TEST(Integrate, AnySlabPartitionAndThreadCountIsBitIdentical) {
   const auto images = testing::RingImages(testing::StackedSpheres(), 8, 64, 48, {500, 1500, 2500});
-  VolumeGrid g;
-  g.voxel_size_mm = 10;
-  g.nx = g.ny = 32;
-  g.nz = 300;
-  g.origin_mm = Eigen::Vector3d(-160, -160, 0);
+  const VolumeGrid g = Grid(10, 32, 32, 300, Eigen::Vector3d(-160, -160, 0));
   FusionOptions one_thread;
   one_thread.num_threads = 1;
   const Slab whole = Integrator(g, images, one_thread).IntegrateSlab(0, g.nz);
@@ -250,12 +246,7 @@ TEST(Integrate, ReusedTableMemoryChangesNothing) {
   std::vector<RangeImage> wall = spheres;
   for (auto& im : wall) im.depth_mm = cv::Mat(im.depth_mm.size(), CV_32FC1, cv::Scalar(1400.0f));
   const auto larger = testing::RingImages(testing::StackedSpheres(), 9, 96, 72, {500, 1500});
-  VolumeGrid g;
-  g.voxel_size_mm = 10;
-  g.nx = 41;
-  g.ny = 33;
-  g.nz = 120;
-  g.origin_mm = Eigen::Vector3d(-200, -160, 100);
+  const VolumeGrid g = Grid(10, 41, 33, 120, Eigen::Vector3d(-200, -160, 100));
   const FusionOptions o;
   const Slab first = Integrator(g, spheres, o).IntegrateSlab(0, g.nz);
   size_t observed = 0;
@@ -285,12 +276,7 @@ TEST(Integrate, ReusedTableMemoryChangesNothing) {
 // no camera observed, not to an error. A table memory of no bytes once failed to map
 // (std::bad_alloc from the fusion job).
 TEST(Integrate, NoRangeImageLeavesEveryVoxelUnobserved) {
-  VolumeGrid g;
-  g.voxel_size_mm = 10;
-  g.nx = 20;
-  g.ny = 16;
-  g.nz = 12;
-  g.origin_mm = Eigen::Vector3d(-100, -80, 400);
+  const VolumeGrid g = Grid(10, 20, 16, 12, Eigen::Vector3d(-100, -80, 400));
   const Slab slab = Integrator(g, {}, FusionOptions{}).IntegrateSlab(0, g.nz);
   ASSERT_EQ(slab.weight.size(), size_t(g.nx) * g.ny * g.nz);
   for (size_t i = 0; i < slab.weight.size(); ++i) {
@@ -530,12 +516,7 @@ KernelScenes MakeKernelScenes() {
       for (int x = 0; x < im.weight.cols; ++x) im.weight.at<float>(y, x) = 0.5f + (x + 2 * y) % 3;
   }
   KernelScenes k;
-  VolumeGrid& g = k.grid;
-  g.voxel_size_mm = 10;
-  g.nx = 45;
-  g.ny = 37;
-  g.nz = 300;
-  g.origin_mm = Eigen::Vector3d(-230, -190, 0);
+  k.grid = Grid(10, 45, 37, 300, Eigen::Vector3d(-230, -190, 0));
   // A real lens's distortion: the kernel evaluates its polynomial, not the table.
   std::vector<RangeImage> real_lens = near_wall;
   for (auto& im : real_lens) im.camera.kappa1_per_mm2 = 0.003;
