@@ -13,7 +13,7 @@ namespace dome::cli {
 
 int RunDome(int argc, char** argv) {
   core::RetainFreedMemory();
-  core::AvoidTransparentHugePages();
+  core::ChoosePageSize();
   CLI::App app{"dome: 3D structure of moving scenes from many synchronized cameras"};
   // At most one command; none prints the help. (Requiring one would make CLI11 report
   // a missing command instead of naming the unknown word the user typed.)

@@ -21,7 +21,7 @@ void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   dome::core::RetainFreedMemory();
-  dome::core::AvoidTransparentHugePages();
+  dome::core::ChoosePageSize();
   CLI::App app{"dome-master: schedules stereo and fusion jobs to dome-workers over ZeroMQ"};
   dome::scheduler::MasterOptions o;
   o.release_memory_s = 5;  // a daemon: what peers sent goes back to the system

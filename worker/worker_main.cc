@@ -18,7 +18,7 @@ void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   dome::core::RetainFreedMemory();
-  dome::core::AvoidTransparentHugePages();
+  dome::core::ChoosePageSize();
   CLI::App app{"dome-worker: runs stereo, fusion, decimation and texture jobs for a dome-master"};
   dome::worker::WorkerOptions o;
   std::string log_level = "info", master_key, key;

@@ -27,6 +27,7 @@
 #endif
 
 #include "core/error.h"
+#include "core/memory.h"
 #include "core/parallel_for.h"
 #include "fusion/consistency.h"
 #include "io/depth_tiff.h"
@@ -107,16 +108,14 @@ constexpr size_t kTableAlign = 64;  // bytes; every table starts on a cache line
 constexpr size_t kArenaStep = size_t(2) << 20;  // bytes; arena sizes are multiples
 }  // namespace
 
-// One mapping holds every camera's tables (tens to hundreds of MB), in the system's
-// ordinary 4 KB pages. 2 MB pages (MADV_HUGEPAGE) were asked for until this release, so
-// that the hot loop's lookups across every camera's tables would miss the TLB less, but
-// measured they bought nothing there (fusion_bench on the paper instant, the mapping
-// reused: 0.37 s either way) and a fresh 2 MB page cost about ten times as much to fault
-// in as its 512 small ones on the 2-core virtual machines dome is measured on (a new
-// 256 MB mapping touched once: 1.0-1.9 s against 0.1-0.2 s; apparently the host backs
-// each huge page anew, while small pages reuse memory the guest freed recently). With
-// the tables of a Robovision instant (12 cameras of 1.3 MP) its fusion stage took
-// 0.66-0.76 s of wall with huge pages against 0.47-0.50 s without.
+// One mapping holds every camera's tables (tens to hundreds of MB), in the pages the
+// process chose (core::ChoosePageSize: 2 MB pages where they fault in faster, else 4 KB).
+// The hot loop's lookups across every camera's tables ran no faster in 2 MB pages
+// (fusion_bench on the paper instant, the mapping reused: 0.37 s either way), but a
+// fresh page's first touch costs very differently from one machine to another: with the
+// tables of a Robovision instant (12 cameras of 1.3 MP) its fusion stage took 0.66-0.76
+// s of wall in 2 MB pages against 0.47-0.50 s in 4 KB pages on a virtual machine where
+// huge pages fault in slowly (and the other way round where small ones do).
 // A process keeps the largest mapping it has freed and hands it to the next integrator
 // that fits: a worker fuses instant after instant of the same size, and faulting in
 // (and zeroing) the tables per instant was a visible part of building them. Sizes are
@@ -139,6 +138,7 @@ struct Integrator::Arena {
     map.size = need;
     map.base = mmap(nullptr, map.size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (map.base == MAP_FAILED) throw std::bad_alloc();
+    core::AdviseHugePages(map.base, map.size);
   }
   ~Arena() {
     Mapping drop = map;
