@@ -24,9 +24,9 @@ enum class PageSize { kSmall, kHuge };
 // the virtual machines dome is measured on their cost differs by an order of magnitude
 // either way (memory.cc has the figures). DOME_TRANSPARENT_HUGEPAGES in the environment
 // decides: "1" huge pages, "0" small pages; unset or anything else, a probe at start
-// (about 2-25 ms) times the first touch of 2 MB in 4 KB pages against one 2 MB page,
-// twice each, and takes huge pages where the best huge touch takes under half the best
-// small one.
+// (about 6 ms) times the first touch of 1 MB in 4 KB pages against one 2 MB page, twice
+// each, and takes huge pages where the best 2 MB touch is faster than the best 1 MB one
+// (at least twice as fast per byte).
 //  * kSmall: transparent huge pages off for this process and the processes it starts
 //    (prctl PR_SET_THP_DISABLE), also where the system gives them to every mapping
 //    (/sys/kernel/mm/transparent_hugepage/enabled "always").
